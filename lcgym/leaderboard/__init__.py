@@ -1,0 +1,1 @@
+"""Metrics (MA, RMS, Inf), and later the benchmark runner, results store and report."""

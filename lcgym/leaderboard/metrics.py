@@ -1,0 +1,48 @@
+"""Error norms of paper 000, eqs. (34)-(36), per axis.
+
+    MA(x)  = 1/N sum_k |x(k)|          (34)
+    RMS(x) = sqrt(1/N sum_k x(k)^2)    (35)
+    Inf(x) = max_k |x(k)|              (36)
+
+Applied to the tracking error e = theta_d - theta (reported in deg) and to the input residual
+eps = u - f (measured input minus feedforward, in V for the IX).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pandas as pd
+
+METRICS = ("MA", "RMS", "Inf")
+
+
+def norms(x) -> dict[str, np.ndarray]:
+    """MA, RMS and Inf of x along time (axis 0); one value per column. x: (T,) or (T, n_axes)."""
+    x = np.asarray(x, dtype=float)
+    if x.shape[0] == 0:
+        raise ValueError("norms of an empty signal are undefined")
+    if not np.all(np.isfinite(x)):
+        raise ValueError("signal contains NaN or inf: metrics would be meaningless")
+    a = np.abs(x)
+    return {"MA": a.mean(axis=0), "RMS": np.sqrt(np.mean(x * x, axis=0)), "Inf": a.max(axis=0)}
+
+
+def tracking_error_table(trials: Sequence, label: str = "") -> pd.DataFrame:
+    """Norms of the tracking error [deg] of trials taken together, one row per axis."""
+    e = np.degrees(np.concatenate([t.error for t in trials]))
+    return _table(e, trials[0].axes, "tracking_error", "deg", label)
+
+
+def input_residual_table(trials: Sequence, feedforward: Sequence, label: str = "") -> pd.DataFrame:
+    """Norms of eps = u - f [V for the IX] of trials taken together, one row per axis."""
+    eps = np.concatenate([t.u - np.asarray(f) for t, f in zip(trials, feedforward, strict=False)])
+    return _table(eps, trials[0].axes, "input_residual", "V", label)
+
+
+def _table(x, axes, signal, unit, label) -> pd.DataFrame:
+    n = norms(x)
+    rows = [{"label": label, "axis": ax, "signal": signal, **{m: float(n[m][i]) for m in METRICS}, "unit": unit}
+            for i, ax in enumerate(axes)]
+    return pd.DataFrame(rows)
