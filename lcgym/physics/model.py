@@ -17,12 +17,12 @@ Fit (``fit(trials)``):
    the linear parameters are eliminated by least squares and the remaining residual is
    minimized over zeta_n with ``scipy.optimize.least_squares``, starting at the given values.
 4. The linear parameters are solved as a correction to the given (nominal) values of minimum
-   norm in column-scaled units: combinations the data cannot identify (e.g. J2yy against
-   J3yy + J3zz, which enter the IX model only as a sum) keep their nominal values.
+   norm in column-scaled units: combinations the data cannot identify keep their nominal values
+   (e.g. the split between J2yy and J3yy + J3zz: their columns obey X_J2yy = X_J3yy + X_J3zz).
 
 Effects' nonlinear parameters stay at the values the effect was built with (``diagnose``
 searches them). Ripple columns need the model's own torque: they are built from the rigid-body
-torque of the previous pass (two passes).
+torque of the given parameters, then of the first pass's fit (two passes).
 """
 
 from __future__ import annotations
@@ -135,7 +135,7 @@ class PhysicalModel:
         p0 = self.params.to_vector()
         theta0 = np.concatenate([p0[: ix.N_LINEAR], *[e.coefficients() for e in self.effects]])
         zeta_n = p0[ix.N_LINEAR :].copy()
-        base = None
+        base = ix.inverse_dynamics(p0, *kin)  # rigid torque for ripple columns, refined per pass
         n_pass = 2 if any(e.needs_base_torque for e in self.effects) else 1
         for _ in range(n_pass):
             design = _QuadraticDesign(lambda zn, b=base: self._reduce(self._design(zn, kin, b), lengths), zeta_n.size)
