@@ -104,7 +104,7 @@ def test_batch_equals_single_runs():
     refs = [random_moves(f"r{i}", np.random.default_rng(i), duration=4) for i in range(3)]
     plant = IXPlant()
     batch = plant.run(refs)
-    for r, b in zip(refs, batch):
+    for r, b in zip(refs, batch, strict=True):
         single = plant.run(r)
         np.testing.assert_array_equal(single.pos, b.pos)
         np.testing.assert_array_equal(single.u, b.u)
