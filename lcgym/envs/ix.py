@@ -30,6 +30,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 
 from ..data import Trial
@@ -210,11 +211,12 @@ class IXPlant:
         status = np.zeros(B, dtype=np.int64)
         fail_k = np.zeros(B, dtype=np.int64)
         final = np.zeros((B, K.N_STATE))
-        K.simulate_batch(
-            ref, ff, lengths, self._p, self._E, self.gains.matrix(self.fs), self.gains.u_max, 1.0 / self.fs,
-            np.asarray(self.encoder_resolution, dtype=float), self.substeps, int(round(self.preroll * self.fs)),
-            self.max_error, self.max_velocity, out["meas"], out["u"], out["fb"], out["load"], status, fail_k, final,
-        )
+        with numba.parallel_chunksize(1):  # references of unequal length: hand them out one by one
+            K.simulate_batch(
+                ref, ff, lengths, self._p, self._E, self.gains.matrix(self.fs), self.gains.u_max, 1.0 / self.fs,
+                np.asarray(self.encoder_resolution, dtype=float), self.substeps, int(round(self.preroll * self.fs)),
+                self.max_error, self.max_velocity, out["meas"], out["u"], out["fb"], out["load"], status, fail_k, final,
+            )
         for b in np.flatnonzero(status != K.OK):
             k, s = int(fail_k[b]), final[b]
             raise SimulationDiverged(

@@ -50,71 +50,79 @@ _gear = fx.gear_harmonic_basis
 
 
 @numba.njit(cache=True)
+def axis_terms(s, i, u, e, nb):
+    """Effects and drive of axis i: (added inertia, generalized force on the load, zdot, motor acc).
+
+    The force excludes H and D of the rigid body; e is the axis's effect-parameter row and nb the
+    normal-force basis of the current configuration.
+    """
+    q, v = s[i], s[2 + i]
+    tau = e[VISC] * v
+    added_inertia = 0.0
+    if e[CI_DJ] != 0.0:  # cable inertia: dJ shape(q) joins M, 1/2 dJ shape'(q) v^2 joins the force
+        shape, centrifugal = _inertia(q, v, 0.0, e[CI_Q0], e[CI_W])
+        added_inertia = e[CI_DJ] * shape
+        tau += e[CI_DJ] * centrifugal
+    if e[SP_K] != 0.0:
+        tau += e[SP_K] * _spring(q, e[SP_Q0], e[SP_W], e[SP_SIDE])
+    if e[GH_PER] != 0.0:
+        b = _gear(q, v, e[GH_PER], e[GH_VREF])
+        tau += e[GH_S1] * b[0] + e[GH_C1] * b[1] + e[GH_S1V] * b[2] + e[GH_C1V] * b[3] + e[GH_S2] * b[4] + e[GH_C2] * b[5]
+    if e[DR_S] != 0.0 or e[DR_C] != 0.0:
+        b2 = _periodic(q, 2.0 * math.pi)
+        tau += e[DR_S] * b2[0] + e[DR_C] * b2[1]
+    # friction: level L(q), Stribeck increment, LuGre bristles or the static smooth-sign curve
+    level = e[FC] + e[PD_COS] * nb[0] + e[PD_COS_ROLL] * nb[1] + e[PD_SIN] * nb[2]
+    strib = e[ST_DF] * _stribeck(v, e[ST_VS]) if e[ST_DF] != 0.0 else 0.0
+    zdot = 0.0
+    if e[LG_S0] > 0.0 and level > 0.0:
+        z = s[8 + i]
+        zdot = v - e[LG_S0] * abs(v) * z * level / (level + strib)
+        tau += level * (e[LG_S0] * z + e[LG_S1] * zdot)
+    elif level != 0.0 or strib != 0.0:
+        tau += (level + strib) * _sign(v, e[EPS])
+    # drive: ripple scales the motor torque; a flexible drive puts a spring between motor and load
+    torque = u
+    if e[RP_PER] != 0.0:
+        r = _periodic(s[4 + i], e[RP_PER])
+        torque = u * (1.0 + e[RP_AS] * r[0] + e[RP_AC] * r[1])
+    motor_acc = 0.0
+    if e[FX_K] > 0.0:
+        coupling = e[FX_K] * (s[4 + i] - q) + e[FX_C] * (s[6 + i] - v)
+        motor_acc = (torque - coupling) / e[FX_JM]
+        torque = coupling
+    return added_inertia, torque - tau, zdot, motor_acc
+
+
+@numba.njit(cache=True)
 def derivatives(s, u, p, E, ds):
     """ds = d/dt s for input u (2,) [V] held constant; p true rigid parameters of the load."""
     s2, c2 = math.sin(s[0]), math.cos(s[0])
     s3, c3 = math.sin(s[1]), math.cos(s[1])
     m22, m23, m33, h2, h3 = _rigid(p, s2, c2, s3, c3, s[2], s[3])
-    m = np.empty(2)
-    m[0], m[1] = m22, m33
-    rhs = np.empty(2)  # generalized force on the load minus H and D terms
-    rhs[0] = -h2 - p[ix.D2] * s[2]
-    rhs[1] = -h3 - p[ix.D3] * s[3]
     nb = _normal(s2, c2, c3)
-    for i in range(2):
-        e = E[i]
-        q, v = s[i], s[2 + i]
-        tau = e[VISC] * v
-        if e[CI_DJ] != 0.0:  # cable inertia: dJ shape(q) joins M, 1/2 dJ shape'(q) v^2 joins the force
-            shape, cen = _inertia(q, v, 0.0, e[CI_Q0], e[CI_W])
-            m[i] += e[CI_DJ] * shape
-            tau += e[CI_DJ] * cen
-        if e[SP_K] != 0.0:
-            tau += e[SP_K] * _spring(q, e[SP_Q0], e[SP_W], e[SP_SIDE])
-        if e[GH_PER] != 0.0:
-            b = _gear(q, v, e[GH_PER], e[GH_VREF])
-            tau += e[GH_S1] * b[0] + e[GH_C1] * b[1] + e[GH_S1V] * b[2] + e[GH_C1V] * b[3] + e[GH_S2] * b[4] + e[GH_C2] * b[5]
-        if e[DR_S] != 0.0 or e[DR_C] != 0.0:
-            b2 = _periodic(q, 2.0 * math.pi)
-            tau += e[DR_S] * b2[0] + e[DR_C] * b2[1]
-        # friction: level L(q), Stribeck increment, LuGre bristles or static smooth sign
-        level = e[FC] + e[PD_COS] * nb[0] + e[PD_COS_ROLL] * nb[1] + e[PD_SIN] * nb[2]
-        strib = e[ST_DF] * _stribeck(v, e[ST_VS]) if e[ST_DF] != 0.0 else 0.0
-        zdot = 0.0
-        if e[LG_S0] > 0.0 and level > 0.0:
-            mu = (level + strib) / level
-            zdot = v - e[LG_S0] * abs(v) * s[8 + i] / mu
-            tau += level * (e[LG_S0] * s[8 + i] + e[LG_S1] * zdot)
-        elif level != 0.0 or strib != 0.0:
-            tau += (level + strib) * _sign(v, e[EPS])
-        ds[8 + i] = zdot
-        # drive: ripple scales the motor torque; flexibility puts a spring between motor and load
-        gain = 1.0
-        if e[RP_PER] != 0.0:
-            r = _periodic(s[4 + i], e[RP_PER])
-            gain += e[RP_AS] * r[0] + e[RP_AC] * r[1]
-        if e[FX_K] > 0.0:
-            spring = e[FX_K] * (s[4 + i] - q) + e[FX_C] * (s[6 + i] - v)
-            ds[4 + i] = s[6 + i]
-            ds[6 + i] = (u[i] * gain - spring) / e[FX_JM]
-            rhs[i] += spring - tau
-        else:
-            rhs[i] += u[i] * gain - tau
-    det = m[0] * m[1] - m23 * m23
+    dm0, f0, ds[8], acc0 = axis_terms(s, 0, u[0], E[0], nb)
+    dm1, f1, ds[9], acc1 = axis_terms(s, 1, u[1], E[1], nb)
+    m0, m1 = m22 + dm0, m33 + dm1
+    r0 = f0 - h2 - p[ix.D2] * s[2]
+    r1 = f1 - h3 - p[ix.D3] * s[3]
+    det = m0 * m1 - m23 * m23
     ds[0], ds[1] = s[2], s[3]
-    ds[2] = (m[1] * rhs[0] - m23 * rhs[1]) / det
-    ds[3] = (m[0] * rhs[1] - m23 * rhs[0]) / det
-    for i in range(2):
-        if E[i, FX_K] <= 0.0:  # rigid drive: the motor follows the load
-            ds[4 + i], ds[6 + i] = ds[i], ds[2 + i]
+    ds[2] = (m1 * r0 - m23 * r1) / det
+    ds[3] = (m0 * r1 - m23 * r0) / det
+    # motor states: own dynamics with a flexible drive, else they follow the load
+    ds[4], ds[6] = (s[6], acc0) if E[0, FX_K] > 0.0 else (ds[0], ds[2])
+    ds[5], ds[7] = (s[7], acc1) if E[1, FX_K] > 0.0 else (ds[1], ds[3])
 
 
 @numba.njit(cache=True)
-def rk4_interval(s, u, p, E, dt, substeps):
-    """Advance state s in place over dt with input u held (classical RK4, ``substeps`` steps)."""
+def rk4_interval(s, u, p, E, dt, substeps, work):
+    """Advance state s in place over dt with input u held (classical RK4, ``substeps`` steps).
+
+    work: scratch array (5, N_STATE).
+    """
     h = dt / substeps
-    k1, k2, k3, k4 = np.empty(N_STATE), np.empty(N_STATE), np.empty(N_STATE), np.empty(N_STATE)
-    tmp = np.empty(N_STATE)
+    k1, k2, k3, k4, tmp = work[0], work[1], work[2], work[3], work[4]
     for _ in range(substeps):
         derivatives(s, u, p, E, k1)
         for j in range(N_STATE):
@@ -185,6 +193,7 @@ def simulate_batch(ref, ff, lengths, p, E, C, umax, ts, res, substeps, preroll, 
     B = ref.shape[0]
     for b in numba.prange(B):
         s = np.empty(N_STATE)
+        work = np.empty((5, N_STATE))
         cs = np.zeros(4)
         y = np.empty(2)
         u_cmd = np.zeros(2)
@@ -205,7 +214,7 @@ def simulate_batch(ref, ff, lengths, p, E, C, umax, ts, res, substeps, preroll, 
                     u_out[b, k, i] = u_cmd[i]
                     fb_out[b, k, i] = fb[i]
                     load_out[b, k, i] = s[i]
-            rk4_interval(s, u_applied, p, E, ts, substeps)
+            rk4_interval(s, u_applied, p, E, ts, substeps, work)
             u_applied[0], u_applied[1] = u_cmd[0], u_cmd[1]
             if out_of_range(s, ref[b, min(kk + 1, lengths[b] - 1)], limit_err, limit_vel):
                 status[b] = DIVERGED

@@ -69,6 +69,7 @@ def third_order_phases(distance: float, v: float, a: float, j: float) -> tuple[l
             vp = (d * d * j / 4) ** (1 / 3)  # peak velocity when a is not reached either
             tj, ta = math.sqrt(vp / j), 0.0
     s = math.copysign(1.0, distance)
+    ta = max(ta, 0.0)  # round-off can leave -1e-16 where the acceleration limit is just reached
     durations = [tj, ta, tj, tv, tj, ta, tj]
     jerks = [s * j, 0.0, -s * j, 0.0, -s * j, 0.0, s * j]
     return durations, jerks

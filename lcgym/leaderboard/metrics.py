@@ -31,6 +31,8 @@ def norms(x) -> dict[str, np.ndarray]:
 
 def tracking_error_table(trials: Sequence, label: str = "") -> pd.DataFrame:
     """Norms of the tracking error [deg] of trials taken together, one row per axis."""
+    if not trials:
+        raise ValueError("tracking_error_table: no trials given")
     e = np.degrees(np.concatenate([t.error for t in trials]))
     return _table(e, trials[0].axes, "tracking_error", "deg", label)
 

@@ -96,14 +96,13 @@ class PhysicalModel:
         return dataclasses.replace(self, params=self.fitted_params, effects=(*self.fitted_effects, effect))
 
     # ------------------------------------------------------------------ fitting
-    def _design(self, zeta_n, kin, base):
-        """Stacked design matrix (T, 2, n_lin) of rigid zeta_l columns and effect columns."""
+    def _effect_columns(self, kin, base):
+        """Regressor columns (T, 2, n_effect_coefficients) of the effects (independent of zeta_n)."""
         q, qd, qdd = kin
-        X = ix.regressor(zeta_n, q, qd, qdd)  # (T, 2, 11)
-        cols = [X]
+        cols = [np.zeros((q.shape[0], 2, 0))]
         for e in self.effects:
             c = np.zeros((q.shape[0], 2, len(e.linear)))
-            c[:, e.index, :] = e.columns(q, qd, qdd, base=None if base is None else base[:, e.index])
+            c[:, e.index, :] = e.columns(q, qd, qdd, base=base[:, e.index])
             cols.append(c)
         return np.concatenate(cols, axis=2)
 
@@ -138,7 +137,9 @@ class PhysicalModel:
         base = ix.inverse_dynamics(p0, *kin)  # rigid torque for ripple columns, refined per pass
         n_pass = 2 if any(e.needs_base_torque for e in self.effects) else 1
         for _ in range(n_pass):
-            design = _QuadraticDesign(lambda zn, b=base: self._reduce(self._design(zn, kin, b), lengths), zeta_n.size)
+            rigid = _QuadraticDesign(lambda zn: self._reduce(ix.regressor(zn, *kin), lengths), zeta_n.size)
+            fixed = self._reduce(self._effect_columns(kin, base), lengths)
+            design = lambda zn, r=rigid, f=fixed: np.concatenate([r(zn), f], axis=2)  # noqa: E731
             if self.fit_nonlinear:
                 sol = least_squares(
                     lambda zn, d=design: _solve_linear(d(zn), u_red, theta0)[1],
