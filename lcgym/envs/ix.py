@@ -196,7 +196,7 @@ class IXPlant:
         T, B = int(lengths.max()), len(pos)
         ref = np.zeros((B, T, 2))
         ff = np.zeros((B, T, 2))
-        for b, (x, f) in enumerate(zip(pos, ffs, strict=False)):
+        for b, (x, f) in enumerate(zip(pos, ffs, strict=True)):
             ref[b, : len(x)] = x
             ref[b, len(x) :] = x[-1]
             if f is not None:

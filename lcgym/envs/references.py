@@ -94,7 +94,7 @@ class AxisProfile:
     def move(self, target: float, v: float, a: float, j: float) -> AxisProfile:
         durations, jerks = third_order_phases(target - self.x, v, a, j)
         x, vel, acc = self.x, 0.0, 0.0
-        for dur, jk in zip(durations, jerks, strict=False):
+        for dur, jk in zip(durations, jerks, strict=True):
             if dur <= 0:
                 continue
             self._piece(dur, jk, x, vel, acc)

@@ -39,7 +39,12 @@ def tracking_error_table(trials: Sequence, label: str = "") -> pd.DataFrame:
 
 def input_residual_table(trials: Sequence, feedforward: Sequence, label: str = "") -> pd.DataFrame:
     """Norms of eps = u - f [V for the IX] of trials taken together, one row per axis."""
-    eps = np.concatenate([t.u - np.asarray(f) for t, f in zip(trials, feedforward, strict=False)])
+    if not trials or len(trials) != len(feedforward):
+        raise ValueError(f"input_residual_table: {len(trials)} trials but {len(feedforward)} feedforward signals")
+    for i, (t, f) in enumerate(zip(trials, feedforward, strict=True)):
+        if np.shape(f) != t.u.shape:
+            raise ValueError(f"input_residual_table: feedforward {i} has shape {np.shape(f)}, its trial's input {t.u.shape}")
+    eps = np.concatenate([t.u - np.asarray(f) for t, f in zip(trials, feedforward, strict=True)])
     return _table(eps, trials[0].axes, "input_residual", "V", label)
 
 

@@ -154,7 +154,7 @@ class Effect:
         values = np.asarray(values, dtype=float).ravel()
         if values.size != len(self.linear):
             raise ValueError(f"{self.key}: expected {len(self.linear)} coefficients, got {values.size}")
-        return dataclasses.replace(self, **dict(zip(self.linear, map(float, values), strict=False)))
+        return dataclasses.replace(self, **dict(zip(self.linear, map(float, values), strict=True)))
 
     def columns(self, q, qd, qdd, base=None) -> np.ndarray:
         """Regressor columns (T, len(linear)) of this effect's torque on its own axis [V per unit]."""

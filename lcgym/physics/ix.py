@@ -80,7 +80,7 @@ class IXParameters:
         p = np.asarray(p, dtype=float)
         if p.shape != (len(PARAM_NAMES),):
             raise ValueError(f"IX parameter vector must have shape (16,), got {p.shape}")
-        return cls(**{n: float(v) for n, v in zip(PARAM_NAMES, p, strict=False)})
+        return cls(**{n: float(v) for n, v in zip(PARAM_NAMES, p, strict=True)})
 
     def as_dict(self) -> dict[str, float]:
         return asdict(self)
