@@ -172,24 +172,24 @@ def test_clean_hand_written_file_reads(tmp_path):
     np.testing.assert_allclose(tr.u, np.tile([0.5, -0.5], (6, 1)))
 
 
-@pytest.mark.parametrize("system", [None, "ix"])
-def test_missing_column(tmp_path, system):
+def _without_column(tmp_path, column: str) -> Path:
     cols = HEADER.split(",")
-    keep = [i for i, c in enumerate(cols) if c != "u_roll"]
+    keep = [i for i, c in enumerate(cols) if c != column]
     text = ",".join(cols[i] for i in keep) + "\n"
     text += "\n".join(",".join(str(r[i]) for i in keep) for r in good_rows()) + "\n"
-    path = write_csv(tmp_path, text)
+    return write_csv(tmp_path, text)
+
+
+@pytest.mark.parametrize("system", [None, "ix"])
+def test_missing_column(tmp_path, system):
+    path = _without_column(tmp_path, "u_roll")
     with pytest.raises(MeasurementFileError) as exc:
         read_trials(path, system=system)
     assert_names(exc, path, "u_roll")
 
 
 def test_missing_reference_column_with_system(tmp_path):
-    cols = HEADER.split(",")
-    keep = [i for i, c in enumerate(cols) if c != "ref_roll"]
-    text = ",".join(cols[i] for i in keep) + "\n"
-    text += "\n".join(",".join(str(r[i]) for i in keep) for r in good_rows()) + "\n"
-    path = write_csv(tmp_path, text)
+    path = _without_column(tmp_path, "ref_roll")
     with pytest.raises(MeasurementFileError) as exc:
         read_trials(path, system="ix")
     assert_names(exc, path, "ref_roll")
