@@ -53,7 +53,8 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--seed", type=_nonnegative, default=0)
     sim.add_argument("--n-train", type=_positive, default=8, help="training references")
     sim.add_argument("--n-validation", type=_positive, default=4, help="validation references")
-    sim.add_argument("--duration", type=float, default=40.0, help="length of each reference [s]")
+    sim.add_argument("--duration", type=float, default=40.0,
+                     help="moving time of each reference [s]; a final rest of a few seconds follows")
     sim.add_argument("--out", type=_writable, help="measurement file (.csv or .parquet) of the validation runs")
     sim.add_argument("--plot", type=_writable, help="PNG of tracking errors with the scaled reference velocity")
     return parser

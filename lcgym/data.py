@@ -93,7 +93,7 @@ class Trial:
         return pd.DataFrame(cols)
 
 
-def _atomic_write(path: Path, write) -> None:
+def atomic_write(path: Path, write) -> None:
     """Call write(tmp_path), then rename tmp into ``path`` (same folder, so the rename is atomic)."""
     path = Path(path)
     if not path.parent.exists():
@@ -102,6 +102,9 @@ def _atomic_write(path: Path, write) -> None:
     os.close(fd)
     try:
         write(tmp)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the usual permissions
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
@@ -123,13 +126,13 @@ def write_trials(path: str | Path, trials: Sequence[Trial], meta: dict | None = 
     frame = pd.concat(frames, ignore_index=True)
     suffix = path.suffix.lower()
     if suffix == ".csv":
-        _atomic_write(path, lambda tmp: frame.to_csv(tmp, index=False, float_format="%.10g"))
+        atomic_write(path, lambda tmp: frame.to_csv(tmp, index=False, float_format="%.10g"))
     elif suffix in (".parquet", ".pq"):
-        _atomic_write(path, lambda tmp: frame.to_parquet(tmp, index=False))
+        atomic_write(path, lambda tmp: frame.to_parquet(tmp, index=False))
     else:
         raise ValueError(f"cannot write {path}: use a .csv or .parquet file name")
     sidecar = {**(meta or {}), "fs": trials[0].fs, "trials": [_jsonable(tr.meta) for tr in trials]}
-    _atomic_write(Path(f"{path}.json"), lambda tmp: Path(tmp).write_text(json.dumps(sidecar, indent=1)))
+    atomic_write(Path(f"{path}.json"), lambda tmp: Path(tmp).write_text(json.dumps(sidecar, indent=1)))
     return path
 
 

@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import os
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+
+from ..data import atomic_write
 
 
 def plot_tracking_errors(results: Sequence, path: str | Path, trial_index: int = 0) -> Path:
@@ -38,13 +38,8 @@ def plot_tracking_errors(results: Sequence, path: str | Path, trial_index: int =
     axs[-1].set_xlabel("time [s]")
     fig.suptitle(f"Tracking error on {first.meta.get('reference', 'validation reference')}")
     fig.tight_layout()
-    fd, tmp = tempfile.mkstemp(suffix=path.suffix or ".png", dir=path.parent if path.parent.exists() else None)
-    os.close(fd)
     try:
-        fig.savefig(tmp, dpi=110)
-        os.replace(tmp, path)
+        atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=110, format=(path.suffix[1:] or "png")))
     finally:
         plt.close(fig)
-        if os.path.exists(tmp):
-            os.remove(tmp)
     return path
