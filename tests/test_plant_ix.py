@@ -30,9 +30,10 @@ def test_integrator_converges_as_step_shrinks(ref):
     """All default effects on, quantization off (it would turn round-off into count flips)."""
     truth = load(IXPlant(substeps=80, encoder_resolution=(0, 0)).run(ref))
     err = {n: np.degrees(np.abs(load(IXPlant(substeps=n, encoder_resolution=(0, 0)).run(ref)) - truth).max())
-           for n in (2, 3, 10)}
-    assert err[2] > err[3] > err[10]
-    assert err[10] < 1e-5  # deg; one roll encoder count is 0.0119 deg
+           for n in (1, 2, 4, 8)}
+    assert err[1] > err[2] > err[4] > err[8]
+    assert err[4] / err[8] > 3  # second order: halving the step divides the error by about 4
+    assert err[2] < 1e-5  # deg, at the default; one roll encoder count is 0.0119 deg
 
 
 def test_rigid_plant_tracks_with_exact_model_feedforward(ref):

@@ -69,8 +69,39 @@ _gear = fx.gear_harmonic_basis
 
 
 @numba.njit(cache=True)
+def friction_level(v, e, nb):
+    """Friction level L(q) [V] (Coulomb + normal-force part) and Stribeck increment at speed v."""
+    level = e[FC] + e[PD_COS] * nb[0] + e[PD_COS_ROLL] * nb[1] + e[PD_SIN] * nb[2]
+    strib = e[ST_DF] * _stribeck(v, e[ST_VS]) if e[ST_DF] != 0.0 else 0.0
+    return level, strib
+
+
+@numba.njit(cache=True)
+def lugre_relax(s, E, h):
+    """Advance the LuGre bristle states z over h exactly for frozen q, v (half of a Strang split).
+
+    zdot = v - a z with a = sigma0 |v| L / (L + dF_stribeck) gives z(h) = v/a + (z - v/a) e^{-a h}.
+    The relaxation rate a (several thousand per second while sliding) is far faster than the
+    mechanics; solving it exactly keeps the integration stable at any speed.
+    """
+    nb = _normal(math.sin(s[0]), math.cos(s[0]), math.cos(s[1]))
+    for i in range(2):
+        e = E[i]
+        if e[LG_S0] <= 0.0:
+            continue
+        v = s[2 + i]
+        level, strib = friction_level(v, e, nb)
+        if level <= 0.0:
+            continue
+        a = e[LG_S0] * abs(v) * level / (level + strib)
+        if a > 0.0:
+            z_ss = v / a
+            s[8 + i] = z_ss + (s[8 + i] - z_ss) * math.exp(-a * h)
+
+
+@numba.njit(cache=True)
 def axis_terms(s, i, u, e, nb):
-    """Effects and drive of axis i: (added inertia, generalized force on the load, zdot, motor acc).
+    """Effects and drive of axis i: (added inertia, generalized force on the load, motor acc).
 
     The force excludes H and D of the rigid body; e is the axis's effect-parameter row and nb the
     normal-force basis of the current configuration.
@@ -91,10 +122,8 @@ def axis_terms(s, i, u, e, nb):
         b2 = _periodic(q, 2.0 * math.pi)
         tau += e[DR_S] * b2[0] + e[DR_C] * b2[1]
     # friction: level L(q), Stribeck increment, LuGre bristles or the static smooth-sign curve
-    level = e[FC] + e[PD_COS] * nb[0] + e[PD_COS_ROLL] * nb[1] + e[PD_SIN] * nb[2]
-    strib = e[ST_DF] * _stribeck(v, e[ST_VS]) if e[ST_DF] != 0.0 else 0.0
-    zdot = 0.0
-    if e[LG_S0] > 0.0 and level > 0.0:
+    level, strib = friction_level(v, e, nb)
+    if e[LG_S0] > 0.0 and level > 0.0:  # LuGre force; z itself is advanced by lugre_relax
         z = s[8 + i]
         zdot = v - e[LG_S0] * abs(v) * z * level / (level + strib)
         tau += level * (e[LG_S0] * z + e[LG_S1] * zdot)
@@ -110,7 +139,7 @@ def axis_terms(s, i, u, e, nb):
         coupling = e[FX_K] * (s[4 + i] - q) + e[FX_C] * (s[6 + i] - v)
         motor_acc = (torque - coupling) / e[FX_JM]
         torque = coupling
-    return added_inertia, torque - tau, zdot, motor_acc
+    return added_inertia, torque - tau, motor_acc
 
 
 @numba.njit(cache=True)
@@ -120,8 +149,9 @@ def derivatives(s, u, p, E, ds):
     s3, c3 = math.sin(s[1]), math.cos(s[1])
     m22, m23, m33, h2, h3 = _rigid(p, s2, c2, s3, c3, s[2], s[3])
     nb = _normal(s2, c2, c3)
-    dm0, f0, ds[8], acc0 = axis_terms(s, 0, u[0], E[0], nb)
-    dm1, f1, ds[9], acc1 = axis_terms(s, 1, u[1], E[1], nb)
+    dm0, f0, acc0 = axis_terms(s, 0, u[0], E[0], nb)
+    dm1, f1, acc1 = axis_terms(s, 1, u[1], E[1], nb)
+    ds[8], ds[9] = 0.0, 0.0  # bristle states: see lugre_relax
     m0, m1 = m22 + dm0, m33 + dm1
     r0 = f0 - h2 - p[ix.D2] * s[2]
     r1 = f1 - h3 - p[ix.D3] * s[3]
@@ -136,13 +166,14 @@ def derivatives(s, u, p, E, ds):
 
 @numba.njit(cache=True)
 def rk4_interval(s, u, p, E, dt, substeps, work):
-    """Advance state s in place over dt with input u held (classical RK4, ``substeps`` steps).
-
-    work: scratch array (5, N_STATE).
+    """Advance state s in place over dt with input u held: ``substeps`` Strang-split steps, each
+    an exact half-step of the bristle relaxation, a classical RK4 step of the mechanics (bristle
+    states frozen) and another exact half-step. Second order overall. work: scratch (5, N_STATE).
     """
     h = dt / substeps
     k1, k2, k3, k4, tmp = work[0], work[1], work[2], work[3], work[4]
     for _ in range(substeps):
+        lugre_relax(s, E, 0.5 * h)
         derivatives(s, u, p, E, k1)
         for j in range(N_STATE):
             tmp[j] = s[j] + 0.5 * h * k1[j]
@@ -155,91 +186,116 @@ def rk4_interval(s, u, p, E, dt, substeps, work):
         derivatives(tmp, u, p, E, k4)
         for j in range(N_STATE):
             s[j] += h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+        lugre_relax(s, E, 0.5 * h)
+
+
+# closed-loop state: plant state, controller state (e[k-1], fb[k-1] per axis), input being applied
+N_LOOP = N_STATE + 6
+CS0, UA0 = N_STATE, N_STATE + 4
+# configuration slots
+CFG_UMAX, CFG_TS, CFG_ERR, CFG_VEL, CFG_SUB, CFG_RES0, CFG_RES1 = range(7)
+N_CFG = 7
+# per-sample signals written by loop_sample
+SIG_Y, SIG_U, SIG_FB, SIG_LOAD = 0, 2, 4, 6
+N_SIG = 8
 
 
 @numba.njit(cache=True)
-def sensor(s, E, res, out):
+def sensor(s, E, cfg, out):
     """Quantized encoder reading [rad]: motor side when the drive is flexible (in axis units)."""
     for i in range(2):
         x = s[4 + i] if E[i, FX_K] > 0.0 else s[i]
-        out[i] = math.floor(x / res[i] + 0.5) * res[i] if res[i] > 0.0 else x
+        res = cfg[CFG_RES0 + i]
+        out[i] = math.floor(x / res + 0.5) * res if res > 0.0 else x
 
 
 @numba.njit(cache=True)
-def control(ref, meas, ff, C, c_state, umax, ts, out_u, out_fb):
+def control(ref, meas, ff, C, cs, cfg, out_u, out_fb):
     """Diagonal PD + first-order low-pass (per axis), plus feedforward, saturated at +-umax.
 
-    c_state = [e_prev0, e_prev1, ufb0, ufb1] is updated in place.
+    cs = [e_prev0, e_prev1, ufb0, ufb1] is updated in place.
     ufb[k] = alpha ufb[k-1] + (1 - alpha) (Kp e[k] + Kd (e[k] - e[k-1]) / Ts)
     """
+    ts, umax = cfg[CFG_TS], cfg[CFG_UMAX]
     for i in range(2):
         e = ref[i] - meas[i]
-        raw = C[i, KP] * e + C[i, KD] * (e - c_state[i]) / ts
-        c_state[2 + i] = C[i, ALPHA] * c_state[2 + i] + (1.0 - C[i, ALPHA]) * raw
-        c_state[i] = e
-        out_fb[i] = c_state[2 + i]
-        out_u[i] = min(max(c_state[2 + i] + ff[i], -umax), umax)
+        raw = C[i, KP] * e + C[i, KD] * (e - cs[i]) / ts
+        cs[2 + i] = C[i, ALPHA] * cs[2 + i] + (1.0 - C[i, ALPHA]) * raw
+        cs[i] = e
+        out_fb[i] = cs[2 + i]
+        out_u[i] = min(max(cs[2 + i] + ff[i], -umax), umax)
 
 
 @numba.njit(cache=True)
-def init_state(q0, p, E, s):
-    s[:] = 0.0
-    s[0], s[1] = q0[0], q0[1]
-    s[4], s[5] = q0[0], q0[1]
+def loop_start(st, ref0, E, cfg):
+    """Plant at rest at ref0 (motor = load, no bristle deflection), controller without history."""
+    st[:] = 0.0
+    st[0], st[1] = ref0[0], ref0[1]
+    st[4], st[5] = ref0[0], ref0[1]
+    y = np.empty(2)
+    sensor(st, E, cfg, y)
+    st[CS0], st[CS0 + 1] = ref0[0] - y[0], ref0[1] - y[1]
 
 
 @numba.njit(cache=True)
-def out_of_range(s, ref, limit_err, limit_vel):
+def loop_sample(st, ref_k, ff_k, p, E, C, cfg, work, sig):
+    """One sample k of the closed loop, in place on st (N_LOOP,).
+
+    The encoders read y[k]; the controller computes u[k], which is applied over [t_{k+1},
+    t_{k+2}) (one-sample computation delay, zero-order hold); the plant integrates over
+    [t_k, t_{k+1}) with u[k-1]. sig receives y[k], u[k], fb[k] and the load angles at t_k.
+    """
+    s = st[:N_STATE]
+    sensor(s, E, cfg, sig[SIG_Y : SIG_Y + 2])
+    control(ref_k, sig[SIG_Y : SIG_Y + 2], ff_k, C, st[CS0 : CS0 + 4], cfg, sig[SIG_U : SIG_U + 2], sig[SIG_FB : SIG_FB + 2])
+    sig[SIG_LOAD], sig[SIG_LOAD + 1] = s[0], s[1]
+    rk4_interval(s, st[UA0 : UA0 + 2], p, E, cfg[CFG_TS], int(cfg[CFG_SUB]), work)
+    st[UA0], st[UA0 + 1] = sig[SIG_U], sig[SIG_U + 1]
+
+
+@numba.njit(cache=True)
+def out_of_range(s, ref, cfg):
+    """True if a state is not finite, the tracking error exceeds CFG_ERR or a speed CFG_VEL."""
     for j in range(N_STATE):
         if not math.isfinite(s[j]):
             return True
     for i in range(2):
-        if abs(ref[i] - s[i]) > limit_err or abs(s[2 + i]) > limit_vel:
+        if abs(ref[i] - s[i]) > cfg[CFG_ERR] or abs(s[2 + i]) > cfg[CFG_VEL]:
             return True
     return False
 
 
+@numba.njit(cache=True)
+def settle(st, ref0, ff0, n_samples, p, E, C, cfg, work):
+    """Start at ref0 and hold ref0, ff0 for n_samples (gravity sag, friction states settle)."""
+    loop_start(st, ref0, E, cfg)
+    sig = np.empty(N_SIG)
+    for _ in range(n_samples):
+        loop_sample(st, ref0, ff0, p, E, C, cfg, work, sig)
+
+
 @numba.njit(cache=True, parallel=True)
-def simulate_batch(ref, ff, lengths, p, E, C, umax, ts, res, substeps, preroll, limit_err, limit_vel,
-                   meas, u_out, fb_out, load_out, status, fail_k, final_state):
+def simulate_batch(ref, ff, lengths, p, E, C, cfg, preroll, sig_out, status, fail_k, final_state):
     """Closed-loop runs of B references at once (parallel over references).
 
     ref, ff: (B, T, 2) reference [rad] and feedforward [V]; lengths (B,) valid samples of each.
-    Input computed at sample k is applied over [t_{k+1}, t_{k+2}) (one-sample computation
-    delay, zero-order hold). ``preroll`` samples holding ref[0], ff[0] settle the plant (gravity
-    sag, friction state) before recording. Outputs are written into the given arrays.
+    ``preroll`` samples holding ref[0], ff[0] settle the plant before recording. sig_out
+    (B, T, N_SIG) receives the per-sample signals of loop_sample.
     """
     B = ref.shape[0]
     for b in numba.prange(B):
-        s = np.empty(N_STATE)
+        st = np.empty(N_LOOP)
         work = np.empty((5, N_STATE))
-        cs = np.zeros(4)
-        y = np.empty(2)
-        u_cmd = np.zeros(2)
-        fb = np.zeros(2)
-        u_applied = np.zeros(2)
-        init_state(ref[b, 0], p, E, s)
-        sensor(s, E, res, y)
-        cs[0], cs[1] = ref[b, 0, 0] - y[0], ref[b, 0, 1] - y[1]
+        settle(st, ref[b, 0], ff[b, 0], preroll, p, E, C, cfg, work)
         status[b] = OK
         fail_k[b] = -1
-        for k in range(-preroll, lengths[b]):
-            kk = max(k, 0)
-            sensor(s, E, res, y)
-            control(ref[b, kk], y, ff[b, kk], C, cs, umax, ts, u_cmd, fb)
-            if k >= 0:
-                for i in range(2):
-                    meas[b, k, i] = y[i]
-                    u_out[b, k, i] = u_cmd[i]
-                    fb_out[b, k, i] = fb[i]
-                    load_out[b, k, i] = s[i]
-            rk4_interval(s, u_applied, p, E, ts, substeps, work)
-            u_applied[0], u_applied[1] = u_cmd[0], u_cmd[1]
-            if out_of_range(s, ref[b, min(kk + 1, lengths[b] - 1)], limit_err, limit_vel):
+        for k in range(lengths[b]):
+            loop_sample(st, ref[b, k], ff[b, k], p, E, C, cfg, work, sig_out[b, k])
+            if out_of_range(st, ref[b, min(k + 1, lengths[b] - 1)], cfg):
                 status[b] = DIVERGED
-                fail_k[b] = kk
+                fail_k[b] = k
                 break
-        final_state[b, :] = s
+        final_state[b, :] = st[:N_STATE]
 
 
 numba.config.CACHE_DIR = _previous_cache_dir
