@@ -1,0 +1,13 @@
+"""Plants, reference generators and the Gymnasium environments (registered on import of lcgym)."""
+
+import gymnasium as gym
+
+
+def register_envs() -> None:
+    """Register ``lcgym/IX-v0`` (single and vector entry points) with Gymnasium, once."""
+    if "lcgym/IX-v0" not in gym.registry:
+        gym.register(
+            id="lcgym/IX-v0",
+            entry_point="lcgym.envs.ix_env:IXEnv",
+            vector_entry_point="lcgym.envs.ix_env:IXVectorEnv",
+        )

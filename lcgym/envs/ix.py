@@ -155,7 +155,7 @@ class IXPlant:
     effects: tuple[fx.Effect, ...] = field(default_factory=default_hidden_effects)
     gains: FeedbackGains = field(default_factory=FeedbackGains)
     fs: float = 500.0
-    substeps: int = 2
+    substeps: int = 1
     encoder_resolution: tuple[float, float] = ENCODER_RESOLUTION
     preroll: float = 1.0
     max_error: float = 30 * DEG

@@ -43,6 +43,11 @@ def _cache_dir() -> str:
 _previous_cache_dir = numba.config.CACHE_DIR
 numba.config.CACHE_DIR = _cache_dir()
 
+# LLVM fast-math flags for the kernels: fused multiply-add, reciprocals, reassociation. Not
+# 'nnan'/'ninf': the divergence check must still see NaN and inf. Results stay deterministic on
+# one machine; they may differ in the last bits between CPUs.
+FASTMATH = {"contract", "arcp", "reassoc", "nsz", "afn"}
+
 # effect parameter slots (per axis row)
 (
     FC, EPS, PD_COS, PD_COS_ROLL, PD_SIN, ST_DF, ST_VS, LG_S0, LG_S1, VISC,
@@ -68,7 +73,7 @@ _periodic = fx.periodic_basis
 _gear = fx.gear_harmonic_basis
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FASTMATH)
 def friction_level(v, e, nb):
     """Friction level L(q) [V] (Coulomb + normal-force part) and Stribeck increment at speed v."""
     level = e[FC] + e[PD_COS] * nb[0] + e[PD_COS_ROLL] * nb[1] + e[PD_SIN] * nb[2]
@@ -76,7 +81,7 @@ def friction_level(v, e, nb):
     return level, strib
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FASTMATH)
 def lugre_relax(s, E, h):
     """Advance the LuGre bristle states z over h exactly for frozen q, v (half of a Strang split).
 
@@ -99,7 +104,7 @@ def lugre_relax(s, E, h):
             s[8 + i] = z_ss + (s[8 + i] - z_ss) * math.exp(-a * h)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FASTMATH)
 def axis_terms(s, i, u, e, nb):
     """Effects and drive of axis i: (added inertia, generalized force on the load, motor acc).
 
@@ -142,7 +147,7 @@ def axis_terms(s, i, u, e, nb):
     return added_inertia, torque - tau, motor_acc
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FASTMATH)
 def derivatives(s, u, p, E, ds):
     """ds = d/dt s for input u (2,) [V] held constant; p true rigid parameters of the load."""
     s2, c2 = math.sin(s[0]), math.cos(s[0])
@@ -164,7 +169,7 @@ def derivatives(s, u, p, E, ds):
     ds[5], ds[7] = (s[7], acc1) if E[1, FX_K] > 0.0 else (ds[1], ds[3])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FASTMATH)
 def rk4_interval(s, u, p, E, dt, substeps, work):
     """Advance state s in place over dt with input u held: ``substeps`` Strang-split steps, each
     an exact half-step of the bristle relaxation, a classical RK4 step of the mechanics (bristle
@@ -200,7 +205,7 @@ SIG_Y, SIG_U, SIG_FB, SIG_LOAD = 0, 2, 4, 6
 N_SIG = 8
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FASTMATH)
 def sensor(s, E, cfg, out):
     """Quantized encoder reading [rad]: motor side when the drive is flexible (in axis units)."""
     for i in range(2):
@@ -209,7 +214,7 @@ def sensor(s, E, cfg, out):
         out[i] = math.floor(x / res + 0.5) * res if res > 0.0 else x
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FASTMATH)
 def control(ref, meas, ff, C, cs, cfg, out_u, out_fb):
     """Diagonal PD + first-order low-pass (per axis), plus feedforward, saturated at +-umax.
 
@@ -226,7 +231,7 @@ def control(ref, meas, ff, C, cs, cfg, out_u, out_fb):
         out_u[i] = min(max(cs[2 + i] + ff[i], -umax), umax)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FASTMATH)
 def loop_start(st, ref0, E, cfg):
     """Plant at rest at ref0 (motor = load, no bristle deflection), controller without history."""
     st[:] = 0.0
@@ -237,7 +242,7 @@ def loop_start(st, ref0, E, cfg):
     st[CS0], st[CS0 + 1] = ref0[0] - y[0], ref0[1] - y[1]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FASTMATH)
 def loop_sample(st, ref_k, ff_k, p, E, C, cfg, work, sig):
     """One sample k of the closed loop, in place on st (N_LOOP,).
 
@@ -253,7 +258,7 @@ def loop_sample(st, ref_k, ff_k, p, E, C, cfg, work, sig):
     st[UA0], st[UA0 + 1] = sig[SIG_U], sig[SIG_U + 1]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FASTMATH)
 def out_of_range(s, ref, cfg):
     """True if a state is not finite, the tracking error exceeds CFG_ERR or a speed CFG_VEL."""
     for j in range(N_STATE):
@@ -265,7 +270,7 @@ def out_of_range(s, ref, cfg):
     return False
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FASTMATH)
 def settle(st, ref0, ff0, n_samples, p, E, C, cfg, work):
     """Start at ref0 and hold ref0, ff0 for n_samples (gravity sag, friction states settle)."""
     loop_start(st, ref0, E, cfg)
@@ -274,7 +279,7 @@ def settle(st, ref0, ff0, n_samples, p, E, C, cfg, work):
         loop_sample(st, ref0, ff0, p, E, C, cfg, work, sig)
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True, parallel=True, fastmath=FASTMATH)
 def simulate_batch(ref, ff, lengths, p, E, C, cfg, preroll, sig_out, status, fail_k, final_state):
     """Closed-loop runs of B references at once (parallel over references).
 
@@ -296,6 +301,64 @@ def simulate_batch(ref, ff, lengths, p, E, C, cfg, preroll, sig_out, status, fai
                 fail_k[b] = k
                 break
         final_state[b, :] = st[:N_STATE]
+
+
+# ---------------------------------------------------------------------------------------------
+# Gymnasium environments: one control sample per env step (envs/ix_env.py)
+# ---------------------------------------------------------------------------------------------
+ENV_OK, ENV_DIVERGED, ENV_BAD_ACTION = 0, 1, 2
+SIG_FF, SIG_NEXT = N_SIG, N_SIG + 2  # env signals: loop signals, feedforward, next encoder reading
+N_ENV_SIG = N_SIG + 4
+SC_ERR, SC_CLIP, SC_REWARD, SC_BOUND = range(4)  # env scales: obs error, obs clip, reward error, action bound
+
+
+@numba.njit(cache=True, fastmath=FASTMATH)
+def env_step_one(b, st, work, ref_pos, feats, base_ff, lengths, ref_idx, k, action, scales, p, E, C, cfg,
+                 obs, reward, status, clipped, sig):
+    """Step env b by one sample with feedforward base_ff + clip(action); write its observation,
+    reward and status. See envs/ix_env.py for the meaning of each quantity."""
+    r, kb = ref_idx[b], k[b]
+    if not (math.isfinite(action[b, 0]) and math.isfinite(action[b, 1])):
+        status[b] = ENV_BAD_ACTION
+        return
+    bound = scales[SC_BOUND]
+    for i in range(2):
+        a = action[b, i]
+        if a > bound or a < -bound:
+            a = min(max(a, -bound), bound)
+            clipped[b] += 1
+        sig[b, SIG_FF + i] = base_ff[r, kb, i] + a
+    loop_sample(st[b], ref_pos[r, kb], sig[b, SIG_FF : SIG_FF + 2], p, E, C, cfg, work[b], sig[b])
+    kn = min(kb + 1, lengths[r] - 1)
+    sensor(st[b], E, cfg, sig[b, SIG_NEXT : SIG_NEXT + 2])
+    nf = feats.shape[2]
+    obs[b, :nf] = feats[r, kn]
+    rew = 0.0
+    for i in range(2):
+        e = ref_pos[r, kn, i] - sig[b, SIG_NEXT + i]
+        obs[b, nf + i] = min(max(e / scales[SC_ERR], -scales[SC_CLIP]), scales[SC_CLIP])
+        rew -= 0.5 * (e / scales[SC_REWARD]) ** 2
+    reward[b] = rew
+    k[b] = kb + 1
+    status[b] = ENV_DIVERGED if out_of_range(st[b], ref_pos[r, kn], cfg) else ENV_OK
+
+
+@numba.njit(cache=True, fastmath=FASTMATH)
+def env_step_serial(active, st, work, ref_pos, feats, base_ff, lengths, ref_idx, k, action, scales, p, E, C, cfg,
+                    obs, reward, status, clipped, sig):
+    for b in range(st.shape[0]):
+        if active[b]:
+            env_step_one(b, st, work, ref_pos, feats, base_ff, lengths, ref_idx, k, action, scales, p, E, C, cfg,
+                         obs, reward, status, clipped, sig)
+
+
+@numba.njit(cache=True, parallel=True, fastmath=FASTMATH)
+def env_step_parallel(active, st, work, ref_pos, feats, base_ff, lengths, ref_idx, k, action, scales, p, E, C, cfg,
+                      obs, reward, status, clipped, sig):
+    for b in numba.prange(st.shape[0]):
+        if active[b]:
+            env_step_one(b, st, work, ref_pos, feats, base_ff, lengths, ref_idx, k, action, scales, p, E, C, cfg,
+                         obs, reward, status, clipped, sig)
 
 
 numba.config.CACHE_DIR = _previous_cache_dir

@@ -44,6 +44,22 @@ def reference_kinematics(positions, fs: float, advance: float = 0.0):
     return x, v, a
 
 
+def relay(velocity, threshold: float = 1e-9) -> np.ndarray:
+    """Relay of paper 000, eq. (12), along time (axis 0): +1 while moving forward, -1 backward,
+    the last value while at rest, 0 before the first motion. |v| <= threshold [rad/s] counts as rest
+    (round-off of a sampled dwell)."""
+    v = np.asarray(velocity, dtype=float)
+    sign = np.where(v > threshold, 1.0, np.where(v < -threshold, -1.0, np.nan))
+    out = np.empty_like(sign)
+    for i in np.ndindex(sign.shape[1:]):  # forward fill per column
+        col = sign[(slice(None), *i)]
+        idx = np.where(np.isnan(col), 0, np.arange(col.size))
+        np.maximum.accumulate(idx, out=idx)
+        filled = col[idx]
+        out[(slice(None), *i)] = np.where(np.isnan(filled), 0.0, filled)
+    return out
+
+
 def lowpass_zero_phase(signal, fs: float, cutoff_hz: float, order: int = 2, axis: int = 0):
     """Butterworth low-pass applied forward and backward (zero phase), along ``axis``.
 

@@ -1,0 +1,349 @@
+"""Gymnasium tracking environments of the IX C-arm: ``lcgym/IX-v0`` and its batched vector env.
+
+One episode tracks one reference of a reference set on the closed-loop IX plant of
+``envs/ix.py`` (500 Hz, fixed PD + low-pass feedback, hidden effects, quantized encoders). The
+agent supplies the **feedforward**; the feedback loop runs inside the environment. One env step
+is one control sample (2 ms).
+
+Action (float32, shape (2,)): feedforward input of (propeller, roll) for the current sample
+    [V]. ``base_feedforward="none"``: the action is the feedforward, bounds +-5 V (the amplifier
+    limit). ``base_feedforward="physical"``: the action is added to the rigid-model feedforward
+    (``PhysicalModel`` fitted on feedback-only runs of the training references; residual
+    learning), bounds +-1 V (``RESIDUAL_BOUND``; the fitted model already supplies up to about
+    3 V). Out-of-bound actions are clipped and counted (``info["clipped_actions"]``, per episode);
+    NaN or inf raise ``ValueError``. The total input is saturated at +-5 V by the plant.
+
+Observation (float32, shape (36,)), all O(1); P = len(PREVIEW) = 5 preview points at 0, 10, 25,
+    50 and 100 samples ahead (0-200 ms; beyond the reference end the last sample is repeated):
+    - [0:10]   reference position, propeller then roll, at the P preview points / (pi/2 rad)
+    - [10:20]  reference velocity, same layout / (20 deg/s)
+    - [20:30]  reference acceleration, same layout / (40 deg/s^2)
+    - [30:32]  relay of the reference velocity, paper 000 eq. (12) (+1, -1, or 0 before motion)
+    - [32:34]  base feedforward of the current sample / 5 V (zero with base_feedforward="none")
+    - [34:36]  tracking error e = reference - encoder reading / 0.5 deg, clipped to +-20
+
+Reward: -1/2 sum over axes (e_i / 0.1 deg)^2 with e the tracking error measured at the next
+    sample, i.e. the error the action helped to make (about -0.25 per step at 0.05 deg on both
+    axes, -25 at 0.5 deg).
+
+Episode end: ``truncated`` after the last sample of the reference; ``terminated`` only when the
+    plant leaves its safe range (tracking error over 30 deg, speed over 1 rad/s, or a non-finite
+    state; ``IXPlant.max_error`` / ``max_velocity``).
+
+Info: per step the measured signals of the sample: ``pos`` (encoder reading [rad]), ``u``
+    (total input [V]), ``ff`` (applied feedforward [V]), ``error`` (reference - encoder [rad]),
+    ``clipped_actions``; at episode end (single env) ``trial``: the whole episode as a ``Trial``.
+
+Reset: the reference is drawn with the env's seeded generator from the set, or chosen with
+    ``options={"reference": i}``; the plant starts settled (held at the first reference sample
+    for ``plant.preroll`` s, computed once per reference).
+
+Arguments: ``references`` ("train", "validation", "test", "calibration" or a list of
+    ``Reference`` / (T, 2) position arrays [rad]), ``reference_seed`` and ``n_references`` /
+    ``duration`` of the generated set, ``base_feedforward``, ``plant`` (an ``IXPlant``; default
+    hidden effects), ``render_mode="rgb_array"``.
+
+The vector env (``gym.make_vec("lcgym/IX-v0", num_envs=N, vectorization_mode="vector_entry_point")``)
+steps N plants in one compiled call (parallel over plants), with Gymnasium's next-step autoreset.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from ..data import Trial
+from ..physics.kinematics import reference_kinematics, reference_positions, relay
+from ..physics.model import PhysicalModel
+from . import ix_kernel as K
+from .ix import IXPlant
+from .references import Reference, reference_set
+
+DEG = math.pi / 180
+PREVIEW = (0, 10, 25, 50, 100)  # samples ahead
+POS_SCALE, VEL_SCALE, ACC_SCALE = math.pi / 2, 20 * DEG, 40 * DEG
+FF_SCALE = 5.0  # V
+ERR_SCALE, ERR_CLIP = 0.5 * DEG, 20.0
+REWARD_SCALE = 0.1 * DEG
+RESIDUAL_BOUND = 1.0  # V, action bound with base_feedforward="physical"
+OBS_BOUND = 25.0
+N_OBS = 6 * len(PREVIEW) + 6  # 3 signals x 2 axes x P preview points, relay, base ff, error
+
+_MODEL_CACHE: dict[tuple, PhysicalModel] = {}
+
+
+def physical_model(plant: IXPlant, seed: int = 0) -> PhysicalModel:
+    """Rigid model fitted on feedback-only runs of the training references (cached per process)."""
+    key = (repr(plant), seed)
+    if key not in _MODEL_CACHE:
+        _MODEL_CACHE[key] = PhysicalModel(fs=plant.fs).fit(plant.run(reference_set("train", seed, fs=plant.fs)))
+    return _MODEL_CACHE[key]
+
+
+def reference_features(positions: np.ndarray, fs: float, base_ff: np.ndarray) -> np.ndarray:
+    """Observation columns [0:34] for every sample of one reference, float32 (T, 34)."""
+    q, qd, qdd = reference_kinematics(positions, fs)
+    T = q.shape[0]
+    cols = []
+    for signal, scale in ((q, POS_SCALE), (qd, VEL_SCALE), (qdd, ACC_SCALE)):
+        for axis in range(2):
+            for d in PREVIEW:
+                idx = np.minimum(np.arange(T) + d, T - 1)
+                cols.append(signal[idx, axis] / scale)
+    feats = np.column_stack(cols + [relay(qd)[:, 0], relay(qd)[:, 1], base_ff[:, 0] / FF_SCALE, base_ff[:, 1] / FF_SCALE])
+    return feats.astype(np.float32)
+
+
+class IXTask:
+    """What the single and the vector env share: the plant, the references (padded to one length)
+    with their observation features and base feedforward, and each reference's settled start."""
+
+    def __init__(self, references, base_feedforward: str, plant: IXPlant | None, reference_seed: int,
+                 n_references: int | None, duration: float):
+        if base_feedforward not in ("none", "physical"):
+            raise ValueError(f"base_feedforward must be 'none' or 'physical', got {base_feedforward!r}")
+        self.plant = plant if plant is not None else IXPlant()
+        fs = self.plant.fs
+        if isinstance(references, str):
+            refs = reference_set(references, reference_seed, n_references, duration, fs)
+        else:
+            refs = list(references)
+            if not refs:
+                raise ValueError("references: empty list")
+        self.names = [r.name if isinstance(r, Reference) else f"reference-{i}" for i, r in enumerate(refs)]
+        positions = [reference_positions(r) for r in refs]
+        for name, x in zip(self.names, positions, strict=True):
+            if x.ndim != 2 or x.shape[1] != 2 or x.shape[0] < 3 or not np.all(np.isfinite(x)):
+                raise ValueError(f"{name}: a reference must be a finite (T >= 3, 2) array of positions [rad]")
+        model = physical_model(self.plant, reference_seed) if base_feedforward == "physical" else None
+        self.base_feedforward = base_feedforward
+        self.bound = RESIDUAL_BOUND if model is not None else self.plant.gains.u_max
+        R, T = len(positions), max(x.shape[0] for x in positions)
+        self.lengths = np.array([x.shape[0] for x in positions], dtype=np.int64)
+        self.ref_pos = np.zeros((R, T, 2))
+        self.base_ff = np.zeros((R, T, 2))
+        self.feats = np.zeros((R, T, N_OBS - 2), dtype=np.float32)
+        for r, x in enumerate(positions):
+            n = x.shape[0]
+            self.ref_pos[r, :n], self.ref_pos[r, n:] = x, x[-1]
+            if model is not None:
+                self.base_ff[r, :n] = model.predict(x)
+            self.feats[r, :n] = reference_features(x, fs, self.base_ff[r, :n])
+        p = self.plant
+        self.kernel_args = (p._p, p._E, p._C, p._cfg)
+        self.scales = np.array([ERR_SCALE, ERR_CLIP, REWARD_SCALE, self.bound])
+        # settled start of every reference, and the first observation's error columns
+        self.start = np.zeros((R, K.N_LOOP))
+        self.start_error = np.zeros((R, 2), dtype=np.float32)
+        work, y = np.empty((5, K.N_STATE)), np.empty(2)
+        for r in range(R):
+            K.settle(self.start[r], self.ref_pos[r, 0], self.base_ff[r, 0], p.preroll_samples, *self.kernel_args, work)
+            K.sensor(self.start[r], p._E, p._cfg, y)
+            e = self.ref_pos[r, 0] - y
+            self.start_error[r] = np.clip(e / ERR_SCALE, -ERR_CLIP, ERR_CLIP)
+
+    @property
+    def n_references(self) -> int:
+        return len(self.names)
+
+    def spaces(self) -> tuple[gym.spaces.Box, gym.spaces.Box]:
+        obs = gym.spaces.Box(-OBS_BOUND, OBS_BOUND, (N_OBS,), np.float32)
+        act = gym.spaces.Box(-self.bound, self.bound, (2,), np.float32)
+        return obs, act
+
+    def first_observation(self, r: int) -> np.ndarray:
+        return np.concatenate([self.feats[r, 0], self.start_error[r]])
+
+
+class IXEnv(gym.Env):
+    """IX tracking environment, one plant; see the module docstring for spaces, reward and ends."""
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
+
+    def __init__(self, references="train", base_feedforward: str = "none", reference_seed: int = 0,
+                 n_references: int | None = None, duration: float = 40.0, plant: IXPlant | None = None,
+                 render_mode: str | None = None):
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        self.task = IXTask(references, base_feedforward, plant, reference_seed, n_references, duration)
+        self.observation_space, self.action_space = self.task.spaces()
+        self.render_mode = render_mode
+        T = self.task.ref_pos.shape[1]
+        self._st = np.zeros((1, K.N_LOOP))
+        self._work = np.zeros((1, 5, K.N_STATE))
+        self._ref_idx = np.zeros(1, dtype=np.int64)
+        self._k = np.zeros(1, dtype=np.int64)
+        self._obs = np.zeros((1, N_OBS), dtype=np.float32)
+        self._reward = np.zeros(1)
+        self._status = np.zeros(1, dtype=np.int64)
+        self._clipped = np.zeros(1, dtype=np.int64)
+        self._sig = np.zeros((1, K.N_ENV_SIG))
+        self._active = np.ones(1, dtype=np.bool_)
+        self._record = np.zeros((T, K.N_ENV_SIG))
+        self._action = np.zeros((1, 2))
+        self._started = False
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        r = (options or {}).get("reference")
+        if r is None:
+            r = int(self.np_random.integers(self.task.n_references))
+        elif not 0 <= int(r) < self.task.n_references:
+            raise ValueError(f"options['reference'] must be in 0..{self.task.n_references - 1}, got {r}")
+        r = int(r)
+        self._ref_idx[0], self._k[0], self._clipped[0] = r, 0, 0
+        self._st[0] = self.task.start[r]
+        self._started = True
+        return self.task.first_observation(r), {"reference": self.task.names[r]}
+
+    def step(self, action):
+        if not self._started:
+            raise RuntimeError("IX-v0: call reset() before step()")
+        a = np.asarray(action, dtype=np.float64)
+        if a.shape != (2,):
+            raise ValueError(f"IX-v0: action must have shape (2,) (propeller, roll feedforward in V), got {a.shape}")
+        self._action[0] = a
+        t = self.task
+        k = int(self._k[0])
+        K.env_step_serial(self._active, self._st, self._work, t.ref_pos, t.feats, t.base_ff, t.lengths, self._ref_idx,
+                          self._k, self._action, t.scales, *t.kernel_args, self._obs, self._reward, self._status,
+                          self._clipped, self._sig)
+        status = self._status[0]
+        if status == K.ENV_BAD_ACTION:
+            raise ValueError(f"IX-v0: action {a.tolist()} at step {k} is NaN or inf")
+        sig = self._sig[0]
+        self._record[k] = sig
+        r = self._ref_idx[0]
+        terminated = bool(status == K.ENV_DIVERGED)
+        truncated = bool(self._k[0] >= t.lengths[r]) and not terminated
+        info = {
+            "pos": sig[K.SIG_Y : K.SIG_Y + 2].copy(),
+            "u": sig[K.SIG_U : K.SIG_U + 2].copy(),
+            "ff": sig[K.SIG_FF : K.SIG_FF + 2].copy(),
+            "error": t.ref_pos[r, k] - sig[K.SIG_Y : K.SIG_Y + 2],
+            "clipped_actions": int(self._clipped[0]),
+        }
+        if terminated or truncated:
+            info["trial"] = self.episode_trial()
+            self._started = False
+        return self._obs[0].copy(), float(self._reward[0]), terminated, truncated, info
+
+    def episode_trial(self) -> Trial:
+        """The episode so far as a Trial (reference, encoder, input, feedforward, true load angle)."""
+        t, r, n = self.task, int(self._ref_idx[0]), int(self._k[0])
+        rec = self._record[:n]
+        return Trial(
+            t=np.arange(n) / t.plant.fs, ref=t.ref_pos[r, :n], pos=rec[:, K.SIG_Y : K.SIG_Y + 2],
+            u=rec[:, K.SIG_U : K.SIG_U + 2], ff=rec[:, K.SIG_FF : K.SIG_FF + 2], axes=t.plant.axes,
+            extra={f"load_{ax}": rec[:, K.SIG_LOAD + i].copy() for i, ax in enumerate(t.plant.axes)},
+            meta={"system": "ix", "reference": t.names[r], "base_feedforward": t.base_feedforward,
+                  "clipped_actions": int(self._clipped[0])},
+        )
+
+    def render(self):
+        if self.render_mode != "rgb_array":
+            return None
+        return render_episode(self.episode_trial() if self._k[0] > 0 else None, self.task.names[int(self._ref_idx[0])])
+
+
+def render_episode(trial: Trial | None, title: str) -> np.ndarray:
+    """RGB image (H, W, 3) of reference [deg] and tracking error [deg] per axis so far."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig, axs = plt.subplots(2, 2, figsize=(8, 4.5), dpi=80, sharex=True)
+    fig.suptitle(title, fontsize=9)
+    for i, ax_name in enumerate(("propeller", "roll")):
+        top, bottom = axs[0, i], axs[1, i]
+        if trial is not None:
+            top.plot(trial.t, np.degrees(trial.ref[:, i]), lw=0.8)
+            bottom.plot(trial.t, np.degrees(trial.error[:, i]), lw=0.8, color="C1")
+        top.set_title(ax_name, fontsize=9)
+        top.set_ylabel("reference [deg]", fontsize=8)
+        bottom.set_ylabel("error [deg]", fontsize=8)
+        bottom.set_xlabel("time [s]", fontsize=8)
+    fig.tight_layout()
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    image = np.asarray(canvas.buffer_rgba())[..., :3].copy()
+    plt.close(fig)
+    return image
+
+
+class IXVectorEnv(VectorEnv):
+    """N IX plants stepped at once in compiled code (parallel over plants), next-step autoreset."""
+
+    metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+
+    def __init__(self, num_envs: int = 1, references="train", base_feedforward: str = "none",
+                 reference_seed: int = 0, n_references: int | None = None, duration: float = 40.0,
+                 plant: IXPlant | None = None, render_mode: str | None = None):
+        if num_envs < 1:
+            raise ValueError(f"num_envs must be >= 1, got {num_envs}")
+        if render_mode is not None:
+            raise ValueError("the IX vector env does not render; use the single env")
+        self.task = IXTask(references, base_feedforward, plant, reference_seed, n_references, duration)
+        self.num_envs = num_envs
+        self.single_observation_space, self.single_action_space = self.task.spaces()
+        self.observation_space = batch_space(self.single_observation_space, num_envs)
+        self.action_space = batch_space(self.single_action_space, num_envs)
+        N = num_envs
+        self._st = np.zeros((N, K.N_LOOP))
+        self._work = np.zeros((N, 5, K.N_STATE))
+        self._ref_idx = np.zeros(N, dtype=np.int64)
+        self._k = np.zeros(N, dtype=np.int64)
+        self._obs = np.zeros((N, N_OBS), dtype=np.float32)
+        self._reward = np.zeros(N)
+        self._status = np.zeros(N, dtype=np.int64)
+        self._clipped = np.zeros(N, dtype=np.int64)
+        self._sig = np.zeros((N, K.N_ENV_SIG))
+        self._autoreset = np.zeros(N, dtype=np.bool_)
+        self._kernel = K.env_step_parallel if N >= 16 else K.env_step_serial
+
+    def _restart(self, mask: np.ndarray) -> None:
+        idx = np.flatnonzero(mask)
+        r = self.np_random.integers(self.task.n_references, size=idx.size)
+        self._ref_idx[idx], self._k[idx], self._clipped[idx] = r, 0, 0
+        self._st[idx] = self.task.start[r]
+        self._obs[idx, :-2] = self.task.feats[r, 0]
+        self._obs[idx, -2:] = self.task.start_error[r]
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        self._restart(np.ones(self.num_envs, dtype=np.bool_))
+        self._autoreset[:] = False
+        return self._obs.copy(), {}
+
+    def step(self, actions):
+        a = np.asarray(actions, dtype=np.float64)
+        if a.shape != (self.num_envs, 2):
+            raise ValueError(f"IX-v0 vector env: actions must have shape ({self.num_envs}, 2), got {a.shape}")
+        resetting = self._autoreset.copy()
+        active = ~resetting
+        t = self.task
+        self._kernel(active, self._st, self._work, t.ref_pos, t.feats, t.base_ff, t.lengths, self._ref_idx, self._k,
+                     a, t.scales, *t.kernel_args, self._obs, self._reward, self._status, self._clipped, self._sig)
+        bad = np.flatnonzero(active & (self._status == K.ENV_BAD_ACTION))
+        if bad.size:
+            raise ValueError(f"IX-v0 vector env: action of sub-env {bad[0]} is NaN or inf: {a[bad[0]].tolist()}")
+        terminated = active & (self._status == K.ENV_DIVERGED)
+        truncated = active & ~terminated & (self._k >= t.lengths[self._ref_idx])
+        reward = np.where(active, self._reward, 0.0)
+        if resetting.any():
+            self._restart(resetting)
+        self._autoreset = terminated | truncated
+        infos = {
+            "pos": self._sig[:, K.SIG_Y : K.SIG_Y + 2].copy(),
+            "u": self._sig[:, K.SIG_U : K.SIG_U + 2].copy(),
+            "ff": self._sig[:, K.SIG_FF : K.SIG_FF + 2].copy(),
+            "clipped_actions": self._clipped.copy(),
+        }
+        return self._obs.copy(), reward, terminated, truncated, infos
