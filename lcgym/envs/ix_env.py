@@ -50,7 +50,6 @@ steps N plants in one compiled call (parallel over plants), with Gymnasium's nex
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 
 import gymnasium as gym
 import numpy as np
