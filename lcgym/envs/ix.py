@@ -7,14 +7,16 @@ What one run does, per sample k (Ts = 1/fs = 2 ms):
 2. The fixed diagonal feedback (PD + first-order low-pass, `spec/ix-model.md`) computes
    ``fb[k]`` from e[k] = ref[k] - measured[k]; the input is u[k] = sat(fb[k] + ff[k], +-5 V).
 3. u[k] is applied over [t_{k+1}, t_{k+2}) (one-sample computation delay, zero-order hold).
-4. The true dynamics are integrated over each interval in ``substeps`` steps (default 2, 1 ms).
+4. The true dynamics are integrated over each interval in ``substeps`` steps (default 1: 2 ms).
    Each step is a Strang split: the LuGre bristle states relax exactly (exponential solution for
    frozen position and speed) over half a step, the mechanics take one classical RK4 step, and
    the bristles relax over the other half. The bristle relaxation (rate sigma0 |v| ~ 3500/s at
    20 deg/s) is the only stiff part; solved exactly, it no longer limits the step, and RK4 at
-   1 ms resolves the drivetrain modes (15-34 Hz, omega h < 0.22). Second order overall:
-   tests/test_plant_ix.py shows the trajectory converging as the step shrinks; without encoder
-   quantization, 2 substeps agree with 160 to about 3e-6 deg (a roll encoder count is 0.0119 deg).
+   2 ms resolves the drivetrain modes (15-34 Hz, omega h < 0.45). Second order overall:
+   tests/test_plant_ix.py shows the trajectory converging as the step shrinks. Without encoder
+   quantization, the default differs from 64 substeps by at most 1.2e-5 deg on a normal run and
+   2.2e-4 deg under +-5 V white-noise feedforward (a roll encoder count is 0.0119 deg). Raise
+   ``substeps`` for stiffer effects than the defaults (e.g. a much stiffer drive).
 
 Before recording, the plant holds the first reference sample for ``preroll`` seconds so that
 gravity sag and friction states settle. If the state leaves the safe range (tracking error over

@@ -139,7 +139,7 @@ class IXTask:
         # settled start of every reference, and the first observation's error columns
         self.start = np.zeros((R, K.N_LOOP))
         self.start_error = np.zeros((R, 2), dtype=np.float32)
-        work, y = np.empty((5, K.N_STATE)), np.empty(2)
+        work, y = np.empty((K.N_WORK, K.N_STATE)), np.empty(2)
         for r in range(R):
             K.settle(self.start[r], self.ref_pos[r, 0], self.base_ff[r, 0], p.preroll_samples, *self.kernel_args, work)
             K.sensor(self.start[r], p._E, p._cfg, y)
@@ -174,7 +174,7 @@ class IXEnv(gym.Env):
         self.render_mode = render_mode
         T = self.task.ref_pos.shape[1]
         self._st = np.zeros((1, K.N_LOOP))
-        self._work = np.zeros((1, 5, K.N_STATE))
+        self._work = np.zeros((1, K.N_WORK, K.N_STATE))
         self._ref_idx = np.zeros(1, dtype=np.int64)
         self._k = np.zeros(1, dtype=np.int64)
         self._obs = np.zeros((1, N_OBS), dtype=np.float32)
@@ -203,10 +203,13 @@ class IXEnv(gym.Env):
     def step(self, action):
         if not self._started:
             raise RuntimeError("IX-v0: call reset() before step()")
-        a = np.asarray(action, dtype=np.float64)
-        if a.shape != (2,):
-            raise ValueError(f"IX-v0: action must have shape (2,) (propeller, roll feedforward in V), got {a.shape}")
-        self._action[0] = a
+        try:
+            self._action[0] = action  # casts to float64; refuses other shapes
+        except (ValueError, TypeError):
+            raise ValueError(f"IX-v0: action must have shape (2,) (propeller, roll feedforward in V), "
+                             f"got {np.shape(action)}") from None
+        if np.shape(action) != (2,):
+            raise ValueError(f"IX-v0: action must have shape (2,) (propeller, roll feedforward in V), got {np.shape(action)}")
         t = self.task
         k = int(self._k[0])
         K.env_step_serial(self._active, self._st, self._work, t.ref_pos, t.feats, t.base_ff, t.lengths, self._ref_idx,
@@ -214,23 +217,22 @@ class IXEnv(gym.Env):
                           self._clipped, self._sig)
         status = self._status[0]
         if status == K.ENV_BAD_ACTION:
-            raise ValueError(f"IX-v0: action {a.tolist()} at step {k} is NaN or inf")
-        sig = self._sig[0]
+            raise ValueError(f"IX-v0: action {self._action[0].tolist()} at step {k} is NaN or inf")
+        sig = self._sig[0].copy()  # the info's arrays are views of this fresh copy
         self._record[k] = sig
-        r = self._ref_idx[0]
-        terminated = bool(status == K.ENV_DIVERGED)
-        truncated = bool(self._k[0] >= t.lengths[r]) and not terminated
+        terminated = status == K.ENV_DIVERGED
+        truncated = k + 1 >= t.lengths[self._ref_idx[0]] and not terminated
         info = {
-            "pos": sig[K.SIG_Y : K.SIG_Y + 2].copy(),
-            "u": sig[K.SIG_U : K.SIG_U + 2].copy(),
-            "ff": sig[K.SIG_FF : K.SIG_FF + 2].copy(),
-            "error": t.ref_pos[r, k] - sig[K.SIG_Y : K.SIG_Y + 2],
+            "pos": sig[K.SIG_Y : K.SIG_Y + 2],
+            "u": sig[K.SIG_U : K.SIG_U + 2],
+            "ff": sig[K.SIG_FF : K.SIG_FF + 2],
+            "error": sig[K.SIG_ERR : K.SIG_ERR + 2],
             "clipped_actions": int(self._clipped[0]),
         }
         if terminated or truncated:
             info["trial"] = self.episode_trial()
             self._started = False
-        return self._obs[0].copy(), float(self._reward[0]), terminated, truncated, info
+        return self._obs[0].copy(), float(self._reward[0]), bool(terminated), bool(truncated), info
 
     def episode_trial(self) -> Trial:
         """The episode so far as a Trial (reference, encoder, input, feedforward, true load angle)."""
@@ -278,17 +280,29 @@ def render_episode(trial: Trial | None, title: str) -> np.ndarray:
 
 
 class IXVectorEnv(VectorEnv):
-    """N IX plants stepped at once in compiled code (parallel over plants), next-step autoreset."""
+    """N IX plants stepped at once in compiled code (parallel over plants).
+
+    Autoreset (Gymnasium 1.x): ``AutoresetMode.NEXT_STEP`` (default): the step after an episode
+    ends resets that sub-env, ignores its action and returns its first observation with reward 0.
+    ``AutoresetMode.SAME_STEP``: the sub-env resets within the step that ends it; the returned
+    observation is the new episode's first, the last one is in ``info["final_obs"]`` (mask
+    ``info["_final_obs"]``). stable-baselines3 expects the latter (``envs.sb3.SB3VecAdapter``).
+    """
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
 
     def __init__(self, num_envs: int = 1, references="train", base_feedforward: str = "none",
                  reference_seed: int = 0, n_references: int | None = None, duration: float = 40.0,
-                 plant: IXPlant | None = None, render_mode: str | None = None):
+                 plant: IXPlant | None = None, render_mode: str | None = None,
+                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP):
         if num_envs < 1:
             raise ValueError(f"num_envs must be >= 1, got {num_envs}")
         if render_mode is not None:
             raise ValueError("the IX vector env does not render; use the single env")
+        mode = AutoresetMode(autoreset_mode)
+        if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
+            raise ValueError(f"autoreset_mode must be NEXT_STEP or SAME_STEP, got {mode}")
+        self.metadata = {**self.metadata, "autoreset_mode": mode}
         self.task = IXTask(references, base_feedforward, plant, reference_seed, n_references, duration)
         self.num_envs = num_envs
         self.single_observation_space, self.single_action_space = self.task.spaces()
@@ -296,7 +310,7 @@ class IXVectorEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, num_envs)
         N = num_envs
         self._st = np.zeros((N, K.N_LOOP))
-        self._work = np.zeros((N, 5, K.N_STATE))
+        self._work = np.zeros((N, K.N_WORK, K.N_STATE))
         self._ref_idx = np.zeros(N, dtype=np.int64)
         self._k = np.zeros(N, dtype=np.int64)
         self._obs = np.zeros((N, N_OBS), dtype=np.float32)
@@ -336,13 +350,19 @@ class IXVectorEnv(VectorEnv):
         terminated = active & (self._status == K.ENV_DIVERGED)
         truncated = active & ~terminated & (self._k >= t.lengths[self._ref_idx])
         reward = np.where(active, self._reward, 0.0)
-        if resetting.any():
-            self._restart(resetting)
-        self._autoreset = terminated | truncated
         infos = {
             "pos": self._sig[:, K.SIG_Y : K.SIG_Y + 2].copy(),
             "u": self._sig[:, K.SIG_U : K.SIG_U + 2].copy(),
             "ff": self._sig[:, K.SIG_FF : K.SIG_FF + 2].copy(),
             "clipped_actions": self._clipped.copy(),
         }
+        done = terminated | truncated
+        if self.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP:
+            if done.any():
+                infos["final_obs"], infos["_final_obs"] = self._obs.copy(), done
+                self._restart(done)
+        else:
+            if resetting.any():
+                self._restart(resetting)
+            self._autoreset = done
         return self._obs.copy(), reward, terminated, truncated, infos

@@ -75,21 +75,33 @@ _gear = fx.gear_harmonic_basis
 
 @numba.njit(cache=True, fastmath=FASTMATH)
 def friction_level(v, e, nb):
-    """Friction level L(q) [V] (Coulomb + normal-force part) and Stribeck increment at speed v."""
+    """Friction level L(q) [V] (Coulomb + normal-force part) and Stribeck increment at speed v.
+
+    Beyond 8 Stribeck velocities the increment (below 2e-28 of dF) is skipped as zero.
+    """
     level = e[FC] + e[PD_COS] * nb[0] + e[PD_COS_ROLL] * nb[1] + e[PD_SIN] * nb[2]
-    strib = e[ST_DF] * _stribeck(v, e[ST_VS]) if e[ST_DF] != 0.0 else 0.0
+    strib = 0.0
+    if e[ST_DF] != 0.0 and abs(v) < 8.0 * e[ST_VS]:
+        strib = e[ST_DF] * _stribeck(v, e[ST_VS])
     return level, strib
 
 
 @numba.njit(cache=True, fastmath=FASTMATH)
-def lugre_relax(s, E, h):
+def joint_trig(s, trig):
+    """trig = (sin q2, cos q2, sin q3, cos q3) of state s: shared by the relaxation and the RHS."""
+    trig[0], trig[1] = math.sin(s[0]), math.cos(s[0])
+    trig[2], trig[3] = math.sin(s[1]), math.cos(s[1])
+
+
+@numba.njit(cache=True, fastmath=FASTMATH)
+def lugre_relax(s, trig, E, h):
     """Advance the LuGre bristle states z over h exactly for frozen q, v (half of a Strang split).
 
     zdot = v - a z with a = sigma0 |v| L / (L + dF_stribeck) gives z(h) = v/a + (z - v/a) e^{-a h}.
     The relaxation rate a (several thousand per second while sliding) is far faster than the
     mechanics; solving it exactly keeps the integration stable at any speed.
     """
-    nb = _normal(math.sin(s[0]), math.cos(s[0]), math.cos(s[1]))
+    nb = _normal(trig[0], trig[1], trig[3])
     for i in range(2):
         e = E[i]
         if e[LG_S0] <= 0.0:
@@ -105,7 +117,7 @@ def lugre_relax(s, E, h):
 
 
 @numba.njit(cache=True, fastmath=FASTMATH)
-def axis_terms(s, i, u, e, nb):
+def axis_terms(s, i, u, e, nb, sin_q, cos_q):
     """Effects and drive of axis i: (added inertia, generalized force on the load, motor acc).
 
     The force excludes H and D of the rigid body; e is the axis's effect-parameter row and nb the
@@ -123,9 +135,8 @@ def axis_terms(s, i, u, e, nb):
     if e[GH_PER] != 0.0:
         b = _gear(q, v, e[GH_PER], e[GH_VREF])
         tau += e[GH_S1] * b[0] + e[GH_C1] * b[1] + e[GH_S1V] * b[2] + e[GH_C1V] * b[3] + e[GH_S2] * b[4] + e[GH_C2] * b[5]
-    if e[DR_S] != 0.0 or e[DR_C] != 0.0:
-        b2 = _periodic(q, 2.0 * math.pi)
-        tau += e[DR_S] * b2[0] + e[DR_C] * b2[1]
+    if e[DR_S] != 0.0 or e[DR_C] != 0.0:  # periodic_basis(q, 2 pi) is (sin q, cos q): reuse them
+        tau += e[DR_S] * sin_q + e[DR_C] * cos_q
     # friction: level L(q), Stribeck increment, LuGre bristles or the static smooth-sign curve
     level, strib = friction_level(v, e, nb)
     if e[LG_S0] > 0.0 and level > 0.0:  # LuGre force; z itself is advanced by lugre_relax
@@ -148,14 +159,14 @@ def axis_terms(s, i, u, e, nb):
 
 
 @numba.njit(cache=True, fastmath=FASTMATH)
-def derivatives(s, u, p, E, ds):
-    """ds = d/dt s for input u (2,) [V] held constant; p true rigid parameters of the load."""
-    s2, c2 = math.sin(s[0]), math.cos(s[0])
-    s3, c3 = math.sin(s[1]), math.cos(s[1])
+def derivatives(s, trig, u, p, E, ds):
+    """ds = d/dt s for input u (2,) [V] held constant; p true rigid parameters of the load;
+    trig = joint_trig(s)."""
+    s2, c2, s3, c3 = trig[0], trig[1], trig[2], trig[3]
     m22, m23, m33, h2, h3 = _rigid(p, s2, c2, s3, c3, s[2], s[3])
     nb = _normal(s2, c2, c3)
-    dm0, f0, acc0 = axis_terms(s, 0, u[0], E[0], nb)
-    dm1, f1, acc1 = axis_terms(s, 1, u[1], E[1], nb)
+    dm0, f0, acc0 = axis_terms(s, 0, u[0], E[0], nb, s2, c2)
+    dm1, f1, acc1 = axis_terms(s, 1, u[1], E[1], nb, s3, c3)
     ds[8], ds[9] = 0.0, 0.0  # bristle states: see lugre_relax
     m0, m1 = m22 + dm0, m33 + dm1
     r0 = f0 - h2 - p[ix.D2] * s[2]
@@ -173,26 +184,33 @@ def derivatives(s, u, p, E, ds):
 def rk4_interval(s, u, p, E, dt, substeps, work):
     """Advance state s in place over dt with input u held: ``substeps`` Strang-split steps, each
     an exact half-step of the bristle relaxation, a classical RK4 step of the mechanics (bristle
-    states frozen) and another exact half-step. Second order overall. work: scratch (5, N_STATE).
+    states frozen) and another exact half-step. Second order overall. work: scratch (6, N_STATE).
     """
     h = dt / substeps
-    k1, k2, k3, k4, tmp = work[0], work[1], work[2], work[3], work[4]
+    k1, k2, k3, k4, tmp, trig = work[0], work[1], work[2], work[3], work[4], work[5]
+    joint_trig(s, trig)  # the relaxation changes z only: the angles stay, and so do their sines
     for _ in range(substeps):
-        lugre_relax(s, E, 0.5 * h)
-        derivatives(s, u, p, E, k1)
+        lugre_relax(s, trig, E, 0.5 * h)
+        derivatives(s, trig, u, p, E, k1)
         for j in range(N_STATE):
             tmp[j] = s[j] + 0.5 * h * k1[j]
-        derivatives(tmp, u, p, E, k2)
+        joint_trig(tmp, trig)
+        derivatives(tmp, trig, u, p, E, k2)
         for j in range(N_STATE):
             tmp[j] = s[j] + 0.5 * h * k2[j]
-        derivatives(tmp, u, p, E, k3)
+        joint_trig(tmp, trig)
+        derivatives(tmp, trig, u, p, E, k3)
         for j in range(N_STATE):
             tmp[j] = s[j] + h * k3[j]
-        derivatives(tmp, u, p, E, k4)
+        joint_trig(tmp, trig)
+        derivatives(tmp, trig, u, p, E, k4)
         for j in range(N_STATE):
             s[j] += h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
-        lugre_relax(s, E, 0.5 * h)
+        joint_trig(s, trig)
+        lugre_relax(s, trig, E, 0.5 * h)
 
+
+N_WORK = 6  # rows of rk4_interval's scratch
 
 # closed-loop state: plant state, controller state (e[k-1], fb[k-1] per axis), input being applied
 N_LOOP = N_STATE + 6
@@ -290,7 +308,7 @@ def simulate_batch(ref, ff, lengths, p, E, C, cfg, preroll, sig_out, status, fai
     B = ref.shape[0]
     for b in numba.prange(B):
         st = np.empty(N_LOOP)
-        work = np.empty((5, N_STATE))
+        work = np.empty((N_WORK, N_STATE))
         settle(st, ref[b, 0], ff[b, 0], preroll, p, E, C, cfg, work)
         status[b] = OK
         fail_k[b] = -1
@@ -307,8 +325,9 @@ def simulate_batch(ref, ff, lengths, p, E, C, cfg, preroll, sig_out, status, fai
 # Gymnasium environments: one control sample per env step (envs/ix_env.py)
 # ---------------------------------------------------------------------------------------------
 ENV_OK, ENV_DIVERGED, ENV_BAD_ACTION = 0, 1, 2
-SIG_FF, SIG_NEXT = N_SIG, N_SIG + 2  # env signals: loop signals, feedforward, next encoder reading
-N_ENV_SIG = N_SIG + 4
+# env signals: loop signals, then feedforward, tracking error at t_k, next encoder reading
+SIG_FF, SIG_ERR, SIG_NEXT = N_SIG, N_SIG + 2, N_SIG + 4
+N_ENV_SIG = N_SIG + 6
 SC_ERR, SC_CLIP, SC_REWARD, SC_BOUND = range(4)  # env scales: obs error, obs clip, reward error, action bound
 
 
@@ -329,6 +348,8 @@ def env_step_one(b, st, work, ref_pos, feats, base_ff, lengths, ref_idx, k, acti
             clipped[b] += 1
         sig[b, SIG_FF + i] = base_ff[r, kb, i] + a
     loop_sample(st[b], ref_pos[r, kb], sig[b, SIG_FF : SIG_FF + 2], p, E, C, cfg, work[b], sig[b])
+    for i in range(2):
+        sig[b, SIG_ERR + i] = ref_pos[r, kb, i] - sig[b, SIG_Y + i]
     kn = min(kb + 1, lengths[r] - 1)
     sensor(st[b], E, cfg, sig[b, SIG_NEXT : SIG_NEXT + 2])
     nf = feats.shape[2]
