@@ -18,8 +18,16 @@ from scipy.integrate import solve_ivp
 
 from lcgym.physics import ix
 
-torch.set_default_dtype(torch.float64)
 P = ix.IXParameters()
+
+
+@pytest.fixture(autouse=True)
+def float64_torch():
+    """Double precision for the autograd checks, restored afterwards (other tests train nets)."""
+    before = torch.get_default_dtype()
+    torch.set_default_dtype(torch.float64)
+    yield
+    torch.set_default_dtype(before)
 RNG = np.random.default_rng(0)
 
 
