@@ -8,7 +8,7 @@ Prints:
 
 Actions are random within the action space, drawn before timing. The machine is shared and its
 speed drifts, so Pendulum and IX single-env timings are interleaved over five rounds and each
-rate is the best round (the least disturbed); vector rates are the best of three.
+rate is the best round (the least disturbed); vector rates are the best of five, after a warm-up.
 
 Run:  .venv/bin/python benchmarks/env_speed.py
 """
@@ -51,10 +51,10 @@ def vector_rate(num_envs: int, env_steps: int) -> float:
     venv.reset(seed=0)
     n = max(50, env_steps // num_envs)
     actions = np.random.default_rng(0).uniform(-1, 1, (n, num_envs, 2))
-    for a in actions[:10]:
+    for a in actions[: max(10, n // 3)]:  # warm-up: thread pool, first touches of the state arrays
         venv.step(a)
     best = 0.0
-    for _ in range(3):
+    for _ in range(5):
         t0 = time.perf_counter()
         for a in actions:
             venv.step(a)
