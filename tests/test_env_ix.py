@@ -176,3 +176,23 @@ def test_ppo_runs_on_single_and_vector_env():
     model.learn(2000)
     assert model.num_timesteps >= 2000
 
+
+
+def test_observation_layout_and_reward_as_documented():
+    env = gym.make("lcgym/IX-v0", base_feedforward="physical", **SHORT)
+    env.reset(seed=0, options={"reference": 0})
+    task = env.unwrapped.task
+    for _ in range(700):  # into the first move
+        obs, reward, _, _, info = env.step(np.zeros(2, dtype=np.float32))
+    k = int(env.unwrapped._k[0])  # the observation describes sample k
+    from lcgym.physics.kinematics import reference_kinematics
+
+    q, qd, qdd = reference_kinematics(task.ref_pos[0, : task.lengths[0]], 500.0)
+    np.testing.assert_allclose(obs[0], q[k, 0] / (np.pi / 2), rtol=1e-6)  # propeller position now
+    np.testing.assert_allclose(obs[5 + 2], q[k + 25, 1] / (np.pi / 2), rtol=1e-6)  # roll, 25 samples ahead
+    np.testing.assert_allclose(obs[10], qd[k, 0] / np.radians(20), rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(obs[20 + 5], qdd[k, 1] / np.radians(40), rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(obs[32:34], task.base_ff[0, k] / 5.0, rtol=1e-6)
+    e = obs[34:36] * np.radians(0.5)  # tracking error at sample k, the result of the last action
+    assert reward == pytest.approx(-0.5 * np.sum((e / np.radians(0.1)) ** 2), rel=1e-5)
+    assert np.any(np.abs(obs[10:12]) > 0.01)  # the axes do move by now
