@@ -356,6 +356,8 @@ class IXVectorEnv(VectorEnv):
             "ff": self._sig[:, K.SIG_FF : K.SIG_FF + 2].copy(),
             "clipped_actions": self._clipped.copy(),
         }
+        for key in ("pos", "u", "ff", "clipped_actions"):  # Gymnasium's vector-info masks: which sub-envs stepped
+            infos[f"_{key}"] = active
         done = terminated | truncated
         if self.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP:
             if done.any():
