@@ -196,3 +196,22 @@ def test_observation_layout_and_reward_as_documented():
     e = obs[34:36] * np.radians(0.5)  # tracking error at sample k, the result of the last action
     assert reward == pytest.approx(-0.5 * np.sum((e / np.radians(0.1)) ** 2), rel=1e-5)
     assert np.any(np.abs(obs[10:12]) > 0.01)  # the axes do move by now
+
+
+def test_misuse_gets_clear_errors():
+    venv = gym.make_vec("lcgym/IX-v0", num_envs=2, vectorization_mode="vector_entry_point", **SHORT)
+    with pytest.raises(RuntimeError, match="reset"):
+        venv.step(np.zeros((2, 2)))
+    with pytest.raises(ValueError, match="duration"):
+        gym.make("lcgym/IX-v0", n_references=1, duration=0.0)
+    with pytest.raises(ValueError, match="base_feedforward"):
+        gym.make("lcgym/IX-v0", base_feedforward="magic", **SHORT)
+    with pytest.raises(ValueError, match="unknown reference set"):
+        gym.make("lcgym/IX-v0", references="bogus")
+    one = random_moves("solo", np.random.default_rng(0), duration=1.0).positions
+    env = gym.make("lcgym/IX-v0", references=one)  # a single array is one reference
+    assert env.unwrapped.task.n_references == 1
+    with pytest.warns(UserWarning, match="degrees"):
+        env = gym.make("lcgym/IX-v0", references=[np.degrees(one)])
+    obs, _ = env.reset(seed=0)
+    assert env.observation_space.contains(obs)

@@ -33,6 +33,7 @@ Episode end: ``truncated`` after the last sample of the reference; ``terminated`
 Info: per step the measured signals of the sample: ``pos`` (encoder reading [rad]), ``u``
     (total input [V]), ``ff`` (applied feedforward [V]), ``error`` (reference - encoder [rad]),
     ``clipped_actions``; at episode end (single env) ``trial``: the whole episode as a ``Trial``.
+    The vector env gives the same per-step keys as (N, ...) arrays with Gymnasium's ``_key`` masks.
 
 Reset: the reference is drawn with the env's seeded generator from the set, or chosen with
     ``options={"reference": i}``; the plant starts settled (held at the first reference sample
@@ -50,6 +51,7 @@ steps N plants in one compiled call (parallel over plants), with Gymnasium's nex
 from __future__ import annotations
 
 import math
+import warnings
 
 import gymnasium as gym
 import numpy as np
@@ -95,7 +97,7 @@ def reference_features(positions: np.ndarray, fs: float, base_ff: np.ndarray) ->
                 idx = np.minimum(np.arange(T) + d, T - 1)
                 cols.append(signal[idx, axis] / scale)
     feats = np.column_stack(cols + [relay(qd)[:, 0], relay(qd)[:, 1], base_ff[:, 0] / FF_SCALE, base_ff[:, 1] / FF_SCALE])
-    return feats.astype(np.float32)
+    return np.clip(feats, -OBS_BOUND, OBS_BOUND).astype(np.float32)  # stays in the space for any input
 
 
 class IXTask:
@@ -110,6 +112,8 @@ class IXTask:
         fs = self.plant.fs
         if isinstance(references, str):
             refs = reference_set(references, reference_seed, n_references, duration, fs)
+        elif isinstance(references, Reference) or (isinstance(references, np.ndarray) and references.ndim == 2):
+            refs = [references]  # one reference given on its own
         else:
             refs = list(references)
             if not refs:
@@ -118,7 +122,11 @@ class IXTask:
         positions = [reference_positions(r) for r in refs]
         for name, x in zip(self.names, positions, strict=True):
             if x.ndim != 2 or x.shape[1] != 2 or x.shape[0] < 3 or not np.all(np.isfinite(x)):
-                raise ValueError(f"{name}: a reference must be a finite (T >= 3, 2) array of positions [rad]")
+                raise ValueError(f"{name}: a reference must be a finite (T >= 3, 2) array of positions [rad], "
+                                 f"got shape {x.shape}")
+            if np.max(np.abs(x)) > 2 * np.pi:
+                warnings.warn(f"{name}: reference reaches {np.max(np.abs(x)):.3g}, beyond 2 pi: it looks like degrees; "
+                              "lcgym reads rad", stacklevel=3)
         model = physical_model(self.plant, reference_seed) if base_feedforward == "physical" else None
         self.base_feedforward = base_feedforward
         self.bound = RESIDUAL_BOUND if model is not None else self.plant.gains.u_max
@@ -319,6 +327,7 @@ class IXVectorEnv(VectorEnv):
         self._clipped = np.zeros(N, dtype=np.int64)
         self._sig = np.zeros((N, K.N_ENV_SIG))
         self._autoreset = np.zeros(N, dtype=np.bool_)
+        self._started = False
         self._kernel = K.env_step_parallel if N >= 16 else K.env_step_serial
 
     def _restart(self, mask: np.ndarray) -> None:
@@ -333,9 +342,12 @@ class IXVectorEnv(VectorEnv):
         super().reset(seed=seed)
         self._restart(np.ones(self.num_envs, dtype=np.bool_))
         self._autoreset[:] = False
+        self._started = True
         return self._obs.copy(), {}
 
     def step(self, actions):
+        if not self._started:
+            raise RuntimeError("IX-v0 vector env: call reset() before step()")
         a = np.asarray(actions, dtype=np.float64)
         if a.shape != (self.num_envs, 2):
             raise ValueError(f"IX-v0 vector env: actions must have shape ({self.num_envs}, 2), got {a.shape}")
@@ -354,9 +366,10 @@ class IXVectorEnv(VectorEnv):
             "pos": self._sig[:, K.SIG_Y : K.SIG_Y + 2].copy(),
             "u": self._sig[:, K.SIG_U : K.SIG_U + 2].copy(),
             "ff": self._sig[:, K.SIG_FF : K.SIG_FF + 2].copy(),
+            "error": self._sig[:, K.SIG_ERR : K.SIG_ERR + 2].copy(),
             "clipped_actions": self._clipped.copy(),
         }
-        for key in ("pos", "u", "ff", "clipped_actions"):  # Gymnasium's vector-info masks: which sub-envs stepped
+        for key in ("pos", "u", "ff", "error", "clipped_actions"):  # Gymnasium's vector-info masks: which sub-envs stepped
             infos[f"_{key}"] = active
         done = terminated | truncated
         if self.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP:

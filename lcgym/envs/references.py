@@ -214,6 +214,8 @@ def reference_set(
     """A named, seeded set: "train" (default 8 references), "validation" (4), "test" (4) of
     random moves of ``duration`` s, or "calibration" (14 sweeps, about 1e6 samples)."""
     rng = _stream(name, seed)
+    if not duration > 0:
+        raise ValueError(f"duration must be > 0 s, got {duration}")
     if name == "calibration":
         return calibration_sweeps(rng, fs=fs)
     n = n_references if n_references is not None else {"train": 8, "validation": 4, "test": 4}[name]
