@@ -1,5 +1,8 @@
 """The ``lcgym`` command. Thin: parses, calls library functions, prints.
 
+    lcgym bench [--systems ix] [--methods feedback,physical] [--seeds 0,1,2] [--quick]
+                [--out results.csv] [--jobs N] [--dask ADDRESS] [--resume]
+    lcgym leaderboard [results.csv] [--markdown OUT.md] [--html OUT.html]
     lcgym simulate --system ix --controller feedback,physical --out run.csv --plot run.png
 """
 
@@ -20,6 +23,23 @@ def _controllers(text: str) -> list[str]:
     if not names or bad:
         raise argparse.ArgumentTypeError(f"unknown controller {', '.join(bad) or text!r}; choose from {', '.join(CONTROLLERS)}")
     return names
+
+
+def _names(text: str) -> tuple[str, ...]:
+    names = tuple(c.strip() for c in text.split(",") if c.strip())
+    if not names:
+        raise argparse.ArgumentTypeError("empty list")
+    return names
+
+
+def _seeds(text: str) -> tuple[int, ...]:
+    try:
+        seeds = tuple(int(c) for c in text.split(",") if c.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"seeds must be integers, got {text!r}") from None
+    if not seeds or any(k < 0 for k in seeds):
+        raise argparse.ArgumentTypeError(f"seeds must be >= 0, got {text!r}")
+    return seeds
 
 
 def _nonnegative(text: str) -> int:
@@ -46,6 +66,21 @@ def _writable(text: str) -> Path:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="lcgym", description="Learning feedforward control benchmark suite")
     sub = parser.add_subparsers(dest="command", required=True)
+    bench = sub.add_parser("bench", help="run methods on systems over seeds; append MA/RMS/Inf to a results CSV")
+    bench.add_argument("--systems", type=_names, help="comma-separated systems (default: all: ix)")
+    bench.add_argument("--methods", type=_names,
+                       help="comma-separated method ids or module:Class (default: every registered method)")
+    bench.add_argument("--seeds", type=_seeds, help="comma-separated seeds (default 0,1,2; --quick: 0)")
+    bench.add_argument("--quick", action="store_true", help="small budgets: 1 seed, 2 references of 20 s per set")
+    bench.add_argument("--out", type=_writable, default=Path("results.csv"), help="results CSV (appended)")
+    bench.add_argument("--jobs", type=_positive, default=1, help="parallel cells (joblib processes)")
+    bench.add_argument("--dask", metavar="ADDRESS", help="run the cells on this Dask scheduler (tcp://host:port)")
+    bench.add_argument("--resume", action="store_true", help="skip cells already stored with the same configuration")
+    board = sub.add_parser("leaderboard", help="rank the methods of a results CSV")
+    board.add_argument("csv", nargs="?", type=Path, default=Path("results.csv"))
+    board.add_argument("--reference-set", choices=("validation", "train", "test"), default="validation")
+    board.add_argument("--markdown", type=_writable, help="write a Markdown page (figures beside it)")
+    board.add_argument("--html", type=_writable, help="write an HTML page (figures beside it)")
     sim = sub.add_parser("simulate", help="fit controllers on training runs and simulate validation references")
     sim.add_argument("--system", choices=SYSTEMS, default="ix")
     sim.add_argument("--controller", type=_controllers, default=["feedback", "physical"],
@@ -85,15 +120,45 @@ def cmd_simulate(args) -> int:
     return 0
 
 
+def cmd_bench(args) -> int:
+    from .leaderboard.report import format_text
+    from .leaderboard.runner import PLANTS, BenchConfig, run_benchmark
+    from .leaderboard.store import read_results
+
+    chosen = {k: v for k, v in (("systems", args.systems), ("methods", args.methods), ("seeds", args.seeds)) if v}
+    chosen.setdefault("systems", tuple(PLANTS))
+    config = BenchConfig.quick(**chosen) if args.quick else BenchConfig(**chosen)
+    summary = run_benchmark(config, args.out, jobs=args.jobs, dask=args.dask, resume=args.resume)
+    df = read_results(args.out)
+    print(format_text(df[df["config_hash"] == config.config_hash()]))
+    print(f"\nrun {summary['run_id']}: {summary['cells_run']} cells run, {summary['cells_skipped']} skipped "
+          f"(--resume), {summary['cells_failed']} failed; results in {args.out}")
+    return 0
+
+
+def cmd_leaderboard(args) -> int:
+    from .leaderboard.report import format_text, write_html, write_markdown
+    from .leaderboard.store import read_results
+
+    if not args.csv.exists():
+        raise ValueError(f"{args.csv}: no such results file (run lcgym bench first)")
+    df = read_results(args.csv)
+    print(format_text(df, args.reference_set))
+    if args.markdown:
+        print(f"wrote {write_markdown(df, args.markdown, args.reference_set)}")
+    if args.html:
+        print(f"wrote {write_html(df, args.html, args.reference_set)}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    commands = {"simulate": cmd_simulate, "bench": cmd_bench, "leaderboard": cmd_leaderboard}
     try:
-        if args.command == "simulate":
-            return cmd_simulate(args)
+        return commands[args.command](args)
     except (ValueError, OSError, RuntimeError) as exc:
         print(f"lcgym {args.command}: {exc}", file=sys.stderr)
         return 1
-    return 2
 
 
 if __name__ == "__main__":

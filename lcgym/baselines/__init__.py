@@ -1,13 +1,13 @@
-"""Baseline feedforward controllers.
+"""Baseline feedforward controllers and the registry of leaderboard methods.
 
-Each has ``name``, ``fit(trials)`` (learn offline from measured trials; may do nothing) and
-``feedforward(reference) -> (T, n_axes)`` (the signal to apply). The full controller protocol,
-with ``learn(plant, reference)`` and cost accounting, comes with the benchmark runner.
+Every method follows the controller protocol of ``baselines/protocol.py``. ``CONTROLLERS`` maps
+method ids to classes; ``load_method`` also accepts a user's ``module:Class``.
 """
 
 from .feedback import FeedbackOnly
 from .physical import PhysicalFeedforward
+from .protocol import Controller, Cost, load_method
 
 CONTROLLERS = {c.name: c for c in (FeedbackOnly, PhysicalFeedforward)}
 
-__all__ = ["CONTROLLERS", "FeedbackOnly", "PhysicalFeedforward"]
+__all__ = ["CONTROLLERS", "Controller", "Cost", "FeedbackOnly", "PhysicalFeedforward", "load_method"]

@@ -2,20 +2,16 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
 
 from ..physics.kinematics import reference_positions
+from .protocol import Controller
 
 
-class FeedbackOnly:
+class FeedbackOnly(Controller):
     """Feedforward identically zero; ``fit`` learns nothing."""
 
     name = "feedback"
-
-    def fit(self, trials: Sequence) -> FeedbackOnly:
-        return self
 
     def feedforward(self, reference) -> np.ndarray:
         """Zeros (T, n_axes) [V]."""

@@ -7,9 +7,10 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..physics.model import PhysicalModel
+from .protocol import Controller, Cost
 
 
-class PhysicalFeedforward:
+class PhysicalFeedforward(Controller):
     """``fit`` identifies a ``PhysicalModel`` (nominal rigid body, optionally with effects) on
     training trials; ``feedforward`` evaluates it on a reference."""
 
@@ -21,6 +22,7 @@ class PhysicalFeedforward:
     def fit(self, trials: Sequence) -> PhysicalFeedforward:
         model = self.model if self.model is not None else PhysicalModel(fs=trials[0].fs)
         self.model_ = model.fit(trials)
+        self.cost_ = Cost()
         return self
 
     def feedforward(self, reference) -> np.ndarray:

@@ -1,0 +1,149 @@
+"""The leaderboard report: rankings per system, signal and axis, as text, Markdown or HTML.
+
+Ranking (``ranking``): rows with status ok of one reference set (validation by default), grouped by
+(system, signal, axis, method); MA, RMS and Inf are averaged over seeds, ``RMS_std`` is their
+spread and ``seeds`` their count; methods are ranked by mean RMS (1 = best). Failed cells are
+listed separately. The Markdown and HTML pages add bar charts of RMS per method and axis.
+"""
+
+from __future__ import annotations
+
+import html
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..data import atomic_write
+from .store import SIGNALS
+
+KEYS = ["system", "signal", "axis"]
+
+
+def ranking(df: pd.DataFrame, reference_set: str = "validation") -> pd.DataFrame:
+    """Mean norms over seeds and the rank by RMS per (system, signal, axis)."""
+    ok = df[(df["status"] == "ok") & (df["reference_set"] == reference_set)]
+    if ok.empty:
+        return pd.DataFrame(columns=[*KEYS, "rank", "method", "MA", "RMS", "RMS_std", "Inf", "unit", "seeds"])
+    g = ok.groupby([*KEYS, "method"], sort=False)
+    table = g.agg(MA=("MA", "mean"), RMS=("RMS", "mean"), RMS_std=("RMS", "std"), Inf=("Inf", "mean"),
+                  unit=("unit", "first"), seeds=("seed", "nunique"), plant_trials=("plant_trials", "mean"),
+                  env_steps=("env_steps", "mean"), fit_seconds=("fit_seconds", "mean")).reset_index()
+    table["RMS_std"] = table["RMS_std"].fillna(0.0)
+    table["rank"] = table.groupby(KEYS)["RMS"].rank(method="min").astype(int)
+    signal_order = {s: i for i, s in enumerate(SIGNALS)}  # tracking error first
+    table = table.sort_values([*KEYS, "rank"], key=lambda c: c.map(signal_order) if c.name == "signal" else c,
+                              kind="stable")
+    return table[[*KEYS, "rank", "method", "MA", "RMS", "RMS_std", "Inf", "unit", "seeds", "plant_trials",
+                  "env_steps", "fit_seconds"]].reset_index(drop=True)
+
+
+def failures(df: pd.DataFrame) -> pd.DataFrame:
+    bad = df[df["status"] == "failed"]
+    return bad[["system", "method", "seed", "error"]].drop_duplicates().reset_index(drop=True)
+
+
+def _sections(table: pd.DataFrame):
+    for key, part in table.groupby(KEYS, sort=False):
+        yield key, part.drop(columns=KEYS)
+
+
+def format_text(df: pd.DataFrame, reference_set: str = "validation") -> str:
+    """Plain-text leaderboard, one table per system, signal and axis."""
+    table = ranking(df, reference_set)
+    out = [f"lcgym leaderboard ({reference_set} references; mean over seeds)"]
+    for (system, signal, axis), part in _sections(table):
+        out.append(f"\n{system} / {signal} / {axis}")
+        out.append(part.to_string(index=False, float_format=lambda x: f"{x:.4g}"))
+    fails = failures(df)
+    if not fails.empty:
+        out.append("\nfailed cells:")
+        out.append(fails.to_string(index=False))
+    return "\n".join(out)
+
+
+def bar_charts(df: pd.DataFrame, folder: Path, reference_set: str = "validation") -> list[Path]:
+    """One PNG per (system, signal): RMS per method, grouped by axis, with the seed spread."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    table = ranking(df, reference_set)
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for (system, signal), part in table.groupby(["system", "signal"], sort=False):
+        axes_names = list(dict.fromkeys(part["axis"]))
+        methods = list(dict.fromkeys(part.sort_values("RMS")["method"]))
+        fig, ax = plt.subplots(figsize=(1.6 + 1.2 * len(axes_names) * max(1, len(methods)) / 2, 3.2))
+        width = 0.8 / max(1, len(methods))
+        for j, m in enumerate(methods):
+            rows = part[part["method"] == m].set_index("axis").reindex(axes_names)
+            x = np.arange(len(axes_names)) + j * width
+            ax.bar(x, rows["RMS"], width, yerr=rows["RMS_std"], label=m, capsize=2)
+        ax.set_xticks(np.arange(len(axes_names)) + width * (len(methods) - 1) / 2, axes_names)
+        ax.set_ylabel(f"RMS [{part['unit'].iloc[0]}]")
+        ax.set_title(f"{system}: {signal} ({reference_set})", fontsize=9)
+        ax.legend(fontsize=7)
+        ax.grid(axis="y", alpha=0.3)
+        fig.tight_layout()
+        path = folder / f"{system}_{signal}.png"
+        atomic_write(path, lambda tmp, f=fig: f.savefig(tmp, dpi=100, format="png"))
+        plt.close(fig)
+        paths.append(path)
+    return paths
+
+
+def write_markdown(df: pd.DataFrame, path: str | Path, reference_set: str = "validation") -> Path:
+    """Markdown page: one ranking table per system/signal/axis, bar charts beside the page."""
+    path = Path(path)
+    figures = bar_charts(df, path.parent / f"{path.stem}_figures", reference_set)
+    table = ranking(df, reference_set)
+    lines = [f"# lcgym leaderboard\n\n{reference_set.capitalize()} references, mean over seeds "
+             f"({df['run_id'].nunique()} run(s), lcgym {', '.join(sorted(set(map(str, df['lcgym_version']))))}).\n"]
+    for (system, signal, axis), part in _sections(table):
+        lines.append(f"\n## {system} / {signal} / {axis}\n")
+        cols = ["rank", "method", "MA", "RMS", "RMS_std", "Inf", "unit", "seeds", "plant_trials", "env_steps", "fit_seconds"]
+        lines.append("| " + " | ".join(cols) + " |")
+        lines.append("|" + "---|" * len(cols))
+        for r in part.to_dict("records"):
+            lines.append("| " + " | ".join(_cell(r[c]) for c in cols) + " |")
+    lines.append("\n## Figures\n")
+    lines += [f"![{p.stem}]({p.parent.name}/{p.name})" for p in figures]
+    fails = failures(df)
+    if not fails.empty:
+        lines.append("\n## Failed cells\n")
+        lines += [f"- {r['system']} / {r['method']} / seed {r['seed']}: {r['error']}" for r in fails.to_dict("records")]
+    atomic_write(path, lambda tmp: Path(tmp).write_text("\n".join(lines) + "\n"))
+    return path
+
+
+def write_html(df: pd.DataFrame, path: str | Path, reference_set: str = "validation") -> Path:
+    """HTML page with the same content; every string from the CSV is escaped."""
+    path = Path(path)
+    figures = bar_charts(df, path.parent / f"{path.stem}_figures", reference_set)
+    table = ranking(df, reference_set)
+    e = html.escape
+    parts = ["<!doctype html><meta charset='utf-8'><title>lcgym leaderboard</title>",
+             f"<h1>lcgym leaderboard</h1><p>{e(reference_set)} references, mean over seeds</p>"]
+    for (system, signal, axis), part in _sections(table):
+        parts.append(f"<h2>{e(str(system))} / {e(str(signal))} / {e(str(axis))}</h2><table border='1'>")
+        parts.append("<tr>" + "".join(f"<th>{e(str(c))}</th>" for c in part.columns) + "</tr>")
+        for r in part.to_dict("records"):
+            parts.append("<tr>" + "".join(f"<td>{e(_cell(v))}</td>" for v in r.values()) + "</tr>")
+        parts.append("</table>")
+    parts += [f"<p><img src='{e(p.parent.name)}/{e(p.name)}' alt='{e(p.stem)}'></p>" for p in figures]
+    fails = failures(df)
+    if not fails.empty:
+        parts.append("<h2>Failed cells</h2><ul>")
+        parts += [f"<li>{e(str(r['system']))} / {e(str(r['method']))} / seed {e(str(r['seed']))}: {e(str(r['error']))}</li>"
+                  for r in fails.to_dict("records")]
+        parts.append("</ul>")
+    atomic_write(path, lambda tmp: Path(tmp).write_text("\n".join(parts) + "\n"))
+    return path
+
+
+def _cell(v) -> str:
+    if isinstance(v, float):
+        return "" if np.isnan(v) else f"{v:.4g}"
+    return str(v)

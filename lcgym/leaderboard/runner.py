@@ -1,0 +1,210 @@
+"""The benchmark runner: systems x methods x seeds, one independent cell each.
+
+A cell (system, method, seed):
+
+1. runs the system's plant with feedback only on the seeded training references (the shared
+   training data, counted in every method's ``plant_trials``);
+2. builds the method's controller and calls ``fit(training trials)``; methods that learn on the
+   plant (``uses_plant``) also get ``learn(plant, reference)`` before each evaluation reference;
+3. applies its feedforward on the training and the validation references and computes MA, RMS and
+   Inf of the tracking error [deg] and of the input residual u - f per axis.
+
+Cells run in parallel through joblib (``jobs``; workers use one numba and one torch thread each),
+or on an existing Dask cluster through joblib's dask backend (``dask="tcp://host:port"``). Rows
+are appended to the results CSV as each cell finishes, so an interrupted run keeps every finished
+cell, and ``resume`` skips cells already stored under the same configuration hash. A controller
+that raises, or returns a bad feedforward, is recorded as a failed cell with its error.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import subprocess
+import time
+import uuid
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field, replace
+from datetime import UTC, datetime
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from .. import __version__
+from ..baselines import CONTROLLERS, Cost, load_method
+from ..envs.ix import IXPlant
+from ..envs.references import reference_set
+from .metrics import input_residual_table, tracking_error_table
+from .store import append_rows, completed_cells
+
+PLANTS = {"ix": IXPlant}
+EVALUATED_SETS = ("train", "validation")
+
+
+@dataclass(frozen=True)
+class BenchConfig:
+    """What a benchmark runs: systems, method ids (or module:Class), seeds, and the budgets.
+
+    n_train / n_validation: references per set; duration: seconds of moves per reference.
+    """
+
+    systems: tuple[str, ...] = ("ix",)
+    methods: tuple[str, ...] = field(default_factory=lambda: tuple(CONTROLLERS))
+    seeds: tuple[int, ...] = (0, 1, 2)
+    n_train: int = 8
+    n_validation: int = 4
+    duration: float = 40.0
+
+    def __post_init__(self):
+        unknown = [s for s in self.systems if s not in PLANTS]
+        if unknown:
+            raise ValueError(f"unknown system(s) {unknown}; available: {', '.join(PLANTS)}")
+        for m in self.methods:
+            load_method(m, CONTROLLERS)  # fails early with a clear message
+        if any(s < 0 for s in self.seeds):
+            raise ValueError(f"seeds must be >= 0, got {list(self.seeds)}")
+        if not self.systems or not self.methods or not self.seeds:
+            raise ValueError("a benchmark needs at least one system, method and seed")
+        if self.n_train < 1 or self.n_validation < 1 or not self.duration > 0:
+            raise ValueError("n_train, n_validation must be >= 1 and duration > 0")
+
+    @classmethod
+    def quick(cls, **overrides) -> BenchConfig:
+        """Small budgets for a fast look: one seed, two short references per set."""
+        return replace(cls(seeds=(0,), n_train=2, n_validation=2, duration=20.0), **overrides)
+
+    def config_hash(self) -> str:
+        """Hash of the budgets, systems and lcgym version (cells from another configuration are not resumed)."""
+        payload = {k: v for k, v in asdict(self).items() if k not in ("methods", "seeds")}
+        payload["lcgym"] = __version__
+        return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:12]
+
+    def cells(self) -> list[tuple[str, str, int]]:
+        return [(s, m, k) for s in self.systems for m in self.methods for k in self.seeds]
+
+
+@cache
+def git_commit() -> str:
+    """Commit of the lcgym checkout in use, or "unknown" (an installed wheel has none)."""
+    try:
+        out = subprocess.run(["git", "rev-parse", "--short=12", "HEAD"], cwd=Path(__file__).parent,
+                             capture_output=True, text=True, timeout=5)
+        return out.stdout.strip() if out.returncode == 0 and out.stdout.strip() else "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def _single_thread() -> None:
+    import numba
+    import torch
+
+    numba.set_num_threads(1)
+    torch.set_num_threads(1)
+
+
+def _rms_per_axis(signals: Sequence[np.ndarray]) -> np.ndarray:
+    x = np.concatenate([np.asarray(s, dtype=float) for s in signals])
+    return np.sqrt(np.mean(x * x, axis=0))
+
+
+def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_thread: bool = False) -> list[dict]:
+    """Run one cell and return its result rows (without run id and provenance)."""
+    if single_thread:
+        _single_thread()
+    key = {"system": system, "method": method, "seed": seed, "config_hash": config.config_hash()}
+    plant = PLANTS[system]()
+    refs = {name: reference_set(name, seed, n, config.duration, plant.fs)
+            for name, n in (("train", config.n_train), ("validation", config.n_validation))}
+    train_trials = plant.run(refs["train"])
+    try:
+        controller = load_method(method, CONTROLLERS)()
+        t0 = time.perf_counter()
+        controller.fit(train_trials)
+        learn_seconds = time.perf_counter() - t0
+        rows = []
+        for set_name in EVALUATED_SETS:
+            ffs, nn = [], []
+            for r in refs[set_name]:
+                if getattr(controller, "uses_plant", False):
+                    t1 = time.perf_counter()
+                    controller.learn(plant, r)
+                    learn_seconds += time.perf_counter() - t1
+                f = np.asarray(controller.feedforward(r), dtype=float)
+                if f.shape != r.positions.shape:
+                    raise ValueError(f"feedforward for {r.name} has shape {f.shape}, expected {r.positions.shape}")
+                if not np.all(np.isfinite(f)):
+                    raise ValueError(f"feedforward for {r.name} contains NaN or inf")
+                ffs.append(f)
+                if hasattr(controller, "nn_contribution"):
+                    nn.append(controller.nn_contribution(r))
+            trials = plant.run(refs[set_name], ffs)
+            nn_rms = _rms_per_axis(nn) if nn else np.full(len(plant.axes), np.nan)
+            for table in (tracking_error_table(trials), input_residual_table(trials, ffs)):
+                for i, row in enumerate(table.to_dict("records")):
+                    row.pop("label")
+                    rows.append({**key, **row, "reference_set": set_name, "nn_rms": nn_rms[i]})
+        cost = getattr(controller, "cost_", Cost())
+        for row in rows:
+            row.update(plant_trials=config.n_train + cost.plant_trials, env_steps=cost.env_steps,
+                       fit_seconds=round(learn_seconds, 3), status="ok", error="")
+        return rows
+    except Exception as exc:  # a method's failure is a result, not a crash of the benchmark
+        return [{**key, "status": "failed", "error": f"{type(exc).__name__}: {exc}"[:500]}]
+
+
+def run_benchmark(config: BenchConfig, out: str | Path, jobs: int = 1, dask: str | None = None,
+                  resume: bool = False, progress: bool = True) -> dict:
+    """Run every cell (skipping stored ones with ``resume``) and append the rows to ``out``.
+
+    Returns {"run_id", "cells_run", "cells_skipped", "cells_failed"}.
+    """
+    out = Path(out)
+    if not out.resolve().parent.is_dir():
+        raise ValueError(f"cannot write {out}: folder {out.parent} does not exist")
+    todo = config.cells()
+    skipped = 0
+    if resume:
+        done = completed_cells(out, config.config_hash())
+        skipped = sum(c in done for c in todo)
+        todo = [c for c in todo if c not in done]
+    run_id = uuid.uuid4().hex[:12]
+    provenance = {"run_id": run_id, "lcgym_version": __version__, "git_commit": git_commit()}
+    failed = 0
+
+    def store(rows: list[dict]) -> None:
+        nonlocal failed
+        stamp = datetime.now(UTC).isoformat(timespec="seconds")
+        failed += any(r["status"] == "failed" for r in rows)
+        append_rows(out, [{**r, **provenance, "timestamp": stamp} for r in rows])
+
+    bar = tqdm(total=len(todo), desc="lcgym bench", unit="cell", disable=not progress)
+    if dask is None and jobs == 1:
+        for cell in todo:
+            bar.set_postfix_str("/".join(map(str, cell)))
+            store(run_cell(*cell, config))
+            bar.update()
+    else:
+        from joblib import Parallel, delayed, parallel_config
+
+        backend = {}
+        client = None
+        if dask is not None:
+            try:
+                from dask.distributed import Client
+            except ImportError:
+                raise ValueError("--dask needs the 'distributed' package: pip install distributed") from None
+            client = Client(dask)
+            backend = {"backend": "dask"}
+        try:
+            with parallel_config(**backend):
+                tasks = (delayed(run_cell)(*cell, config, True) for cell in todo)
+                for rows in Parallel(n_jobs=jobs if dask is None else -1, return_as="generator_unordered")(tasks):
+                    store(rows)
+                    bar.update()
+        finally:
+            if client is not None:
+                client.close()
+    bar.close()
+    return {"run_id": run_id, "cells_run": len(todo), "cells_skipped": skipped, "cells_failed": failed}

@@ -1,0 +1,125 @@
+"""The results store: one tidy CSV, one row per (run, system, method, seed, reference set, axis, signal).
+
+Columns (``COLUMNS``): identification (``run_id``, ``system``, ``method``, ``seed``,
+``reference_set``, ``axis``, ``signal``), the norms of paper 000 eqs. (34)-(36) (``MA``, ``RMS``,
+``Inf``) with their ``unit``, the method's cost (``plant_trials``: closed-loop runs it learned
+from, the shared training runs included; ``env_steps``; ``fit_seconds``: wall time of fit and
+learn), ``nn_rms`` (RMS of a neural network's feedforward contribution, where the method has one),
+``status`` (``ok`` or ``failed``) and ``error``, and provenance (``lcgym_version``, ``git_commit``,
+``timestamp`` in UTC, ``config_hash`` of the benchmark's configuration).
+
+A failed cell is one row with ``status = failed``, its error message and empty metrics.
+
+Appends are atomic: under an exclusive lock on ``<csv>.lock`` (for concurrent writers), the
+existing rows are read, the new ones added, and the whole table written to a temporary file that
+is renamed over the CSV. An interrupted writer leaves the previous complete file.
+"""
+
+from __future__ import annotations
+
+import fcntl
+from collections.abc import Sequence
+from contextlib import contextmanager
+from pathlib import Path
+
+import pandas as pd
+
+from ..data import atomic_write
+
+COLUMNS = (
+    "run_id", "system", "method", "seed", "reference_set", "axis", "signal", "MA", "RMS", "Inf", "unit",
+    "plant_trials", "env_steps", "fit_seconds", "nn_rms", "status", "error",
+    "lcgym_version", "git_commit", "timestamp", "config_hash",
+)
+SYSTEMS = ("ix", "flexarm")
+REFERENCE_SETS = ("train", "validation", "test")
+SIGNALS = {
+    "tracking_error": "deg",
+    "input_residual": {"ix": "V", "flexarm": "N m"},
+    "model_following_error": "deg",
+    "ee_acceleration_error": "m/s^2",
+    "tcp_position_error": "mm",
+}
+STATUS = ("ok", "failed")
+
+
+class ResultsFileError(ValueError):
+    """A results CSV broke the schema; the message names the file, column and row."""
+
+
+@contextmanager
+def locked(path: Path):
+    """Exclusive advisory lock on ``<path>.lock`` (held by one writer process at a time)."""
+    lock_path = Path(f"{path}.lock")
+    with open(lock_path, "a") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
+def append_rows(path: str | Path, rows: Sequence[dict]) -> None:
+    """Append rows (dicts keyed by COLUMNS) to the results CSV atomically and under the lock."""
+    path = Path(path)
+    if not rows:
+        return
+    new = pd.DataFrame(list(rows))
+    unknown = set(new.columns) - set(COLUMNS)
+    if unknown:
+        raise ValueError(f"unknown result columns {sorted(unknown)}")
+    new = new.reindex(columns=COLUMNS)
+    with locked(path):
+        old = read_results(path) if path.exists() and path.stat().st_size > 0 else None
+        table = new if old is None else pd.concat([old, new], ignore_index=True)
+        atomic_write(path, lambda tmp: table.to_csv(tmp, index=False, float_format="%.9g"))
+
+
+def read_results(path: str | Path) -> pd.DataFrame:
+    """Read and validate a results CSV (schema, allowed values, metrics of ok rows finite)."""
+    path = Path(path)
+    try:
+        df = pd.read_csv(path, keep_default_na=True, dtype={"error": str, "git_commit": str, "run_id": str,
+                                                           "config_hash": str})
+    except pd.errors.EmptyDataError:
+        raise ResultsFileError(f"{path}: empty results file") from None
+    validate(df, str(path))
+    return df
+
+
+def validate(df: pd.DataFrame, where: str = "results") -> None:
+    """Raise ResultsFileError at the first violation of the schema."""
+    missing = [c for c in COLUMNS if c not in df.columns]
+    if missing:
+        raise ResultsFileError(f"{where}: column {missing[0]!r} missing")
+
+    def bad(column: str, mask) -> None:
+        rows = mask.to_numpy().nonzero()[0]
+        if rows.size:
+            r = int(rows[0])
+            raise ResultsFileError(f"{where}: column {column!r}, row {r + 1}: invalid value {df[column].iloc[r]!r}")
+
+    bad("system", ~df["system"].isin(SYSTEMS))
+    bad("status", ~df["status"].isin(STATUS))
+    ok = df["status"] == "ok"
+    bad("reference_set", ok & ~df["reference_set"].isin(REFERENCE_SETS))
+    bad("signal", ok & ~df["signal"].isin(list(SIGNALS)))
+    for col in ("MA", "RMS", "Inf"):
+        values = pd.to_numeric(df[col], errors="coerce")
+        bad(col, ok & ~(values.notna() & (values >= 0) & values.abs().lt(float("inf"))))
+    bad("seed", ~pd.to_numeric(df["seed"], errors="coerce").ge(0))
+    expected_unit = [
+        (SIGNALS[s][sys] if isinstance(SIGNALS.get(s), dict) else SIGNALS.get(s))
+        for s, sys in zip(df["signal"], df["system"], strict=True)
+    ]
+    bad("unit", ok & (df["unit"] != pd.Series(expected_unit, index=df.index)))
+
+
+def completed_cells(path: str | Path, config_hash: str) -> set[tuple[str, str, int]]:
+    """(system, method, seed) cells stored with status ok under this configuration hash."""
+    path = Path(path)
+    if not path.exists() or path.stat().st_size == 0:
+        return set()
+    df = read_results(path)
+    done = df[(df["status"] == "ok") & (df["config_hash"] == config_hash)]
+    return {(s, m, int(k)) for s, m, k in zip(done["system"], done["method"], done["seed"], strict=True)}
