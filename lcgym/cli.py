@@ -145,7 +145,7 @@ def cmd_leaderboard(args) -> int:
     df = read_results(args.csv)
     print(format_text(df, args.reference_set))
     if args.markdown:
-        print(f"wrote {write_markdown(df, args.markdown, args.reference_set)}")
+        print(f"wrote {write_markdown(df, args.markdown, args.reference_set, source=str(args.csv))}")
     if args.html:
         print(f"wrote {write_html(df, args.html, args.reference_set)}")
     return 0

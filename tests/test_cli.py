@@ -34,3 +34,19 @@ def test_bad_options_are_refused_with_a_reason(args, message):
     proc = subprocess.run([sys.executable, "-m", "lcgym.cli", "simulate", *args], capture_output=True, text=True)
     assert proc.returncode != 0
     assert message in proc.stderr
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["bench", "--methods", "magic", "--quick"], "unknown method"),
+        (["bench", "--systems", "crane", "--quick"], "unknown system"),
+        (["bench", "--seeds", "0,-1"], "must be >= 0"),
+        (["bench", "--out", "/nonexistent-folder/r.csv"], "does not exist"),
+        (["leaderboard", "/nonexistent-folder/r.csv"], "no such results file"),
+    ],
+)
+def test_bench_and_leaderboard_refuse_bad_options(args, message):
+    proc = subprocess.run([sys.executable, "-m", "lcgym.cli", *args], capture_output=True, text=True)
+    assert proc.returncode != 0
+    assert message in proc.stderr

@@ -17,6 +17,8 @@ named on the command line as ``module:Class`` (see ``load_method``).
 from __future__ import annotations
 
 import importlib
+import os
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -56,6 +58,8 @@ def load_method(spec: str, registry: dict[str, type]) -> type:
     module_name, sep, class_name = spec.partition(":")
     if not sep or not module_name or not class_name:
         raise ValueError(f"unknown method {spec!r}: use one of {', '.join(sorted(registry))} or module:Class")
+    if os.getcwd() not in sys.path:  # like `python -m`: a module in the current folder is found
+        sys.path.insert(0, os.getcwd())
     try:
         module = importlib.import_module(module_name)
     except ImportError as exc:

@@ -94,13 +94,16 @@ def bar_charts(df: pd.DataFrame, folder: Path, reference_set: str = "validation"
     return paths
 
 
-def write_markdown(df: pd.DataFrame, path: str | Path, reference_set: str = "validation") -> Path:
+def write_markdown(df: pd.DataFrame, path: str | Path, reference_set: str = "validation", source: str = "") -> Path:
     """Markdown page: one ranking table per system/signal/axis, bar charts beside the page."""
     path = Path(path)
     figures = bar_charts(df, path.parent / f"{path.stem}_figures", reference_set)
     table = ranking(df, reference_set)
     lines = [f"# lcgym leaderboard\n\n{reference_set.capitalize()} references, mean over seeds "
-             f"({df['run_id'].nunique()} run(s), lcgym {', '.join(sorted(set(map(str, df['lcgym_version']))))}).\n"]
+             f"({df['run_id'].nunique()} run(s), lcgym {', '.join(sorted(set(map(str, df['lcgym_version']))))}, "
+             f"commit {', '.join(sorted(set(map(str, df['git_commit']))))})."
+             + (f" Generated from `{source}` by `lcgym leaderboard {source} --markdown {path}`." if source else "")
+             + "\n"]
     for (system, signal, axis), part in _sections(table):
         lines.append(f"\n## {system} / {signal} / {axis}\n")
         cols = ["rank", "method", "MA", "RMS", "RMS_std", "Inf", "unit", "seeds", "plant_trials", "env_steps", "fit_seconds"]

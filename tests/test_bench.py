@@ -1,0 +1,217 @@
+"""Benchmark runner, results store and report: schema, determinism, failures, resume, kills,
+concurrent writers, Dask."""
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from lcgym.leaderboard.report import format_text, ranking, write_html, write_markdown
+from lcgym.leaderboard.runner import BenchConfig, run_benchmark
+from lcgym.leaderboard.store import COLUMNS, ResultsFileError, append_rows, read_results
+
+TINY = {"seeds": (0,), "n_train": 1, "n_validation": 1, "duration": 4.0}
+METRICS = ["MA", "RMS", "Inf"]
+REPO = Path(__file__).resolve().parents[1]
+
+
+def cli(*args, **kwargs):
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), kwargs.pop("pythonpath", "")])}
+    return subprocess.Popen([sys.executable, "-m", "lcgym.cli", *args], env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, **kwargs)
+
+
+def test_tiny_benchmark_rows_and_schema(tmp_path):
+    out = tmp_path / "r.csv"
+    summary = run_benchmark(BenchConfig(**TINY), out, progress=False)
+    df = read_results(out)
+    assert summary["cells_run"] == 2 and summary["cells_failed"] == 0
+    assert list(df.columns) == list(COLUMNS)
+    # 2 methods x 1 seed x 2 reference sets x 2 axes x 2 signals
+    assert len(df) == 16 and set(df["method"]) == {"feedback", "physical"}
+    assert set(df["unit"]) == {"deg", "V"} and (df["status"] == "ok").all()
+    val = df[(df.reference_set == "validation") & (df.signal == "tracking_error")].set_index(["method", "axis"])
+    assert (val.loc["physical", "RMS"] < val.loc["feedback", "RMS"]).all()
+    assert (df.loc[df.method == "feedback", "fit_seconds"] < 0.1).all()
+    assert (df["plant_trials"] == 1).all()
+
+
+def test_same_seeds_same_numbers(tmp_path):
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    run_benchmark(BenchConfig(**TINY), a, progress=False)
+    run_benchmark(BenchConfig(**TINY), b, progress=False)
+    cols = ["system", "method", "seed", "reference_set", "axis", "signal", *METRICS]
+    pd.testing.assert_frame_equal(read_results(a)[cols], read_results(b)[cols])
+
+
+BAD_CONTROLLERS = textwrap.dedent("""
+    import numpy as np
+
+    class Raises:
+        name = "raises"
+        def fit(self, trials):
+            raise RuntimeError("my controller is broken")
+        def feedforward(self, reference):
+            return None
+
+    class WrongShape:
+        name = "wrong-shape"
+        def fit(self, trials):
+            return self
+        def feedforward(self, reference):
+            return np.zeros(3)
+
+    class Good:
+        name = "good"
+        def fit(self, trials):
+            return self
+        def feedforward(self, reference):
+            return np.zeros_like(reference.positions)
+""")
+
+
+def test_user_controllers_failures_are_recorded_and_others_run(tmp_path, monkeypatch):
+    (tmp_path / "my_ctrl.py").write_text(BAD_CONTROLLERS)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    out = tmp_path / "r.csv"
+    config = BenchConfig(methods=("my_ctrl:Raises", "my_ctrl:WrongShape", "my_ctrl:Good", "feedback"), **TINY)
+    summary = run_benchmark(config, out, progress=False)
+    df = read_results(out)
+    assert summary["cells_failed"] == 2
+    errors = df[df.status == "failed"].set_index("method")["error"]
+    assert "my controller is broken" in errors["my_ctrl:Raises"]
+    assert "shape" in errors["my_ctrl:WrongShape"]
+    assert (df[df.method == "my_ctrl:Good"]["status"] == "ok").all()
+    assert "failed cells" in format_text(df)
+
+
+def test_unknown_method_and_system_refused():
+    with pytest.raises(ValueError, match="unknown method"):
+        BenchConfig(methods=("magic",), **TINY)
+    with pytest.raises(ValueError, match="cannot import"):
+        BenchConfig(methods=("no_such_module_xyz:Thing",), **TINY)
+    with pytest.raises(ValueError, match="unknown system"):
+        BenchConfig(systems=("crane",), **TINY)
+
+
+def test_resume_skips_stored_cells(tmp_path):
+    out = tmp_path / "r.csv"
+    run_benchmark(BenchConfig(methods=("feedback",), **TINY), out, progress=False)
+    summary = run_benchmark(BenchConfig(methods=("feedback",), **{**TINY, "seeds": (0, 1)}), out, resume=True,
+                            progress=False)
+    assert summary["cells_skipped"] == 1 and summary["cells_run"] == 1
+    df = read_results(out)
+    assert sorted(set(df["seed"])) == [0, 1] and len(df) == 16
+
+
+def test_store_refuses_a_corrupt_csv(tmp_path):
+    out = tmp_path / "r.csv"
+    run_benchmark(BenchConfig(methods=("feedback",), **TINY), out, progress=False)
+    df = pd.read_csv(out)
+    df.loc[3, "RMS"] = np.nan
+    df.to_csv(out, index=False)
+    with pytest.raises(ResultsFileError, match="column 'RMS', row 4"):
+        read_results(out)
+    with pytest.raises(ResultsFileError, match="row 4"):
+        append_rows(out, [{c: "x" for c in ("system", "method")}])
+
+
+def _cells_in(path: Path) -> int:
+    if not path.exists():
+        return 0
+    df = pd.read_csv(path)
+    return df.groupby(["method", "seed"]).ngroups
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL], ids=["SIGINT", "SIGKILL"])
+def test_killed_bench_leaves_valid_csv_and_resume_completes(tmp_path, sig):
+    out = tmp_path / "r.csv"
+    args = ["bench", "--quick", "--seeds", "0,1,2,3", "--out", str(out)]
+    proc = cli(*args)
+    deadline = time.time() + 120
+    while _cells_in(out) < 1 and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+    proc.send_signal(sig)
+    proc.communicate(timeout=60)
+    done = _cells_in(out)
+    assert 1 <= done < 8, "the kill should land mid-run"
+    read_results(out)  # a valid CSV with the finished cells
+    finish = cli(*args, "--resume")
+    stdout, stderr = finish.communicate(timeout=300)
+    assert finish.returncode == 0, stderr
+    assert f"{8 - done} cells run, {done} skipped" in stdout
+    df = read_results(out)
+    assert df.groupby(["method", "seed"]).ngroups == 8
+    assert not df.duplicated(["method", "seed", "reference_set", "axis", "signal"]).any()
+
+
+def test_concurrent_writers_lose_no_row(tmp_path):
+    out = tmp_path / "r.csv"
+    procs = [cli("bench", "--quick", "--methods", "feedback", "--seeds", str(s), "--out", str(out)) for s in range(4)]
+    for p in procs:
+        _, stderr = p.communicate(timeout=300)
+        assert p.returncode == 0, stderr
+    df = read_results(out)
+    assert sorted(set(df["seed"])) == [0, 1, 2, 3] and len(df) == 4 * 8
+
+
+def test_dask_local_cluster(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False, protocol="tcp", host="127.0.0.1",
+                                  dashboard_address=None) as cluster:
+        out = tmp_path / "r.csv"
+        summary = run_benchmark(BenchConfig(**TINY), out, dask=cluster.scheduler_address, progress=False)
+    assert summary["cells_run"] == 2
+    local = tmp_path / "local.csv"
+    run_benchmark(BenchConfig(**TINY), local, progress=False)
+    cols = ["method", "reference_set", "axis", "signal", *METRICS]
+    key = cols[:4]
+    pd.testing.assert_frame_equal(read_results(out)[cols].sort_values(key).reset_index(drop=True),
+                                  read_results(local)[cols].sort_values(key).reset_index(drop=True))
+
+
+def test_report_pages_escape_strings(tmp_path, monkeypatch):
+    (tmp_path / "evil.py").write_text(textwrap.dedent("""
+        class Evil:
+            name = "evil"
+            def fit(self, trials):
+                raise RuntimeError("<script>alert(1)</script>")
+            def feedforward(self, reference):
+                return None
+    """))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    out = tmp_path / "r.csv"
+    run_benchmark(BenchConfig(methods=("feedback", "physical", "evil:Evil"), **TINY), out, progress=False)
+    df = read_results(out)
+    page = write_html(df, tmp_path / "board.html").read_text()
+    assert "<script>" not in page and "&lt;script&gt;" in page
+    md = write_markdown(df, tmp_path / "board.md").read_text()
+    assert "| 1 | physical |" in md and (tmp_path / "board_figures" / "ix_tracking_error.png").exists()
+    table = ranking(df)
+    top = table[(table.signal == "tracking_error")].groupby("axis").first()["method"]
+    assert (top == "physical").all()
+
+
+def test_shipped_leaderboard_is_valid():
+    shipped = REPO / "results" / "leaderboard.csv"
+    df = read_results(shipped)
+    assert {"feedback", "physical"} <= set(df["method"]) and sorted(set(df["seed"])) == [0, 1, 2]
+    assert (df["status"] == "ok").all()
+
+
+def test_parallel_jobs_give_the_serial_numbers(tmp_path):
+    serial, parallel = tmp_path / "s.csv", tmp_path / "p.csv"
+    config = BenchConfig(**{**TINY, "seeds": (0, 1)})
+    run_benchmark(config, serial, progress=False)
+    run_benchmark(config, parallel, jobs=2, progress=False)
+    cols = ["method", "seed", "reference_set", "axis", "signal", *METRICS]
+    key = cols[:5]
+    pd.testing.assert_frame_equal(read_results(serial)[cols].sort_values(key).reset_index(drop=True),
+                                  read_results(parallel)[cols].sort_values(key).reset_index(drop=True))
