@@ -147,7 +147,7 @@ def cmd_leaderboard(args) -> int:
     if args.markdown:
         print(f"wrote {write_markdown(df, args.markdown, args.reference_set, source=str(args.csv))}")
     if args.html:
-        print(f"wrote {write_html(df, args.html, args.reference_set)}")
+        print(f"wrote {write_html(df, args.html, args.reference_set, source=str(args.csv))}")
     return 0
 
 

@@ -41,6 +41,9 @@ def test_tiny_benchmark_rows_and_schema(tmp_path):
     assert (val.loc["physical", "RMS"] < val.loc["feedback", "RMS"]).all()
     assert (df.loc[df.method == "feedback", "fit_seconds"] < 0.1).all()
     assert (df["plant_trials"] == 1).all()
+    trace = pd.read_parquet(out.parent / "r.csv.traces" / "ix_physical_0.parquet")
+    assert list(trace.columns) == ["t", "ref_propeller", "error_propeller", "ref_roll", "error_roll"]
+    assert len(trace) > 100 and np.isfinite(trace.to_numpy()).all()
 
 
 def test_same_seeds_same_numbers(tmp_path):
@@ -192,8 +195,10 @@ def test_report_pages_escape_strings(tmp_path, monkeypatch):
     df = read_results(out)
     page = write_html(df, tmp_path / "board.html").read_text()
     assert "<script>" not in page and "&lt;script&gt;" in page
-    md = write_markdown(df, tmp_path / "board.md").read_text()
+    md = write_markdown(df, tmp_path / "board.md", source=str(out)).read_text()
     assert "| 1 | physical |" in md and (tmp_path / "board_figures" / "ix_tracking_error.png").exists()
+    assert "ix_traces.png" in md and (tmp_path / "board_figures" / "ix_traces.png").exists()
+    assert not (tmp_path / "r.csv.traces" / "ix_evil_Evil_0.parquet").exists()  # failed cells leave no trace
     table = ranking(df)
     top = table[(table.signal == "tracking_error")].groupby("axis").first()["method"]
     assert (top == "physical").all()

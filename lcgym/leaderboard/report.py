@@ -94,10 +94,59 @@ def bar_charts(df: pd.DataFrame, folder: Path, reference_set: str = "validation"
     return paths
 
 
+def trace_plots(df: pd.DataFrame, csv_path: str | Path, folder: Path) -> list[Path]:
+    """Per system: tracking error of each method on the first validation reference of the lowest
+    seed, one panel per axis, with the scaled reference velocity (like paper 000, Fig. 9)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .runner import trace_path
+
+    paths = []
+    ok = df[df["status"] == "ok"]
+    for system, part in ok.groupby("system", sort=False):
+        seed = int(part["seed"].min())
+        traces = {m: trace_path(csv_path, system, m, seed) for m in dict.fromkeys(part["method"])}
+        traces = {m: pd.read_parquet(p) for m, p in traces.items() if p.exists()}
+        if not traces:
+            continue
+        axes_names = [c[4:] for c in next(iter(traces.values())).columns if c.startswith("ref_")]
+        fig, axs = plt.subplots(len(axes_names), 1, figsize=(9, 2.6 * len(axes_names)), sharex=True, squeeze=False)
+        for i, ax_name in enumerate(axes_names):
+            ax = axs[i, 0]
+            peak = 0.0
+            order = sorted(traces, key=lambda m: -np.sqrt(np.mean(traces[m][f"error_{ax_name}"] ** 2)))
+            for m in order:
+                tr = traces[m]
+                e = np.degrees(tr[f"error_{ax_name}"].to_numpy())
+                peak = max(peak, float(np.abs(e).max()))
+                ax.plot(tr["t"], e, lw=0.7, label=m)
+            tr = traces[order[0]]
+            v = np.gradient(tr[f"ref_{ax_name}"].to_numpy(), tr["t"].to_numpy())
+            if np.abs(v).max() > 0:
+                ax.plot(tr["t"], v / np.abs(v).max() * peak, "k--", lw=0.6, alpha=0.5, label="reference velocity (scaled)")
+            ax.set_ylabel(f"e {ax_name} [deg]")
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=7, loc="upper right")
+        axs[-1, 0].set_xlabel("time [s]")
+        fig.suptitle(f"{system}: tracking error on the first validation reference, seed {seed}", fontsize=9)
+        fig.tight_layout()
+        path = folder / f"{system}_traces.png"
+        folder.mkdir(parents=True, exist_ok=True)
+        atomic_write(path, lambda tmp, f=fig: f.savefig(tmp, dpi=100, format="png"))
+        plt.close(fig)
+        paths.append(path)
+    return paths
+
+
 def write_markdown(df: pd.DataFrame, path: str | Path, reference_set: str = "validation", source: str = "") -> Path:
-    """Markdown page: one ranking table per system/signal/axis, bar charts beside the page."""
+    """Markdown page: one ranking table per system/signal/axis; bar charts and, when the CSV's
+    traces are at hand (``source``), tracking-error traces beside the page."""
     path = Path(path)
-    figures = bar_charts(df, path.parent / f"{path.stem}_figures", reference_set)
+    folder = path.parent / f"{path.stem}_figures"
+    figures = bar_charts(df, folder, reference_set) + (trace_plots(df, source, folder) if source else [])
     table = ranking(df, reference_set)
     lines = [f"# lcgym leaderboard\n\n{reference_set.capitalize()} references, mean over seeds "
              f"({df['run_id'].nunique()} run(s), lcgym {', '.join(sorted(set(map(str, df['lcgym_version']))))}, "
@@ -121,10 +170,11 @@ def write_markdown(df: pd.DataFrame, path: str | Path, reference_set: str = "val
     return path
 
 
-def write_html(df: pd.DataFrame, path: str | Path, reference_set: str = "validation") -> Path:
+def write_html(df: pd.DataFrame, path: str | Path, reference_set: str = "validation", source: str = "") -> Path:
     """HTML page with the same content; every string from the CSV is escaped."""
     path = Path(path)
-    figures = bar_charts(df, path.parent / f"{path.stem}_figures", reference_set)
+    folder = path.parent / f"{path.stem}_figures"
+    figures = bar_charts(df, folder, reference_set) + (trace_plots(df, source, folder) if source else [])
     table = ranking(df, reference_set)
     e = html.escape
     parts = ["<!doctype html><meta charset='utf-8'><title>lcgym leaderboard</title>",

@@ -30,10 +30,12 @@ from functools import cache
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 from tqdm.auto import tqdm
 
 from .. import __version__
 from ..baselines import CONTROLLERS, Cost, load_method
+from ..data import atomic_write
 from ..envs.ix import IXPlant
 from ..envs.references import reference_set
 from .metrics import input_residual_table, tracking_error_table
@@ -109,8 +111,14 @@ def _rms_per_axis(signals: Sequence[np.ndarray]) -> np.ndarray:
     return np.sqrt(np.mean(x * x, axis=0))
 
 
-def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_thread: bool = False) -> list[dict]:
-    """Run one cell and return its result rows (without run id and provenance)."""
+TRACE_DECIMATION = 5  # samples per stored trace point (100 Hz)
+
+
+def run_cell(system: str, method: str, seed: int, config: BenchConfig,
+             single_thread: bool = False) -> tuple[list[dict], pd.DataFrame | None]:
+    """Run one cell: its result rows (without run id and provenance) and the trace of its first
+    validation reference (time, reference and tracking error per axis, every TRACE_DECIMATION-th
+    sample; None for a failed cell)."""
     if single_thread:
         _single_thread()
     key = {"system": system, "method": method, "seed": seed, "config_hash": config.config_hash()}
@@ -140,6 +148,8 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_th
                 if hasattr(controller, "nn_contribution"):
                     nn.append(controller.nn_contribution(r))
             trials = plant.run(refs[set_name], ffs)
+            if set_name == "validation":
+                trace = _trace(trials[0], plant.axes)
             nn_rms = _rms_per_axis(nn) if nn else np.full(len(plant.axes), np.nan)
             for table in (tracking_error_table(trials), input_residual_table(trials, ffs)):
                 for i, row in enumerate(table.to_dict("records")):
@@ -149,9 +159,28 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_th
         for row in rows:
             row.update(plant_trials=config.n_train + cost.plant_trials, env_steps=cost.env_steps,
                        fit_seconds=round(learn_seconds, 3), status="ok", error="")
-        return rows
+        return rows, trace
     except Exception as exc:  # a method's failure is a result, not a crash of the benchmark
-        return [{**key, "status": "failed", "error": f"{type(exc).__name__}: {exc}"[:500]}]
+        return [{**key, "status": "failed", "error": f"{type(exc).__name__}: {exc}"[:500]}], None
+
+
+def _trace(trial, axes) -> pd.DataFrame:
+    k = slice(None, None, TRACE_DECIMATION)
+    cols = {"t": trial.t[k]}
+    for i, ax in enumerate(axes):
+        cols[f"ref_{ax}"] = trial.ref[k, i]
+        cols[f"error_{ax}"] = trial.error[k, i]
+    return pd.DataFrame(cols).astype("float32")  # plotting precision; halves the files
+
+
+def traces_dir(out: str | Path) -> Path:
+    """Folder of the traces of a results CSV: ``<csv>.traces/<system>_<method>_<seed>.parquet``."""
+    return Path(f"{out}.traces")
+
+
+def trace_path(out: str | Path, system: str, method: str, seed: int) -> Path:
+    safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in method)
+    return traces_dir(out) / f"{system}_{safe}_{seed}.parquet"
 
 
 def run_benchmark(config: BenchConfig, out: str | Path, jobs: int = 1, dask: str | None = None,
@@ -173,10 +202,15 @@ def run_benchmark(config: BenchConfig, out: str | Path, jobs: int = 1, dask: str
     provenance = {"run_id": run_id, "lcgym_version": __version__, "git_commit": git_commit()}
     failed = 0
 
-    def store(rows: list[dict]) -> None:
+    def store(result: tuple[list[dict], pd.DataFrame | None]) -> None:
         nonlocal failed
+        rows, trace = result
         stamp = datetime.now(UTC).isoformat(timespec="seconds")
         failed += any(r["status"] == "failed" for r in rows)
+        if trace is not None:  # the trace first: a stored row always has its trace
+            path = trace_path(out, rows[0]["system"], rows[0]["method"], rows[0]["seed"])
+            path.parent.mkdir(exist_ok=True)
+            atomic_write(path, lambda tmp: trace.to_parquet(tmp, index=False))
         append_rows(out, [{**r, **provenance, "timestamp": stamp} for r in rows])
 
     bar = tqdm(total=len(todo), desc="lcgym bench", unit="cell", disable=not progress)
@@ -200,8 +234,8 @@ def run_benchmark(config: BenchConfig, out: str | Path, jobs: int = 1, dask: str
         try:
             with parallel_config(**backend):
                 tasks = (delayed(run_cell)(*cell, config, True) for cell in todo)
-                for rows in Parallel(n_jobs=jobs if dask is None else -1, return_as="generator_unordered")(tasks):
-                    store(rows)
+                for result in Parallel(n_jobs=jobs if dask is None else -1, return_as="generator_unordered")(tasks):
+                    store(result)
                     bar.update()
         finally:
             if client is not None:
