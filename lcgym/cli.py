@@ -128,7 +128,12 @@ def cmd_bench(args) -> int:
     chosen = {k: v for k, v in (("systems", args.systems), ("methods", args.methods), ("seeds", args.seeds)) if v}
     chosen.setdefault("systems", tuple(PLANTS))
     config = BenchConfig.quick(**chosen) if args.quick else BenchConfig(**chosen)
-    summary = run_benchmark(config, args.out, jobs=args.jobs, dask=args.dask, resume=args.resume)
+    try:
+        summary = run_benchmark(config, args.out, jobs=args.jobs, dask=args.dask, resume=args.resume)
+    except KeyboardInterrupt:
+        print(f"\nlcgym bench: interrupted; every finished cell is in {args.out}; add --resume to run the rest",
+              file=sys.stderr)
+        return 130
     df = read_results(args.out)
     print(format_text(df[df["config_hash"] == config.config_hash()]))
     print(f"\nrun {summary['run_id']}: {summary['cells_run']} cells run, {summary['cells_skipped']} skipped "

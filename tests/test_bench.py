@@ -142,7 +142,9 @@ def test_killed_bench_leaves_valid_csv_and_resume_completes(tmp_path, sig):
     while _cells_in(out) < 1 and time.time() < deadline and proc.poll() is None:
         time.sleep(0.05)
     proc.send_signal(sig)
-    proc.communicate(timeout=60)
+    _, stderr = proc.communicate(timeout=60)
+    if sig == signal.SIGINT:
+        assert proc.returncode == 130 and "--resume" in stderr
     done = _cells_in(out)
     assert 1 <= done < 8, "the kill should land mid-run"
     read_results(out)  # a valid CSV with the finished cells
