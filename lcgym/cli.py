@@ -71,7 +71,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--methods", type=_names,
                        help="comma-separated method ids or module:Class (default: every registered method)")
     bench.add_argument("--seeds", type=_seeds, help="comma-separated seeds (default 0,1,2; --quick: 0)")
-    bench.add_argument("--quick", action="store_true", help="small budgets: 1 seed, 2 references of 20 s per set")
+    bench.add_argument("--quick", action="store_true", help="small budgets: 1 seed, 2 references of about 20 s of moves per set")
     bench.add_argument("--out", type=_writable, default=Path("results.csv"), help="results CSV (appended)")
     bench.add_argument("--jobs", type=_positive, default=1, help="parallel cells (joblib processes)")
     bench.add_argument("--dask", metavar="ADDRESS", help="run the cells on this Dask scheduler (tcp://host:port)")
@@ -79,6 +79,7 @@ def build_parser() -> argparse.ArgumentParser:
     board = sub.add_parser("leaderboard", help="rank the methods of a results CSV")
     board.add_argument("csv", nargs="?", type=Path, default=Path("results.csv"))
     board.add_argument("--reference-set", choices=("validation", "train", "test"), default="validation")
+    board.add_argument("--config", metavar="HASH", help="configuration hash to rank (default: the newest run's)")
     board.add_argument("--markdown", type=_writable, help="write a Markdown page (figures beside it)")
     board.add_argument("--html", type=_writable, help="write an HTML page (figures beside it)")
     sim = sub.add_parser("simulate", help="fit controllers on training runs and simulate validation references")
@@ -121,7 +122,7 @@ def cmd_simulate(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    from .leaderboard.report import format_text
+    from .leaderboard.report import format_text, select
     from .leaderboard.runner import PLANTS, BenchConfig, run_benchmark
     from .leaderboard.store import read_results
 
@@ -134,21 +135,23 @@ def cmd_bench(args) -> int:
         print(f"\nlcgym bench: interrupted; every finished cell is in {args.out}; add --resume to run the rest",
               file=sys.stderr)
         return 130
-    df = read_results(args.out)
-    print(format_text(df[df["config_hash"] == config.config_hash()]))
+    df, _ = select(read_results(args.out), config.config_hash())
+    print(format_text(df))
     print(f"\nrun {summary['run_id']}: {summary['cells_run']} cells run, {summary['cells_skipped']} skipped "
           f"(--resume), {summary['cells_failed']} failed; results in {args.out}")
     return 0
 
 
 def cmd_leaderboard(args) -> int:
-    from .leaderboard.report import format_text, write_html, write_markdown
+    from .leaderboard.report import format_text, select, write_html, write_markdown
     from .leaderboard.store import read_results
 
     if not args.csv.exists():
         raise ValueError(f"{args.csv}: no such results file (run lcgym bench first)")
-    df = read_results(args.csv)
+    df, others = select(read_results(args.csv), args.config)
     print(format_text(df, args.reference_set))
+    if others:
+        print(f"\n(the file also holds configuration(s) {', '.join(others)}: choose one with --config)")
     if args.markdown:
         print(f"wrote {write_markdown(df, args.markdown, args.reference_set, source=str(args.csv))}")
     if args.html:

@@ -222,3 +222,19 @@ def test_parallel_jobs_give_the_serial_numbers(tmp_path):
     key = cols[:5]
     pd.testing.assert_frame_equal(read_results(serial)[cols].sort_values(key).reset_index(drop=True),
                                   read_results(parallel)[cols].sort_values(key).reset_index(drop=True))
+
+
+def test_leaderboard_ranks_one_configuration_and_the_newest_run_per_cell(tmp_path):
+    from lcgym.leaderboard.report import select
+
+    out = tmp_path / "r.csv"
+    run_benchmark(BenchConfig(**TINY), out, progress=False)
+    run_benchmark(BenchConfig(**TINY), out, progress=False)  # the same cells again
+    df, others = select(read_results(out))
+    assert df["run_id"].nunique() == 1 and not others and len(df) == 16
+    run_benchmark(BenchConfig(**{**TINY, "n_train": 2}), out, progress=False)  # another configuration
+    full = read_results(out)
+    newest, others = select(full)
+    assert len(others) == 1 and (newest["plant_trials"] == 2).all()
+    older, _ = select(full, others[0])
+    assert (older["plant_trials"] == 1).all() and len(older) == 16

@@ -88,7 +88,7 @@ def test_unstable_feedback_stops_with_state():
 
     ref = random_moves("unstable", np.random.default_rng(1), duration=5)
     plant = IXPlant(gains=FeedbackGains(kp=(-170.0, 120.0)))
-    with pytest.raises(SimulationDiverged, match=r"unstable: the IX plant left its safe range at t = .* angles"):
+    with pytest.raises(SimulationDiverged, match=r"unstable: the IX plant left its safe range .* angles"):
         plant.run(ref)
 
 

@@ -2,7 +2,8 @@
 
 A feedforward controller has
 
-* ``name``: its method id in the results (``feedback``, ``physical``, ...);
+* ``name``: a short display name (the results name a method by the id or ``module:Class`` it was
+  run with, so that ``--resume`` finds it again);
 * ``fit(trials)``: learn offline from measured training trials (may do nothing);
 * ``learn(plant, reference)``: learn by running the plant on this reference (ILC, RL); the runner
   calls it before ``feedforward`` on every evaluation reference when ``uses_plant`` is true;

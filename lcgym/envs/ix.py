@@ -229,8 +229,9 @@ class IXPlant:
                              sig, status, fail_k, final)
         for b in np.flatnonzero(status != K.OK):
             k, s = int(fail_k[b]), final[b]
+            when = "during the settling pre-roll or the first sample" if k == 0 else f"at t = {k / self.fs:.3f} s (sample {k})"
             raise SimulationDiverged(
-                f"{names[b]}: the IX plant left its safe range at t = {k / self.fs:.3f} s (sample {k}): "
+                f"{names[b]}: the IX plant left its safe range {when}: "
                 f"angles {np.degrees(s[:2]).round(2).tolist()} deg, reference {np.degrees(ref[b, k]).round(2).tolist()} deg, "
                 f"velocities {s[2:4].round(3).tolist()} rad/s (limits: error {np.degrees(self.max_error):.0f} deg, "
                 f"speed {self.max_velocity} rad/s)"

@@ -78,9 +78,15 @@ class BenchConfig:
         return replace(cls(seeds=(0,), n_train=2, n_validation=2, duration=20.0), **overrides)
 
     def config_hash(self) -> str:
-        """Hash of the budgets, systems and lcgym version (cells from another configuration are not resumed)."""
+        """Hash of the budgets, the systems and lcgym's own source code.
+
+        Cells of another configuration, or computed by other lcgym code, are neither resumed nor
+        ranked together. Methods and seeds are left out (they name the cells); a changed user
+        controller is not detected: start a new CSV after changing one.
+        """
         payload = {k: v for k, v in asdict(self).items() if k not in ("methods", "seeds")}
         payload["lcgym"] = __version__
+        payload["source"] = source_hash()
         return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:12]
 
     def cells(self) -> list[tuple[str, str, int]]:
@@ -88,12 +94,29 @@ class BenchConfig:
 
 
 @cache
+def source_hash() -> str:
+    """Hash of every Python file of the installed lcgym package."""
+    root = Path(__file__).resolve().parents[1]
+    h = hashlib.sha256()
+    for path in sorted(root.rglob("*.py")):
+        h.update(path.relative_to(root).as_posix().encode())
+        h.update(path.read_bytes())
+    return h.hexdigest()[:12]
+
+
+@cache
 def git_commit() -> str:
-    """Commit of the lcgym checkout in use, or "unknown" (an installed wheel has none)."""
+    """Commit of the lcgym checkout in use, "+dirty" when tracked files differ from it, or
+    "unknown" (an installed wheel has no git)."""
+    here = Path(__file__).parent
     try:
-        out = subprocess.run(["git", "rev-parse", "--short=12", "HEAD"], cwd=Path(__file__).parent,
-                             capture_output=True, text=True, timeout=5)
-        return out.stdout.strip() if out.returncode == 0 and out.stdout.strip() else "unknown"
+        out = subprocess.run(["git", "rev-parse", "--short=12", "HEAD"], cwd=here, capture_output=True, text=True,
+                             timeout=5)
+        if out.returncode != 0 or not out.stdout.strip():
+            return "unknown"
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", "."],
+                               cwd=here.parent, capture_output=True, text=True, timeout=5).stdout.strip()
+        return out.stdout.strip() + ("+dirty" if dirty else "")
     except (OSError, subprocess.SubprocessError):
         return "unknown"
 
