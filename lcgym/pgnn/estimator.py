@@ -1,0 +1,135 @@
+"""``PGNN``: fit on measured trials, predict feedforward; the leaderboard methods ``pgnn`` and ``pgnn-ls``.
+
+``PGNN.fit(trials)`` fits the physical model by least squares (``physics.model.PhysicalModel``,
+the best physical-model fit that initializes zeta), then trains physical parameters and networks
+jointly by Algorithm 1 (``pgnn.training``). ``predict(reference)`` gives f = f^M + f^C;
+``use_network = False`` switches the network off at run time, leaving the trained physical
+model as a working controller; ``nn_contribution(reference)`` is f^C alone.
+
+Saved files hold the weights (``torch.save`` of tensors only, loaded with ``weights_only=True``:
+no arbitrary objects are unpickled) and a JSON header with the configuration and lcgym version.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from .. import __version__
+from ..baselines.protocol import Controller, Cost
+from ..data import atomic_write
+from ..physics import ix
+from ..physics.kinematics import reference_kinematics, reference_positions
+from ..physics.model import PhysicalModel
+from .network import PGNNModule
+from .training import PGNNConfig, network_inputs, train, training_data
+
+
+class PGNN:
+    """Physics-guided neural network feedforward (paper 000). Constructor arguments are stored as
+    given; ``fit`` sets ``module_`` (the trained torch module), ``physical_`` (the least-squares
+    physical model it started from) and ``info_`` (training history, epochs, seconds)."""
+
+    def __init__(self, config: PGNNConfig | None = None, fs: float = 500.0, physical: PhysicalModel | None = None):
+        self.config = config
+        self.fs = fs
+        self.physical = physical
+        self.use_network = True
+
+    @property
+    def config_(self) -> PGNNConfig:
+        return self.config or PGNNConfig()
+
+    def fit(self, trials, progress: bool = False) -> PGNN:
+        cfg = self.config_
+        self.physical_ = (self.physical or PhysicalModel(fs=self.fs)).fit(trials)
+        zeta0 = self.physical_.params_.to_vector()
+        data = training_data(trials, self.fs, cfg, zeta0[ix.N_LINEAR :])
+        mean = data.inputs.mean(axis=0)
+        std = np.maximum(data.inputs.std(axis=0), 1e-6)
+        torch.manual_seed(cfg.seed)
+        self.module_ = PGNNModule(zeta0, data.inputs.shape[1], cfg.hidden, cfg.activation,
+                                  torch.tensor(mean, dtype=torch.float32), torch.tensor(std, dtype=torch.float32))
+        self.info_ = train(self.module_, data, cfg, progress=progress)
+        return self
+
+    @property
+    def params_(self) -> ix.IXParameters:
+        """The physical parameters zeta after training."""
+        return ix.IXParameters.from_vector(self.module_.zeta.detach().double().numpy())
+
+    def _parts(self, reference) -> tuple[np.ndarray, np.ndarray]:
+        q, qd, qdd = reference_kinematics(reference_positions(reference), self.fs, self.config_.advance)
+        tq = [torch.tensor(a, dtype=torch.float32) for a in (q, qd, qdd, network_inputs(q, qd, qdd))]
+        self.module_.network_on = self.use_network
+        with torch.no_grad():
+            f_m, f_c = self.module_(*tq)
+        self.module_.network_on = True
+        return f_m.double().numpy(), f_c.double().numpy()
+
+    def predict(self, reference) -> np.ndarray:
+        """Feedforward f = f^M + f^C (T, 2) [V] (f^M alone when ``use_network`` is False)."""
+        f_m, f_c = self._parts(reference)
+        return f_m + f_c
+
+    def nn_contribution(self, reference) -> np.ndarray:
+        """f^C (T, 2) [V]: what the network adds to the physical model."""
+        return self._parts(reference)[1]
+
+    def save(self, path: str | Path) -> Path:
+        """Weights and configuration in one file (atomic write)."""
+        path = Path(path)
+        header = {"lcgym_version": __version__, "fs": self.fs, "config": asdict(self.config_),
+                  "n_inputs": int(self.module_.input_mean.numel())}
+        blob = {"header": torch.tensor(list(json.dumps(header).encode()), dtype=torch.uint8),
+                **{f"state.{k}": v for k, v in self.module_.state_dict().items()}}
+        atomic_write(path, lambda tmp: torch.save(blob, tmp))
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> PGNN:
+        """Load a file written by ``save`` (tensors only; nothing else is unpickled)."""
+        blob = torch.load(Path(path), weights_only=True)
+        header = json.loads(bytes(blob["header"].tolist()).decode())
+        cfg = header["config"]
+        cfg["hidden"] = tuple(cfg["hidden"])
+        cfg["split"] = tuple(cfg["split"])
+        config = PGNNConfig(**cfg)
+        state = {k[len("state.") :]: v for k, v in blob.items() if k.startswith("state.")}
+        self = cls(config, fs=header["fs"])
+        self.module_ = PGNNModule(state["zeta0"].numpy(), header["n_inputs"], config.hidden, config.activation)
+        self.module_.load_state_dict(state)
+        return self
+
+
+class PGNNFeedforward(Controller):
+    """Leaderboard method ``pgnn``: the PGNN trained with J = J_LS + mu1 R1 + mu2 R2."""
+
+    name = "pgnn"
+    regularize = True
+
+    def __init__(self, config: PGNNConfig | None = None):
+        self.config = config
+
+    def fit(self, trials) -> PGNNFeedforward:
+        cfg = self.config or PGNNConfig(regularize=self.regularize, threads=1)
+        self.pgnn_ = PGNN(cfg, fs=trials[0].fs).fit(trials)
+        self.cost_ = Cost()
+        return self
+
+    def feedforward(self, reference) -> np.ndarray:
+        return self.pgnn_.predict(reference)
+
+    def nn_contribution(self, reference) -> np.ndarray:
+        return self.pgnn_.nn_contribution(reference)
+
+
+class PGNNLSFeedforward(PGNNFeedforward):
+    """Leaderboard method ``pgnn-ls``: the same PGNN trained with J_LS only (no R1, no R2)."""
+
+    name = "pgnn-ls"
+    regularize = False

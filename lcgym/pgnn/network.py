@@ -1,0 +1,88 @@
+"""The PGNN of paper 000: physical model in parallel with one MLP per axis (Definitions 1-4).
+
+    f = M_zeta(theta_d) + C_phi(theta_d)                                      (1)
+    C_phi: f_i^C = g_phi_i(T(theta_d)),  T_i = [theta_i, thetad_i, thetadd_i, relay(thetad_i)]  (11)-(13)
+
+``PGNNModule`` holds the physical parameters zeta (16, Table I) and the per-axis MLPs g_phi_i
+(Definition 3: affine layers with an elementwise activation, linear output). The physical part is
+``physics.ix.inverse_dynamics`` evaluated with torch tensors, i.e. the same equations as the
+plant and the least-squares model.
+
+zeta is parameterized relative to its initial value, zeta = zeta0 + |zeta0| delta (delta starts
+at 0), so that Adam's step, which is about lr in the parameter's own units, is a relative step
+for CoM coordinates of centimetres and inertias of tenths alike.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import torch
+from torch import nn
+
+from ..physics import ix
+
+ACTIVATIONS = {"tanh": nn.Tanh, "relu": nn.ReLU, "sigmoid": nn.Sigmoid}
+
+
+def mlp(n_in: int, hidden: Sequence[int], activation: str) -> nn.Sequential:
+    """g_phi of Definition 3: hidden layers sigma(W h + c), linear scalar output (no output bias)."""
+    if activation not in ACTIVATIONS:
+        raise ValueError(f"activation must be one of {sorted(ACTIVATIONS)}, got {activation!r}")
+    layers, width = [], n_in
+    for h in hidden:
+        layers += [nn.Linear(width, h), ACTIVATIONS[activation]()]
+        width = h
+    layers.append(nn.Linear(width, 1, bias=False))
+    return nn.Sequential(*layers)
+
+
+class PGNNModule(nn.Module):
+    """Physical model + per-axis networks. ``forward`` returns (f_M, f_C), each (B, 2) [V]."""
+
+    def __init__(self, zeta0: np.ndarray, n_inputs: int, hidden: Sequence[int] = (30, 30),
+                 activation: str = "tanh", input_mean=None, input_std=None):
+        super().__init__()
+        zeta0 = np.asarray(zeta0, dtype=np.float32)
+        self.register_buffer("zeta0", torch.tensor(zeta0))
+        self.register_buffer("zeta_scale", torch.tensor(np.maximum(np.abs(zeta0), 1e-3)))
+        self.delta = nn.Parameter(torch.zeros(len(zeta0)))
+        self.register_buffer("input_mean", torch.zeros(n_inputs) if input_mean is None else torch.as_tensor(input_mean))
+        self.register_buffer("input_std", torch.ones(n_inputs) if input_std is None else torch.as_tensor(input_std))
+        self.nets = nn.ModuleList([mlp(n_inputs, hidden, activation) for _ in range(2)])
+        self.network_on = True
+
+    @property
+    def zeta(self) -> torch.Tensor:
+        return self.zeta0 + self.zeta_scale * self.delta
+
+    def physical(self, q, qd, qdd) -> torch.Tensor:
+        """f^M of eq. (9) [V], (B, 2)."""
+        return ix.inverse_dynamics(self.zeta, q, qd, qdd)
+
+    def network(self, inputs) -> torch.Tensor:
+        """f^C of eq. (13) [V], (B, 2); zero when the network is switched off."""
+        if not self.network_on:
+            return torch.zeros(inputs.shape[0], 2, dtype=inputs.dtype)
+        x = (inputs - self.input_mean) / self.input_std
+        return torch.cat([net(x) for net in self.nets], dim=1)
+
+    def forward(self, q, qd, qdd, inputs):
+        return self.physical(q, qd, qdd), self.network(inputs)
+
+
+def physical_constraints(zeta: torch.Tensor, q: torch.Tensor) -> torch.Tensor:
+    """h_1..h_9 of eqs. (31)-(33): masses, inertias, the smallest eigenvalue of M(theta) over the
+    given configurations, viscous coefficients; each > 0 when satisfied."""
+    M = ix.mass_matrix(zeta, q)  # (B, 2, 2)
+    a, b, c = M[:, 0, 0], M[:, 0, 1], M[:, 1, 1]
+    lam_min = 0.5 * (a + c) - torch.sqrt(0.25 * (a - c) ** 2 + b * b)  # closed form for 2x2 symmetric
+    idx = [ix.M2, ix.M3, ix.J2YY, ix.J3XX, ix.J3YY, ix.J3ZZ]
+    return torch.cat([zeta[idx], lam_min.min().reshape(1), zeta[[ix.D2, ix.D3]]])
+
+
+def physics_penalty(zeta: torch.Tensor, q: torch.Tensor) -> torch.Tensor:
+    """R2 of eq. (30): sum_i max(0, exp(-h_i) - 1)."""
+    h = physical_constraints(zeta, q)
+    return torch.clamp(torch.exp(-h) - 1.0, min=0.0).sum()

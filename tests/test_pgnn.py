@@ -1,0 +1,83 @@
+"""PGNN building blocks: R1 estimator, physics penalty, physical part, switch-off, save/load."""
+
+import numpy as np
+import pytest
+import torch
+
+from lcgym.data import Trial
+from lcgym.envs.references import random_moves
+from lcgym.pgnn import PGNN, PGNNConfig
+from lcgym.pgnn.network import PGNNModule, physical_constraints, physics_penalty
+from lcgym.pgnn.training import _batch_projection
+from lcgym.physics import ix
+from lcgym.physics.model import PhysicalModel
+
+
+def test_minibatch_r1_estimates_the_full_projection():
+    """R1 / N = ||U^T g||^2 / N over the data; the mean of per-batch ||Q_b^T g_b||^2 / B matches it."""
+    rng = np.random.default_rng(0)
+    q, qd, qdd = rng.normal(size=(3, 40_000, 2))
+    X = ix.regressor(ix.IXParameters().to_vector()[ix.N_LINEAR :], q, qd, qdd)
+    g = np.tanh(q @ rng.normal(size=(2, 2))) + 0.3 * qdd  # partly inside, partly outside the span
+    full = 0.0
+    for i in range(2):
+        U, _ = np.linalg.qr(X[:, i, :])
+        full += np.sum((U.T @ g[:, i]) ** 2)
+    full /= len(g)
+    Xt, gt = torch.tensor(X), torch.tensor(g)
+    perm = torch.randperm(len(g), generator=torch.Generator().manual_seed(0))
+    batches = [_batch_projection(Xt[perm[s : s + 10_000]], gt[perm[s : s + 10_000]]) for s in range(0, len(g), 10_000)]
+    assert float(torch.stack(batches).mean()) == pytest.approx(full, rel=0.02)
+
+
+def test_physics_penalty_and_constraints():
+    zeta = torch.tensor(ix.IXParameters().to_vector())
+    q = torch.tensor(np.random.default_rng(1).uniform(-2, 2, (100, 2)))
+    h = physical_constraints(zeta, q)
+    assert h.shape == (9,) and bool((h > 0).all())
+    assert float(physics_penalty(zeta, q)) == 0.0
+    bad = zeta.clone()
+    bad[ix.M3] = -0.5
+    assert float(physics_penalty(bad, q)) == pytest.approx(np.exp(0.5) - 1, rel=1e-6)
+
+
+def _trials(n=2, duration=6.0):
+    model = PhysicalModel()
+    rng = np.random.default_rng(3)
+    out = []
+    for i in range(n):
+        r = random_moves(f"s{i}", rng, duration=duration)
+        u = model.predict(r) + 0.05 * np.sin(r.positions * 7)  # a smooth extra the physics lacks
+        out.append(Trial(t=r.t, ref=r.positions, pos=r.positions, u=u, axes=ix.AXES))
+    return out
+
+
+@pytest.fixture(scope="module")
+def small_pgnn():
+    return PGNN(PGNNConfig(max_epochs=3, batch_size=2000, threads=1)).fit(_trials())
+
+
+def test_physical_part_is_the_shared_model(small_pgnn):
+    ref = random_moves("new", np.random.default_rng(9), duration=3.0)
+    small_pgnn.use_network = False
+    phys = small_pgnn.predict(ref)
+    small_pgnn.use_network = True
+    expected = PhysicalModel(params=small_pgnn.params_).predict(ref)
+    np.testing.assert_allclose(phys, expected, atol=2e-5)  # float32 network vs float64 model
+    both = small_pgnn.predict(ref)
+    np.testing.assert_allclose(both - phys, small_pgnn.nn_contribution(ref), atol=1e-6)
+    assert small_pgnn.info_["epochs"] == 3
+
+
+def test_save_and_load_round_trip(small_pgnn, tmp_path):
+    path = small_pgnn.save(tmp_path / "pgnn.pt")
+    loaded = PGNN.load(path)
+    ref = random_moves("new", np.random.default_rng(9), duration=3.0)
+    np.testing.assert_array_equal(loaded.predict(ref), small_pgnn.predict(ref))
+    assert loaded.config_.hidden == (30, 30)
+    torch.load(path, weights_only=True)  # tensors only: loadable without trusting pickled objects
+
+
+def test_module_rejects_unknown_activation():
+    with pytest.raises(ValueError, match="activation"):
+        PGNNModule(ix.IXParameters().to_vector(), 8, activation="swish")
