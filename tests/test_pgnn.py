@@ -81,3 +81,8 @@ def test_save_and_load_round_trip(small_pgnn, tmp_path):
 def test_module_rejects_unknown_activation():
     with pytest.raises(ValueError, match="activation"):
         PGNNModule(ix.IXParameters().to_vector(), 8, activation="swish")
+
+
+def test_wall_time_cap_stops_after_one_epoch():
+    m = PGNN(PGNNConfig(max_epochs=50, max_seconds=0.0, batch_size=2000, threads=1)).fit(_trials(n=1, duration=3.0))
+    assert m.info_["epochs"] == 1

@@ -56,6 +56,7 @@ class PGNNConfig:
     seed: int = 0
     advance: float = 1.5  # samples; as physics.model.PhysicalModel
     threads: int | None = None  # torch threads while training (None: leave as is)
+    max_seconds: float | None = None  # lcgym's wall-time cap: stop after the epoch that passes it
 
 
 @dataclass
@@ -149,6 +150,8 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
                 stale += 1
                 if stale >= config.patience:
                     break
+            if config.max_seconds is not None and time.perf_counter() - t0 > config.max_seconds:
+                break
         module.load_state_dict(best_state)
         with torch.no_grad():
             te = [cost(torch.as_tensor(idx["test"][s : s + config.batch_size]), False)
