@@ -109,7 +109,7 @@ def pack_effects(effects: Sequence[fx.Effect], rigid: ix.IXParameters) -> tuple[
     E = np.zeros((2, K.N_SLOTS))
     E[:, K.EPS] = 1e-3
     p = rigid.to_vector()
-    fx.EffectSet(tuple(effects))  # rejects duplicates
+    fx.check_unique(effects)
     for e in effects:
         row = E[e.index]
         if isinstance(e, fx.ViscousFriction):

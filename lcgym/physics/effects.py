@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
@@ -433,20 +433,9 @@ def make_effect(key: str, **params) -> Effect:
     return EFFECTS[name](axis=axis, **params)
 
 
-@dataclass(frozen=True)
-class EffectSet:
-    """An ordered collection of effects with unique ``name@axis`` keys."""
-
-    effects: tuple[Effect, ...] = field(default_factory=tuple)
-
-    def __post_init__(self):
-        keys = [e.key for e in self.effects]
-        dup = {k for k in keys if keys.count(k) > 1}
-        if dup:
-            raise ValueError(f"effect listed twice: {sorted(dup)}")
-
-    def keys(self) -> list[str]:
-        return [e.key for e in self.effects]
-
-    def get(self, name: str, axis: str) -> Effect | None:
-        return next((e for e in self.effects if e.name == name and e.axis == axis), None)
+def check_unique(effects) -> None:
+    """Refuse a list that names the same ``name@axis`` twice."""
+    keys = [e.key for e in effects]
+    dup = sorted({k for k in keys if keys.count(k) > 1})
+    if dup:
+        raise ValueError(f"effect listed twice: {dup}")
