@@ -7,8 +7,8 @@ import pytest
 
 from lcgym.data import Trial
 from lcgym.envs.references import random_moves
+from lcgym.physics import compiled, ix
 from lcgym.physics import effects as fx
-from lcgym.physics import ix
 from lcgym.physics.kinematics import reference_kinematics
 from lcgym.physics.model import PhysicalModel, _QuadraticDesign
 
@@ -82,10 +82,21 @@ def test_ripple_fit_first_order():
 def test_quadratic_design_is_exact():
     rng = np.random.default_rng(2)
     q, qd, qdd = rng.normal(size=(3, 40, 2))
-    design = _QuadraticDesign(lambda zn: ix.regressor(zn, q, qd, qdd), 5)
+    design = _QuadraticDesign(lambda zn: compiled.regressor(zn, q, qd, qdd), 5)
+    reduced = _QuadraticDesign(lambda zn: ix.regressor(zn, q, qd, qdd), 5, reduce=lambda A: np.cumsum(A, axis=0)[::3])
     for _ in range(3):
         zn = rng.normal(0, 0.1, 5)
         np.testing.assert_allclose(design(zn), ix.regressor(zn, q, qd, qdd), rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(reduced(zn), np.cumsum(ix.regressor(zn, q, qd, qdd), axis=0)[::3], rtol=1e-9, atol=1e-9)
+    n_filtered = sum(0 if t is None else t[0].size for t in [design.c, *design.b, *design.a.values()])
+    assert n_filtered < 40  # sparse: most coefficient columns are zero (21 x 22 if dense)
+
+
+def test_compiled_regressor_equals_numpy():
+    rng = np.random.default_rng(3)
+    q, qd, qdd = rng.normal(size=(3, 50, 2))
+    zn = rng.normal(0, 0.1, 5)
+    np.testing.assert_allclose(compiled.regressor(zn, q, qd, qdd), ix.regressor(zn, q, qd, qdd), rtol=1e-12, atol=1e-12)
 
 
 def test_plant_only_effects_rejected_in_model():

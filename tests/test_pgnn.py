@@ -8,21 +8,23 @@ from lcgym.data import Trial
 from lcgym.envs.references import random_moves
 from lcgym.pgnn import PGNN, PGNNConfig
 from lcgym.pgnn.network import PGNNModule, physical_constraints, physics_penalty
-from lcgym.pgnn.training import _batch_projection
+from lcgym.pgnn.training import _batch_projection, column_space, network_inputs
 from lcgym.physics import ix
 from lcgym.physics.model import PhysicalModel
+from lcgym.physics.system import IX
 
 
 def test_minibatch_r1_estimates_the_full_projection():
-    """R1 / N = ||U^T g||^2 / N over the data; the mean of per-batch ||Q_b^T g_b||^2 / B matches it."""
+    """R1 / N = ||U^T g||^2 / N over the data (projection by least squares, independent of the
+    SVD); the mean of per-batch ||U_b^T g_b||^2 / B matches it."""
     rng = np.random.default_rng(0)
     q, qd, qdd = rng.normal(size=(3, 40_000, 2))
     X = ix.regressor(ix.IXParameters().to_vector()[ix.N_LINEAR :], q, qd, qdd)
     g = np.tanh(q @ rng.normal(size=(2, 2))) + 0.3 * qdd  # partly inside, partly outside the span
     full = 0.0
     for i in range(2):
-        U, _ = np.linalg.qr(X[:, i, :])
-        full += np.sum((U.T @ g[:, i]) ** 2)
+        coef, *_ = np.linalg.lstsq(X[:, i, :], g[:, i], rcond=None)
+        full += np.sum((X[:, i, :] @ coef) ** 2)
     full /= len(g)
     Xt, gt = torch.tensor(X), torch.tensor(g)
     perm = torch.randperm(len(g), generator=torch.Generator().manual_seed(0))
@@ -30,15 +32,29 @@ def test_minibatch_r1_estimates_the_full_projection():
     assert float(torch.stack(batches).mean()) == pytest.approx(full, rel=0.02)
 
 
+def test_column_space_has_the_rank_of_the_regressor():
+    """Zero columns (parameters absent from an axis) and the dependent J2yy column add no directions."""
+    rng = np.random.default_rng(4)
+    q, qd, qdd = rng.normal(size=(3, 500, 2))
+    X = ix.regressor(ix.IXParameters().to_vector()[ix.N_LINEAR :], q, qd, qdd)
+    for i in range(2):
+        U = column_space(torch.tensor(X[:, i, :])).numpy()
+        assert U.shape[1] == np.linalg.matrix_rank(X[:, i, :]) < ix.N_LINEAR
+        np.testing.assert_allclose(U.T @ U, np.eye(U.shape[1]), atol=1e-10)
+        np.testing.assert_allclose(U @ (U.T @ X[:, i, :]), X[:, i, :], atol=1e-8)
+
+
 def test_physics_penalty_and_constraints():
     zeta = torch.tensor(ix.IXParameters().to_vector())
     q = torch.tensor(np.random.default_rng(1).uniform(-2, 2, (100, 2)))
-    h = physical_constraints(zeta, q)
+    h = physical_constraints(IX, zeta, q)
     assert h.shape == (9,) and bool((h > 0).all())
-    assert float(physics_penalty(zeta, q)) == 0.0
+    M = ix.mass_matrix(zeta.numpy(), q.numpy())
+    assert float(h[-1]) == pytest.approx(min(np.linalg.eigvalsh(M).min(axis=1)), rel=1e-9)
+    assert float(physics_penalty(IX, zeta, q)) == 0.0
     bad = zeta.clone()
     bad[ix.M3] = -0.5
-    assert float(physics_penalty(bad, q)) == pytest.approx(np.exp(0.5) - 1, rel=1e-6)
+    assert float(physics_penalty(IX, bad, q)) == pytest.approx(np.exp(0.5) - 1, rel=1e-6)
 
 
 def _trials(n=2, duration=6.0):
@@ -54,7 +70,7 @@ def _trials(n=2, duration=6.0):
 
 @pytest.fixture(scope="module")
 def small_pgnn():
-    return PGNN(PGNNConfig(max_epochs=3, batch_size=2000, threads=1)).fit(_trials())
+    return PGNN(PGNNConfig(max_epochs=3, batch_size=2000, threads=1, history=(0.1,), periods=((0, 0.1),))).fit(_trials())
 
 
 def test_physical_part_is_the_shared_model(small_pgnn):
@@ -74,15 +90,31 @@ def test_save_and_load_round_trip(small_pgnn, tmp_path):
     loaded = PGNN.load(path)
     ref = random_moves("new", np.random.default_rng(9), duration=3.0)
     np.testing.assert_array_equal(loaded.predict(ref), small_pgnn.predict(ref))
-    assert loaded.config_.hidden == (30, 30)
+    assert loaded.config_ == small_pgnn.config_
     torch.load(path, weights_only=True)  # tensors only: loadable without trusting pickled objects
 
 
 def test_module_rejects_unknown_activation():
     with pytest.raises(ValueError, match="activation"):
-        PGNNModule(ix.IXParameters().to_vector(), 8, activation="swish")
+        PGNNModule(IX, ix.IXParameters().to_vector(), 8, activation="swish")
 
 
 def test_wall_time_cap_stops_after_one_epoch():
     m = PGNN(PGNNConfig(max_epochs=50, max_seconds=0.0, batch_size=2000, threads=1)).fit(_trials(n=1, duration=3.0))
     assert m.info_["epochs"] == 1
+
+
+def test_network_inputs_and_options():
+    """Eq. (11) per axis, relay carried across samples and 0 before the first move; the optional
+    history is the velocity d seconds earlier (0 before the run), periods add sin and cos."""
+    qd = np.array([[0.0, 0.0], [0.5, 0.0], [0.0, 0.0], [-0.2, 0.3], [0.0, 0.0]])
+    q, qdd = np.cumsum(qd, axis=0), np.zeros_like(qd)
+    x = network_inputs(q, qd, qdd, PGNNConfig(), fs=1.0)
+    assert x.shape == (5, 8)
+    np.testing.assert_array_equal(x[:, 3], [0, 1, 1, -1, -1])
+    np.testing.assert_array_equal(x[:, 7], [0, 0, 0, 1, 1])
+    np.testing.assert_array_equal(x[:, 4:7], np.column_stack([q[:, 1], qd[:, 1], qdd[:, 1]]))
+    y = network_inputs(q, qd, qdd, PGNNConfig(history=(2.0,), periods=((1, 0.5),)), fs=1.0)
+    assert y.shape == (5, 12)
+    np.testing.assert_array_equal(y[:, 8:10], np.vstack([np.zeros((2, 2)), qd[:3]]))
+    np.testing.assert_allclose(y[:, 10:12], np.column_stack([np.sin(4 * np.pi * q[:, 1]), np.cos(4 * np.pi * q[:, 1])]))

@@ -16,37 +16,18 @@ bristle state z_i: ``s = [q0, q1, qd0, qd1, qm0, qm1, qmd0, qmd1, z0, z1]``.
 
 from __future__ import annotations
 
-import hashlib
 import math
-import os
-from pathlib import Path
 
 import numba
 import numpy as np
 
 from ..physics import effects as fx
 from ..physics import ix
-
-
-def _cache_dir() -> str:
-    """Where numba caches the compiled kernel: a folder named by a hash of this file and the
-    physics files it compiles. Numba itself only watches the file of each jitted function, so a
-    changed equation in physics/ would otherwise run stale machine code."""
-    h = hashlib.sha256()
-    for path in (__file__, ix.__file__, fx.__file__):
-        h.update(Path(path).read_bytes())
-    root = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "lcgym" / "numba"
-    return str(root / h.hexdigest()[:16])
-
+from ..physics.compiled import FASTMATH, cache_dir
 
 # numba reads CACHE_DIR when a function is decorated: set it for this module's kernels only
 _previous_cache_dir = numba.config.CACHE_DIR
-numba.config.CACHE_DIR = _cache_dir()
-
-# LLVM fast-math flags for the kernels: fused multiply-add, reciprocals, reassociation. Not
-# 'nnan'/'ninf': the divergence check must still see NaN and inf. Results stay deterministic on
-# one machine; they may differ in the last bits between CPUs.
-FASTMATH = {"contract", "arcp", "reassoc", "nsz", "afn"}
+numba.config.CACHE_DIR = cache_dir(__file__, ix.__file__, fx.__file__)
 
 # effect parameter slots (per axis row)
 (

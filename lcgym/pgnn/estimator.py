@@ -22,9 +22,9 @@ import torch
 from .. import __version__
 from ..baselines.protocol import Controller, Cost
 from ..data import atomic_write
-from ..physics import ix
 from ..physics.kinematics import reference_kinematics, reference_positions
 from ..physics.model import PhysicalModel
+from ..physics.system import SYSTEMS
 from .network import PGNNModule
 from .training import PGNNConfig, network_inputs, train, training_data
 
@@ -47,24 +47,26 @@ class PGNN:
     def fit(self, trials, progress: bool = False) -> PGNN:
         cfg = self.config_
         self.physical_ = (self.physical or PhysicalModel(fs=self.fs)).fit(trials)
+        system = self.physical_.system
         zeta0 = self.physical_.params_.to_vector()
-        data = training_data(trials, self.fs, cfg, zeta0[ix.N_LINEAR :])
+        data = training_data(trials, system, cfg, zeta0[system.n_linear :])
         mean = data.inputs.mean(axis=0)
         std = np.maximum(data.inputs.std(axis=0), 1e-6)
         torch.manual_seed(cfg.seed)
-        self.module_ = PGNNModule(zeta0, data.inputs.shape[1], cfg.hidden, cfg.activation,
+        self.module_ = PGNNModule(system, zeta0, data.inputs.shape[1], cfg.hidden, cfg.activation,
                                   torch.tensor(mean, dtype=torch.float32), torch.tensor(std, dtype=torch.float32))
         self.info_ = train(self.module_, data, cfg, progress=progress)
         return self
 
     @property
-    def params_(self) -> ix.IXParameters:
-        """The physical parameters zeta after training."""
-        return ix.IXParameters.from_vector(self.module_.zeta.detach().double().numpy())
+    def params_(self):
+        """The physical parameters zeta after training (the system's parameter dataclass)."""
+        return self.module_.system.parameters.from_vector(self.module_.zeta.detach().double().numpy())
 
     def _parts(self, reference) -> tuple[np.ndarray, np.ndarray]:
         q, qd, qdd = reference_kinematics(reference_positions(reference), self.fs, self.config_.advance)
-        tq = [torch.tensor(a, dtype=torch.float32) for a in (q, qd, qdd, network_inputs(q, qd, qdd))]
+        inputs = network_inputs(q, qd, qdd, self.config_, self.fs)
+        tq = [torch.tensor(a, dtype=torch.float32) for a in (q, qd, qdd, inputs)]
         self.module_.network_on = self.use_network
         with torch.no_grad():
             f_m, f_c = self.module_(*tq)
@@ -72,18 +74,19 @@ class PGNN:
         return f_m.double().numpy(), f_c.double().numpy()
 
     def predict(self, reference) -> np.ndarray:
-        """Feedforward f = f^M + f^C (T, 2) [V] (f^M alone when ``use_network`` is False)."""
+        """Feedforward f = f^M + f^C (T, n_axes) [V for the IX] (f^M alone when ``use_network`` is False)."""
         f_m, f_c = self._parts(reference)
         return f_m + f_c
 
     def nn_contribution(self, reference) -> np.ndarray:
-        """f^C (T, 2) [V]: what the network adds to the physical model."""
+        """f^C (T, n_axes): what the network adds to the physical model."""
         return self._parts(reference)[1]
 
     def save(self, path: str | Path) -> Path:
         """Weights and configuration in one file (atomic write)."""
         path = Path(path)
         header = {"lcgym_version": __version__, "fs": self.fs, "config": asdict(self.config_),
+                  "system": self.module_.system.name,
                   "n_inputs": int(self.module_.input_mean.numel())}
         blob = {"header": torch.tensor(list(json.dumps(header).encode()), dtype=torch.uint8),
                 **{f"state.{k}": v for k, v in self.module_.state_dict().items()}}
@@ -96,12 +99,13 @@ class PGNN:
         blob = torch.load(Path(path), weights_only=True)
         header = json.loads(bytes(blob["header"].tolist()).decode())
         cfg = header["config"]
-        cfg["hidden"] = tuple(cfg["hidden"])
-        cfg["split"] = tuple(cfg["split"])
+        cfg["hidden"], cfg["split"], cfg["history"] = tuple(cfg["hidden"]), tuple(cfg["split"]), tuple(cfg["history"])
+        cfg["periods"] = tuple((int(a), float(p)) for a, p in cfg["periods"])
         config = PGNNConfig(**cfg)
         state = {k[len("state.") :]: v for k, v in blob.items() if k.startswith("state.")}
         self = cls(config, fs=header["fs"])
-        self.module_ = PGNNModule(state["zeta0"].numpy(), header["n_inputs"], config.hidden, config.activation)
+        self.module_ = PGNNModule(SYSTEMS[header["system"]], state["zeta0"].numpy(), header["n_inputs"], config.hidden,
+                                  config.activation)
         self.module_.load_state_dict(state)
         return self
 

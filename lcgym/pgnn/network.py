@@ -3,10 +3,10 @@
     f = M_zeta(theta_d) + C_phi(theta_d)                                      (1)
     C_phi: f_i^C = g_phi_i(T(theta_d)),  T_i = [theta_i, thetad_i, thetadd_i, relay(thetad_i)]  (11)-(13)
 
-``PGNNModule`` holds the physical parameters zeta (16, Table I) and the per-axis MLPs g_phi_i
-(Definition 3: affine layers with an elementwise activation, linear output). The physical part is
-``physics.ix.inverse_dynamics`` evaluated with torch tensors, i.e. the same equations as the
-plant and the least-squares model.
+``PGNNModule`` holds the physical parameters zeta (for the IX the 16 of Table I) and the per-axis
+MLPs g_phi_i (Definition 3: affine layers with an elementwise activation, linear output). The
+physical part is the system's ``inverse_dynamics`` (``physics.system.RigidBodySystem``) evaluated
+with torch tensors, i.e. the same equations as the plant and the least-squares model.
 
 zeta is parameterized relative to its initial value, zeta = zeta0 + |zeta0| delta (delta starts
 at 0), so that Adam's step, which is about lr in the parameter's own units, is a relative step
@@ -21,7 +21,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from ..physics import ix
+from ..physics.system import RigidBodySystem
 
 ACTIVATIONS = {"tanh": nn.Tanh, "relu": nn.ReLU, "sigmoid": nn.Sigmoid}
 
@@ -39,18 +39,19 @@ def mlp(n_in: int, hidden: Sequence[int], activation: str) -> nn.Sequential:
 
 
 class PGNNModule(nn.Module):
-    """Physical model + per-axis networks. ``forward`` returns (f_M, f_C), each (B, 2) [V]."""
+    """Physical model + per-axis networks. ``forward`` returns (f_M, f_C), each (B, n_axes)."""
 
-    def __init__(self, zeta0: np.ndarray, n_inputs: int, hidden: Sequence[int] = (30, 30),
+    def __init__(self, system: RigidBodySystem, zeta0: np.ndarray, n_inputs: int, hidden: Sequence[int] = (30, 30),
                  activation: str = "tanh", input_mean=None, input_std=None):
         super().__init__()
+        self.system = system
         zeta0 = np.asarray(zeta0, dtype=np.float32)
         self.register_buffer("zeta0", torch.tensor(zeta0))
         self.register_buffer("zeta_scale", torch.tensor(np.maximum(np.abs(zeta0), 1e-3)))
         self.delta = nn.Parameter(torch.zeros(len(zeta0)))
         self.register_buffer("input_mean", torch.zeros(n_inputs) if input_mean is None else torch.as_tensor(input_mean))
         self.register_buffer("input_std", torch.ones(n_inputs) if input_std is None else torch.as_tensor(input_std))
-        self.nets = nn.ModuleList([mlp(n_inputs, hidden, activation) for _ in range(2)])
+        self.nets = nn.ModuleList([mlp(n_inputs, hidden, activation) for _ in system.axes])
         self.network_on = True
 
     @property
@@ -58,13 +59,13 @@ class PGNNModule(nn.Module):
         return self.zeta0 + self.zeta_scale * self.delta
 
     def physical(self, q, qd, qdd) -> torch.Tensor:
-        """f^M of eq. (9) [V], (B, 2)."""
-        return ix.inverse_dynamics(self.zeta, q, qd, qdd)
+        """f^M of eq. (9), (B, n_axes) [V for the IX]."""
+        return self.system.inverse_dynamics(self.zeta, q, qd, qdd)
 
     def network(self, inputs) -> torch.Tensor:
-        """f^C of eq. (13) [V], (B, 2); zero when the network is switched off."""
+        """f^C of eq. (13), (B, n_axes); zero when the network is switched off."""
         if not self.network_on:
-            return torch.zeros(inputs.shape[0], 2, dtype=inputs.dtype)
+            return torch.zeros(inputs.shape[0], len(self.nets), dtype=inputs.dtype)
         x = (inputs - self.input_mean) / self.input_std
         return torch.cat([net(x) for net in self.nets], dim=1)
 
@@ -72,17 +73,15 @@ class PGNNModule(nn.Module):
         return self.physical(q, qd, qdd), self.network(inputs)
 
 
-def physical_constraints(zeta: torch.Tensor, q: torch.Tensor) -> torch.Tensor:
-    """h_1..h_9 of eqs. (31)-(33): masses, inertias, the smallest eigenvalue of M(theta) over the
-    given configurations, viscous coefficients; each > 0 when satisfied."""
-    M = ix.mass_matrix(zeta, q)  # (B, 2, 2)
-    a, b, c = M[:, 0, 0], M[:, 0, 1], M[:, 1, 1]
-    lam_min = 0.5 * (a + c) - torch.sqrt(0.25 * (a - c) ** 2 + b * b)  # closed form for 2x2 symmetric
-    idx = [ix.M2, ix.M3, ix.J2YY, ix.J3XX, ix.J3YY, ix.J3ZZ]
-    return torch.cat([zeta[idx], lam_min.min().reshape(1), zeta[[ix.D2, ix.D3]]])
+def physical_constraints(system: RigidBodySystem, zeta: torch.Tensor, q: torch.Tensor) -> torch.Tensor:
+    """h of eqs. (31)-(33), each > 0 when satisfied: the parameters that are positive physically
+    (IX: masses, inertias, viscous coefficients) and the smallest eigenvalue of M(theta) over the
+    given configurations."""
+    lam_min = torch.linalg.eigvalsh(system.mass_matrix(zeta, q)).min()
+    return torch.cat([zeta[list(system.positive)], lam_min.reshape(1)])
 
 
-def physics_penalty(zeta: torch.Tensor, q: torch.Tensor) -> torch.Tensor:
+def physics_penalty(system: RigidBodySystem, zeta: torch.Tensor, q: torch.Tensor) -> torch.Tensor:
     """R2 of eq. (30): sum_i max(0, exp(-h_i) - 1)."""
-    h = physical_constraints(zeta, q)
+    h = physical_constraints(system, zeta, q)
     return torch.clamp(torch.exp(-h) - 1.0, min=0.0).sum()

@@ -14,7 +14,7 @@ the network output over the whole data set onto the column space of X_i(theta) (
 fixed zeta_n^0 of the initial physical fit). With X_i = U_i S V^T, ||U_i^T g||^2 =
 (X_i^T g)^T (X_i^T X_i)^-1 (X_i^T g). A random minibatch of B samples estimates both Gram
 factors without bias: X^T g ~ (N/B) X_b^T g_b and X^T X ~ (N/B) X_b^T X_b, so R1 / N ~
-||Q_b^T g_b||^2 / B with Q_b an orthonormal basis of the batch's X_b (a thin QR). This ratio
+||U_b^T g_b||^2 / B with U_b the orthonormal basis of the batch's X_b of eq. (21) (rank-revealing SVD). This ratio
 estimator is consistent, with a bias of order 1/B relative (11 columns against B = 1e4 rows:
 negligible); summed over an epoch it is the exact projection of each batch, so the network is
 kept out of what the physical model can explain on every batch it sees.
@@ -33,8 +33,8 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 import torch
 
-from ..physics import ix
 from ..physics.kinematics import lowpass_zero_phase, reference_kinematics, relay
+from ..physics.system import RigidBodySystem
 from .network import PGNNModule, physics_penalty
 
 
@@ -57,11 +57,15 @@ class PGNNConfig:
     advance: float = 1.5  # samples; as physics.model.PhysicalModel
     threads: int | None = None  # torch threads while training (None: leave as is)
     max_seconds: float | None = None  # lcgym's wall-time cap: stop after the epoch that passes it
+    # beyond the paper (both off by default): extra network inputs
+    history: tuple[float, ...] = ()  # delays [s]: add the reference velocity d seconds ago, per axis
+    periods: tuple[tuple[int, float], ...] = ()  # (axis index, period [rad]): add sin, cos(2 pi q / period)
 
 
 @dataclass
 class TrainingData:
-    """Per-sample arrays: kinematics (N, 2) each, network inputs (N, 8), target u (N, 2), regressor (N, 2, 11)."""
+    """Per-sample arrays: kinematics (N, n_axes) each, network inputs (N, n_inputs), target u
+    (N, n_axes), regressor X (N, n_axes, n_linear)."""
 
     q: np.ndarray
     qd: np.ndarray
@@ -71,28 +75,51 @@ class TrainingData:
     X: np.ndarray = field(repr=False)
 
 
-def network_inputs(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
-    """T(theta_d) of eq. (11), both axes: [theta, thetad, thetadd, relay(thetad)] per axis, (N, 8)."""
-    r = relay(qd)
-    return np.column_stack([q[:, 0], qd[:, 0], qdd[:, 0], r[:, 0], q[:, 1], qd[:, 1], qdd[:, 1], r[:, 1]])
+def network_inputs(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, config: PGNNConfig, fs: float) -> np.ndarray:
+    """Network input of one run, (T, n_inputs): T(theta_d) of eq. (11) per axis, [theta, thetad,
+    thetadd, relay(thetad)] (relay of eq. 12, carried across the run's samples), then the
+    optional inputs of ``config``: reference velocities ``history`` seconds ago (zero before the
+    run starts: the reference rests there) and sin, cos of positions over ``periods``."""
+    cols = np.stack([q, qd, qdd, relay(qd)], axis=2).reshape(q.shape[0], -1)
+    extra = []
+    for delay in config.history:
+        d = int(round(delay * fs))
+        extra.append(np.concatenate([np.zeros((min(d, len(qd)), qd.shape[1])), qd[: max(len(qd) - d, 0)]]))
+    for axis, period in config.periods:
+        x = 2 * np.pi * q[:, axis] / period
+        extra.append(np.column_stack([np.sin(x), np.cos(x)]))
+    return np.column_stack([cols, *extra])
 
 
-def training_data(trials, fs: float, config: PGNNConfig, zeta_n0: np.ndarray) -> TrainingData:
+def training_data(trials, system: RigidBodySystem, config: PGNNConfig, zeta_n0: np.ndarray) -> TrainingData:
+    """Kinematics of each trial's reference, network inputs, filtered input u, and the regressor
+    X at zeta_n0, concatenated over trials (each trial's filter and relay run on its own)."""
     parts = []
     for tr in trials:
-        q, qd, qdd = reference_kinematics(tr.ref, fs, config.advance)
-        u = lowpass_zero_phase(tr.u, fs, config.filter_hz) if config.filter_hz else np.asarray(tr.u, float)
-        parts.append((q, qd, qdd, network_inputs(q, qd, qdd), u))
+        q, qd, qdd = reference_kinematics(tr.ref, tr.fs, config.advance)
+        u = lowpass_zero_phase(tr.u, tr.fs, config.filter_hz) if config.filter_hz else np.asarray(tr.u, float)
+        parts.append((q, qd, qdd, network_inputs(q, qd, qdd, config, tr.fs), u))
     q, qd, qdd, inputs, u = (np.concatenate([p[i] for p in parts]) for i in range(5))
-    return TrainingData(q, qd, qdd, inputs, u, ix.regressor(zeta_n0, q, qd, qdd))
+    return TrainingData(q, qd, qdd, inputs, u, system.regressor(zeta_n0, q, qd, qdd))
+
+
+def column_space(X: torch.Tensor, rtol: float = 1e-7) -> torch.Tensor:
+    """U of eq. (21): an orthonormal basis (B, r) of the column space of X (B, n_linear), r its
+    numerical rank. Columns are scaled to unit norm first (inertia and damping columns differ by
+    orders of magnitude); zero columns (a parameter absent from this axis) and exactly dependent
+    ones (IX: X_J2yy = X_J3yy + X_J3zz on the propeller) drop out with their zero singular values."""
+    X = X.double()
+    Xs = X / X.norm(dim=0).clamp_min(1e-300)
+    U, S, _ = torch.linalg.svd(Xs, full_matrices=False)
+    return U[:, S > rtol * S[0]] if S.numel() and S[0] > 0 else U[:, :0]
 
 
 def _batch_projection(X_b: torch.Tensor, g_b: torch.Tensor) -> torch.Tensor:
-    """sum over axes of ||Q_b^T g_b||^2 / B, Q_b the thin-QR basis of X_b (B, 2, n) per axis."""
+    """sum over axes of ||U_b^T g_b||^2 / B, U_b = column_space of the batch's X_b (B, n_axes, n_linear)."""
     total = g_b.new_zeros(())
     for i in range(g_b.shape[1]):
-        Q, _ = torch.linalg.qr(X_b[:, i, :])
-        total = total + ((Q.T @ g_b[:, i]) ** 2).sum()
+        U = column_space(X_b[:, i, :]).to(g_b.dtype)
+        total = total + ((U.T @ g_b[:, i]) ** 2).sum()
     return total / g_b.shape[0]
 
 
@@ -109,7 +136,8 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
         perm = torch.randperm(n, generator=gen).numpy()
         n_tr, n_va = int(config.split[0] * n), int(config.split[1] * n)
         idx = {"train": perm[:n_tr], "validation": perm[n_tr : n_tr + n_va], "test": perm[n_tr + n_va :]}
-        t = {k: torch.tensor(getattr(data, k), dtype=torch.float32) for k in ("q", "qd", "qdd", "inputs", "u", "X")}
+        t = {k: torch.tensor(getattr(data, k), dtype=torch.float32) for k in ("q", "qd", "qdd", "inputs", "u")}
+        t["X"] = torch.from_numpy(data.X)  # float64: its rank decides the projection
         opt = torch.optim.Adam(module.parameters(), lr=config.lr)
         history, best, best_state, stale = [], np.inf, None, 0
         t0 = time.perf_counter()
@@ -121,7 +149,7 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
             if not config.regularize:
                 return j_ls, j_ls.detach(), j_ls.new_zeros(()), j_ls.new_zeros(())
             r1 = _batch_projection(t["X"][sel], f_c)
-            r2 = physics_penalty(module.zeta, t["q"][sel]) / n
+            r2 = physics_penalty(module.system, module.zeta, t["q"][sel]) / n
             return j_ls + config.mu1 * r1 + config.mu2 * r2, j_ls.detach(), r1.detach(), r2.detach()
 
         for epoch in bar:

@@ -124,6 +124,13 @@ def rigid_terms(p, s2, c2, s3, c3, qd2, qd3):
     return m22, m23, m33, h2, h3
 
 
+@register_jitable
+def joint_torques(p, s2, c2, s3, c3, qd2, qd3, qdd2, qdd3):
+    """(tau2, tau3) = M qdd + H + D qd (eqs. 2, 3, 9) [V] from the trigonometric values; any back-end."""
+    m22, m23, m33, h2, h3 = rigid_terms(p, s2, c2, s3, c3, qd2, qd3)
+    return m22 * qdd2 + m23 * qdd3 + h2 + p[D2] * qd2, m23 * qdd2 + m33 * qdd3 + h3 + p[D3] * qd3
+
+
 def potential_terms(p, s2, c2, s3, c3):
     """Potential energy V(theta) [V rad] whose gradient is the gravity part of H."""
     a = p[M2] * p[Z2] + p[M3] * (p[Z3] * c3 + p[Y3] * s3)
@@ -186,9 +193,7 @@ def inverse_dynamics(p, q, qd, qdd):
     extra = () if np.ndim(p) == 1 else (None,)  # broadcast several parameter sets
     qx, qdx, qddx = (a[(..., *extra, slice(None))] for a in (q, qd, qdd))
     s2, c2, s3, c3 = _trig(qx)
-    m22, m23, m33, h2, h3 = rigid_terms(p, s2, c2, s3, c3, qdx[..., 0], qdx[..., 1])
-    tau2 = m22 * qddx[..., 0] + m23 * qddx[..., 1] + h2 + p[D2] * qdx[..., 0]
-    tau3 = m23 * qddx[..., 0] + m33 * qddx[..., 1] + h3 + p[D3] * qdx[..., 1]
+    tau2, tau3 = joint_torques(p, s2, c2, s3, c3, qdx[..., 0], qdx[..., 1], qddx[..., 0], qddx[..., 1])
     return _stack([tau2, tau3], qx)
 
 

@@ -1,0 +1,52 @@
+"""What a learner needs to know about a system's rigid-body physics, in one object.
+
+``RigidBodySystem`` bundles the functions of a system's physics module that the learners share
+(the PGNN's physical part and its projection, the diagnosis): inverse dynamics (numpy and
+torch), the regressor of the parameters the model is linear in (Lemma 1 of paper 000), the mass
+matrix, and which parameters must stay positive. A learner written against it runs on any
+system that provides one: ``IX`` here, the arm with its own issue.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from . import compiled, ix
+
+
+@dataclass(frozen=True)
+class RigidBodySystem:
+    """The physics of one system, parameter vector p = [zeta_l (n_linear), zeta_n].
+
+    inverse_dynamics(p, q, qd, qdd) -> (..., n_axes) [actuator units]; numpy or torch (autograd in p).
+    regressor(zeta_n, q, qd, qdd) -> (T, n_axes, n_linear), numpy: tau = regressor @ zeta_l.
+    mass_matrix(p, q) -> (..., n_axes, n_axes); numpy or torch.
+    positive: indices of parameters that are positive physically (masses, inertias, damping).
+    parameters: a dataclass type with ``from_vector(p)`` and ``to_vector()``.
+    """
+
+    name: str
+    axes: tuple[str, ...]
+    param_names: tuple[str, ...]
+    n_linear: int
+    inverse_dynamics: Callable
+    regressor: Callable
+    mass_matrix: Callable
+    positive: tuple[int, ...]
+    parameters: type
+
+
+IX = RigidBodySystem(
+    name="ix",
+    axes=ix.AXES,
+    param_names=ix.PARAM_NAMES,
+    n_linear=ix.N_LINEAR,
+    inverse_dynamics=ix.inverse_dynamics,
+    regressor=compiled.regressor,
+    mass_matrix=ix.mass_matrix,
+    positive=(ix.M2, ix.M3, ix.J2YY, ix.J3XX, ix.J3YY, ix.J3ZZ, ix.D2, ix.D3),
+    parameters=ix.IXParameters,
+)
+
+SYSTEMS = {IX.name: IX}
