@@ -18,6 +18,7 @@ from lcgym.leaderboard.runner import BenchConfig, run_benchmark
 from lcgym.leaderboard.store import COLUMNS, ResultsFileError, append_rows, read_results
 
 TINY = {"seeds": (0,), "n_train": 1, "n_validation": 1, "duration": 4.0}
+BASE = ("feedback", "physical")  # the fast methods; the PGNN has its own tests
 METRICS = ["MA", "RMS", "Inf"]
 REPO = Path(__file__).resolve().parents[1]
 
@@ -30,7 +31,7 @@ def cli(*args, **kwargs):
 
 def test_tiny_benchmark_rows_and_schema(tmp_path):
     out = tmp_path / "r.csv"
-    summary = run_benchmark(BenchConfig(**TINY), out, progress=False)
+    summary = run_benchmark(BenchConfig(methods=BASE, **TINY), out, progress=False)
     df = read_results(out)
     assert summary["cells_run"] == 2 and summary["cells_failed"] == 0
     assert list(df.columns) == list(COLUMNS)
@@ -48,8 +49,8 @@ def test_tiny_benchmark_rows_and_schema(tmp_path):
 
 def test_same_seeds_same_numbers(tmp_path):
     a, b = tmp_path / "a.csv", tmp_path / "b.csv"
-    run_benchmark(BenchConfig(**TINY), a, progress=False)
-    run_benchmark(BenchConfig(**TINY), b, progress=False)
+    run_benchmark(BenchConfig(methods=BASE, **TINY), a, progress=False)
+    run_benchmark(BenchConfig(methods=BASE, **TINY), b, progress=False)
     cols = ["system", "method", "seed", "reference_set", "axis", "signal", *METRICS]
     pd.testing.assert_frame_equal(read_results(a)[cols], read_results(b)[cols])
 
@@ -136,7 +137,7 @@ def _cells_in(path: Path) -> int:
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL], ids=["SIGINT", "SIGKILL"])
 def test_killed_bench_leaves_valid_csv_and_resume_completes(tmp_path, sig):
     out = tmp_path / "r.csv"
-    args = ["bench", "--quick", "--seeds", "0,1,2,3", "--out", str(out)]
+    args = ["bench", "--quick", "--methods", "feedback,physical", "--seeds", "0,1,2,3", "--out", str(out)]
     proc = cli(*args)
     deadline = time.time() + 120
     while _cells_in(out) < 1 and time.time() < deadline and proc.poll() is None:
@@ -172,10 +173,10 @@ def test_dask_local_cluster(tmp_path):
     with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False, protocol="tcp", host="127.0.0.1",
                                   dashboard_address=None) as cluster:
         out = tmp_path / "r.csv"
-        summary = run_benchmark(BenchConfig(**TINY), out, dask=cluster.scheduler_address, progress=False)
+        summary = run_benchmark(BenchConfig(methods=BASE, **TINY), out, dask=cluster.scheduler_address, progress=False)
     assert summary["cells_run"] == 2
     local = tmp_path / "local.csv"
-    run_benchmark(BenchConfig(**TINY), local, progress=False)
+    run_benchmark(BenchConfig(methods=BASE, **TINY), local, progress=False)
     cols = ["method", "reference_set", "axis", "signal", *METRICS]
     key = cols[:4]
     pd.testing.assert_frame_equal(read_results(out)[cols].sort_values(key).reset_index(drop=True),
@@ -215,7 +216,7 @@ def test_shipped_leaderboard_is_valid():
 
 def test_parallel_jobs_give_the_serial_numbers(tmp_path):
     serial, parallel = tmp_path / "s.csv", tmp_path / "p.csv"
-    config = BenchConfig(**{**TINY, "seeds": (0, 1)})
+    config = BenchConfig(methods=BASE, **{**TINY, "seeds": (0, 1)})
     run_benchmark(config, serial, progress=False)
     run_benchmark(config, parallel, jobs=2, progress=False)
     cols = ["method", "seed", "reference_set", "axis", "signal", *METRICS]
@@ -228,11 +229,11 @@ def test_leaderboard_ranks_one_configuration_and_the_newest_run_per_cell(tmp_pat
     from lcgym.leaderboard.report import select
 
     out = tmp_path / "r.csv"
-    run_benchmark(BenchConfig(**TINY), out, progress=False)
-    run_benchmark(BenchConfig(**TINY), out, progress=False)  # the same cells again
+    run_benchmark(BenchConfig(methods=BASE, **TINY), out, progress=False)
+    run_benchmark(BenchConfig(methods=BASE, **TINY), out, progress=False)  # the same cells again
     df, others = select(read_results(out))
     assert df["run_id"].nunique() == 1 and not others and len(df) == 16
-    run_benchmark(BenchConfig(**{**TINY, "n_train": 2}), out, progress=False)  # another configuration
+    run_benchmark(BenchConfig(methods=BASE, **{**TINY, "n_train": 2}), out, progress=False)  # another configuration
     full = read_results(out)
     newest, others = select(full)
     assert len(others) == 1 and (newest["plant_trials"] == 2).all()

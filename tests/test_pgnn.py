@@ -7,8 +7,8 @@ import torch
 from lcgym.data import Trial
 from lcgym.envs.references import random_moves
 from lcgym.pgnn import PGNN, PGNNConfig
-from lcgym.pgnn.network import PGNNModule, physical_constraints, physics_penalty
-from lcgym.pgnn.training import _batch_projection, column_space, network_inputs
+from lcgym.pgnn.network import PGNNModule, min_eigenvalue, physical_constraints, physics_penalty
+from lcgym.pgnn.training import _batch_projection, network_inputs, projected_norm2
 from lcgym.physics import ix
 from lcgym.physics.model import PhysicalModel
 from lcgym.physics.system import IX
@@ -32,16 +32,19 @@ def test_minibatch_r1_estimates_the_full_projection():
     assert float(torch.stack(batches).mean()) == pytest.approx(full, rel=0.02)
 
 
-def test_column_space_has_the_rank_of_the_regressor():
-    """Zero columns (parameters absent from an axis) and the dependent J2yy column add no directions."""
+def test_projection_has_the_rank_of_the_regressor():
+    """Zero columns (parameters absent from an axis) and the dependent J2yy column add no
+    directions: ||U^T g||^2 equals the least-squares projection, g inside the span is kept whole."""
     rng = np.random.default_rng(4)
     q, qd, qdd = rng.normal(size=(3, 500, 2))
     X = ix.regressor(ix.IXParameters().to_vector()[ix.N_LINEAR :], q, qd, qdd)
     for i in range(2):
-        U = column_space(torch.tensor(X[:, i, :])).numpy()
-        assert U.shape[1] == np.linalg.matrix_rank(X[:, i, :]) < ix.N_LINEAR
-        np.testing.assert_allclose(U.T @ U, np.eye(U.shape[1]), atol=1e-10)
-        np.testing.assert_allclose(U @ (U.T @ X[:, i, :]), X[:, i, :], atol=1e-8)
+        assert np.linalg.matrix_rank(X[:, i, :]) < ix.N_LINEAR
+        g = rng.normal(size=500)
+        coef, *_ = np.linalg.lstsq(X[:, i, :], g, rcond=None)
+        inside = X[:, i, :] @ coef
+        assert float(projected_norm2(torch.tensor(X[:, i, :]), torch.tensor(g))) == pytest.approx(inside @ inside, rel=1e-9)
+        assert float(projected_norm2(torch.tensor(X[:, i, :]), torch.tensor(inside))) == pytest.approx(inside @ inside, rel=1e-9)
 
 
 def test_physics_penalty_and_constraints():
@@ -52,6 +55,9 @@ def test_physics_penalty_and_constraints():
     M = ix.mass_matrix(zeta.numpy(), q.numpy())
     assert float(h[-1]) == pytest.approx(min(np.linalg.eigvalsh(M).min(axis=1)), rel=1e-9)
     assert float(physics_penalty(IX, zeta, q)) == 0.0
+    S = torch.tensor(np.random.default_rng(2).normal(size=(50, 3, 3)))
+    S = S @ S.transpose(1, 2)
+    torch.testing.assert_close(min_eigenvalue(S), torch.linalg.eigvalsh(S)[:, 0])
     bad = zeta.clone()
     bad[ix.M3] = -0.5
     assert float(physics_penalty(IX, bad, q)) == pytest.approx(np.exp(0.5) - 1, rel=1e-6)
@@ -118,3 +124,15 @@ def test_network_inputs_and_options():
     assert y.shape == (5, 12)
     np.testing.assert_array_equal(y[:, 8:10], np.vstack([np.zeros((2, 2)), qd[:3]]))
     np.testing.assert_allclose(y[:, 10:12], np.column_stack([np.sin(4 * np.pi * q[:, 1]), np.cos(4 * np.pi * q[:, 1])]))
+
+
+def test_leaderboard_methods_report_the_network_contribution():
+    from lcgym.baselines import CONTROLLERS
+    from lcgym.leaderboard.runner import BenchConfig, run_cell
+
+    assert {"pgnn", "pgnn-ls"} <= set(CONTROLLERS)
+    config = BenchConfig(methods=("pgnn", "pgnn-ls"), seeds=(0,), n_train=1, n_validation=1, duration=4.0)
+    for method in ("pgnn", "pgnn-ls"):
+        rows, trace = run_cell("ix", method, 0, config)
+        assert trace is not None and all(r["status"] == "ok" for r in rows), rows[0].get("error")
+        assert all(np.isfinite(r["RMS"]) and r["nn_rms"] > 0 for r in rows)

@@ -5,9 +5,11 @@ method ids to classes; ``load_method`` also accepts a user's ``module:Class``.
 """
 
 from .feedback import FeedbackOnly
+from .pgnn import PGNNFeedforward, PGNNLSFeedforward
 from .physical import PhysicalFeedforward
 from .protocol import Controller, Cost, load_method
 
-CONTROLLERS = {c.name: c for c in (FeedbackOnly, PhysicalFeedforward)}
+CONTROLLERS = {c.name: c for c in (FeedbackOnly, PhysicalFeedforward, PGNNFeedforward, PGNNLSFeedforward)}
 
-__all__ = ["CONTROLLERS", "Controller", "Cost", "FeedbackOnly", "PhysicalFeedforward", "load_method"]
+__all__ = ["CONTROLLERS", "Controller", "Cost", "FeedbackOnly", "PGNNFeedforward", "PGNNLSFeedforward",
+           "PhysicalFeedforward", "load_method"]

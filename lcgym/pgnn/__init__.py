@@ -2,7 +2,7 @@
 parallel with one MLP per axis, trained with the orthogonal-projection regularizer R1 and the
 physics penalty R2 (Algorithm 1)."""
 
-from .estimator import PGNN, PGNNFeedforward, PGNNLSFeedforward
+from .estimator import PGNN
 from .training import PGNNConfig
 
-__all__ = ["PGNN", "PGNNConfig", "PGNNFeedforward", "PGNNLSFeedforward"]
+__all__ = ["PGNN", "PGNNConfig"]

@@ -1,4 +1,4 @@
-"""``PGNN``: fit on measured trials, predict feedforward; the leaderboard methods ``pgnn`` and ``pgnn-ls``.
+"""``PGNN``: fit on measured trials, predict feedforward (leaderboard methods in ``baselines/pgnn.py``).
 
 ``PGNN.fit(trials)`` fits the physical model by least squares (``physics.model.PhysicalModel``,
 the best physical-model fit that initializes zeta), then trains physical parameters and networks
@@ -20,7 +20,6 @@ import numpy as np
 import torch
 
 from .. import __version__
-from ..baselines.protocol import Controller, Cost
 from ..data import atomic_write
 from ..physics.kinematics import reference_kinematics, reference_positions
 from ..physics.model import PhysicalModel
@@ -108,32 +107,3 @@ class PGNN:
                                   config.activation)
         self.module_.load_state_dict(state)
         return self
-
-
-class PGNNFeedforward(Controller):
-    """Leaderboard method ``pgnn``: the PGNN trained with J = J_LS + mu1 R1 + mu2 R2."""
-
-    name = "pgnn"
-    regularize = True
-
-    def __init__(self, config: PGNNConfig | None = None):
-        self.config = config
-
-    def fit(self, trials) -> PGNNFeedforward:
-        cfg = self.config or PGNNConfig(regularize=self.regularize, threads=1)
-        self.pgnn_ = PGNN(cfg, fs=trials[0].fs).fit(trials)
-        self.cost_ = Cost()
-        return self
-
-    def feedforward(self, reference) -> np.ndarray:
-        return self.pgnn_.predict(reference)
-
-    def nn_contribution(self, reference) -> np.ndarray:
-        return self.pgnn_.nn_contribution(reference)
-
-
-class PGNNLSFeedforward(PGNNFeedforward):
-    """Leaderboard method ``pgnn-ls``: the same PGNN trained with J_LS only (no R1, no R2)."""
-
-    name = "pgnn-ls"
-    regularize = False
