@@ -13,6 +13,7 @@ no arbitrary objects are unpickled) and a JSON header with the configuration and
 from __future__ import annotations
 
 import json
+import time
 from dataclasses import asdict
 from pathlib import Path
 
@@ -45,6 +46,7 @@ class PGNN:
 
     def fit(self, trials, progress: bool = False) -> PGNN:
         cfg = self.config_
+        start = time.perf_counter()
         self.physical_ = (self.physical or PhysicalModel(fs=self.fs)).fit(trials)
         system = self.physical_.system
         zeta0 = self.physical_.params_.to_vector()
@@ -54,7 +56,9 @@ class PGNN:
         torch.manual_seed(cfg.seed)
         self.module_ = PGNNModule(system, zeta0, data.inputs.shape[1], cfg.hidden, cfg.activation,
                                   torch.tensor(mean, dtype=torch.float32), torch.tensor(std, dtype=torch.float32))
-        self.info_ = train(self.module_, data, cfg, progress=progress)
+        left = None if cfg.max_seconds is None else cfg.max_seconds - (time.perf_counter() - start)
+        self.info_ = train(self.module_, data, cfg, progress=progress, seconds=left)
+        self.info_["fit_seconds"] = time.perf_counter() - start
         return self
 
     @property

@@ -62,7 +62,7 @@ class PGNNConfig:
     seed: int = 0
     advance: float = 1.5  # samples; as physics.model.PhysicalModel
     threads: int | None = None  # torch threads while training (None: leave as is)
-    max_seconds: float | None = None  # lcgym's wall-time cap: stop after the epoch that passes it
+    max_seconds: float | None = None  # lcgym's wall-time budget of the whole fit (see ``train``)
     # beyond the paper (both off by default): extra network inputs
     history: tuple[float, ...] = ()  # delays [s]: add the reference velocity d seconds ago, per axis
     periods: tuple[tuple[int, float], ...] = ()  # (axis index, period [rad]): add sin, cos(2 pi q / period)
@@ -138,8 +138,14 @@ def _batch_projection(X_b: torch.Tensor, g_b: torch.Tensor) -> torch.Tensor:
     return total / g_b.shape[0]
 
 
-def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: bool = False) -> dict:
-    """Algorithm 1 on ``module`` (in place). Returns the history and the wall time."""
+def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: bool = False,
+          seconds: float | None = None) -> dict:
+    """Algorithm 1 on ``module`` (in place). Returns the history and the wall time.
+
+    ``seconds`` (default ``config.max_seconds``): wall-time budget; no epoch is started that the
+    last epoch's duration says would end past it (the first epoch always runs).
+    """
+    seconds = config.max_seconds if seconds is None else seconds
     from tqdm.auto import tqdm
 
     before = torch.get_num_threads()
@@ -208,7 +214,8 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
                 stale += 1
                 if stale >= config.patience:
                     break
-            if config.max_seconds is not None and time.perf_counter() - t0 > config.max_seconds:
+            elapsed = time.perf_counter() - t0
+            if seconds is not None and elapsed + elapsed / (epoch + 1) > seconds:
                 break
         module.load_state_dict(best_state)
         return {"history": history, "epochs": len(history), "seconds": time.perf_counter() - t0,
