@@ -210,7 +210,7 @@ def test_report_pages_escape_strings(tmp_path, monkeypatch):
 def test_shipped_leaderboard_is_valid():
     shipped = REPO / "results" / "leaderboard.csv"
     df = read_results(shipped)
-    assert {"feedback", "physical"} <= set(df["method"]) and sorted(set(df["seed"])) == [0, 1, 2]
+    assert {"feedback", "physical", "pgnn", "pgnn-ls"} <= set(df["method"]) and sorted(set(df["seed"])) == [0, 1, 2]
     assert (df["status"] == "ok").all()
 
 

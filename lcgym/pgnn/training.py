@@ -142,8 +142,8 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
           seconds: float | None = None) -> dict:
     """Algorithm 1 on ``module`` (in place). Returns the history and the wall time.
 
-    ``seconds`` (default ``config.max_seconds``): wall-time budget; no epoch is started that the
-    last epoch's duration says would end past it (the first epoch always runs).
+    ``seconds`` (default ``config.max_seconds``): wall-time budget; no epoch is started unless
+    1.5 times the longest epoch so far still fits in it (the first epoch always runs).
     """
     seconds = config.max_seconds if seconds is None else seconds
     from tqdm.auto import tqdm
@@ -196,7 +196,9 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
                 values, sizes = zip(*[([float(x) for x in cost(b)], len(b["u"])) for b in batches(part)], strict=True)
             return dict(zip(("J", "J_LS", "R1", "R2"), np.average(values, axis=0, weights=sizes), strict=True))
 
+        longest = 0.0  # the longest epoch so far [s], for the budget
         for epoch in bar:
+            started = time.perf_counter()
             module.train()
             for b in batches("train", shuffle=True):
                 opt.zero_grad()
@@ -214,8 +216,8 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
                 stale += 1
                 if stale >= config.patience:
                     break
-            elapsed = time.perf_counter() - t0
-            if seconds is not None and elapsed + elapsed / (epoch + 1) > seconds:
+            longest = max(longest, time.perf_counter() - started)
+            if seconds is not None and time.perf_counter() - t0 + 1.5 * longest > seconds:
                 break
         module.load_state_dict(best_state)
         return {"history": history, "epochs": len(history), "seconds": time.perf_counter() - t0,
