@@ -136,3 +136,12 @@ def test_leaderboard_methods_report_the_network_contribution():
         rows, trace = run_cell("ix", method, 0, config)
         assert trace is not None and all(r["status"] == "ok" for r in rows), rows[0].get("error")
         assert all(np.isfinite(r["RMS"]) and r["nn_rms"] > 0 for r in rows)
+
+
+def test_sample_rate_mismatch_and_ls_variant_config():
+    with pytest.raises(ValueError, match="physical model samples at 1000"):
+        PGNN(PGNNConfig(max_epochs=1, threads=1), fs=500.0, physical=PhysicalModel(fs=1000.0)).fit(_trials(n=1))
+    from lcgym.baselines.pgnn import PGNNLSFeedforward
+
+    ls = PGNNLSFeedforward(PGNNConfig(max_epochs=1, batch_size=2000, threads=1)).fit(_trials(n=1, duration=3.0))
+    assert ls.pgnn_.config_.regularize is False  # a given config keeps the method's meaning

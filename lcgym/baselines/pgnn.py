@@ -26,7 +26,7 @@ class PGNNFeedforward(Controller):
         self.config = config
 
     def fit(self, trials: Sequence) -> PGNNFeedforward:
-        cfg = self.config or replace(PGNNConfig(threads=1), regularize=self.regularize)
+        cfg = replace(self.config or PGNNConfig(threads=1), regularize=self.regularize)
         self.pgnn_ = PGNN(cfg, fs=trials[0].fs).fit(trials)
         self.cost_ = Cost()
         return self

@@ -32,7 +32,11 @@ from .training import PGNNConfig, network_inputs, train, training_data
 class PGNN:
     """Physics-guided neural network feedforward (paper 000). Constructor arguments are stored as
     given; ``fit`` sets ``module_`` (the trained torch module), ``physical_`` (the least-squares
-    physical model it started from) and ``info_`` (training history, epochs, seconds)."""
+    physical model it started from) and ``info_`` (training history, epochs, seconds).
+
+    A ``physical`` model passed in is fitted in place (its ``params_`` become zeta^0); it must
+    use the same sample rate ``fs`` [Hz] as the PGNN and the trials (checked). ``load`` restores
+    ``module_`` only: ``physical_`` and ``info_`` belong to the fit and are not saved."""
 
     def __init__(self, config: PGNNConfig | None = None, fs: float = 500.0, physical: PhysicalModel | None = None):
         self.config = config
@@ -47,6 +51,8 @@ class PGNN:
     def fit(self, trials, progress: bool = False) -> PGNN:
         cfg = self.config_
         start = time.perf_counter()
+        if self.physical is not None and abs(self.physical.fs - self.fs) > 1e-6 * self.fs:
+            raise ValueError(f"physical model samples at {self.physical.fs} Hz, the PGNN at {self.fs} Hz")
         self.physical_ = (self.physical or PhysicalModel(fs=self.fs)).fit(trials)
         system = self.physical_.system
         zeta0 = self.physical_.params_.to_vector()

@@ -8,8 +8,11 @@ MLPs g_phi_i (Definition 3: affine layers with an elementwise activation, linear
 physical part is the system's ``inverse_dynamics`` (``physics.system.RigidBodySystem``) evaluated
 with torch tensors, i.e. the same equations as the plant and the least-squares model.
 
-zeta is parameterized relative to its initial value, zeta = zeta0 + |zeta0| delta (delta starts
-at 0), so that Adam's step, which is about lr in the parameter's own units, is a relative step
+Each axis's MLP sees the standardized (``input_mean``, ``input_std``) features of all axes plus
+any extra inputs (history, periods), and returns that axis's f_i^C.
+
+zeta is parameterized relative to its initial value, zeta = zeta0 + max(|zeta0|, 1e-3) delta
+(delta starts at 0), so that Adam's step, which is about lr in the parameter's own units, is a relative step
 for CoM coordinates of centimetres and inertias of tenths alike.
 """
 

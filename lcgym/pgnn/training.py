@@ -9,7 +9,7 @@ of ||u - f||^2, both axes summed) + mu1 R1 / N + mu2 R2. Paper 000 writes J_LS (
 (eq. 29) as sums over the N samples, with mu1 = 1e-5 and mu2 = 1; read literally (both sums
 divided by N) mu1 would stay 1e-5 here, and we measured that it then has no effect at all: the
 network's contribution f^C and the drift of the physical parameters come out the same as with
-J_LS alone (see the PGNN issue note). The paper's figures (f^C several times smaller with R1)
+J_LS alone (`benchmarks/pgnn_tables.py --quick --mu1 1e-5 --budget 0`). The paper's figures (f^C several times smaller with R1)
 fit the usual implementation instead: J_LS as a per-sample mean (a mean-squared-error loss) and
 R1 as the squared norm of the projection of the whole data set, so that mu1 weighs R1 / N with
 mu1 N = 1e-5 x 1e6 = 10, and R2 (a sum over nine constraints, not over samples) with mu2 = 1.
@@ -22,8 +22,8 @@ fixed zeta_n^0 of the initial physical fit). With X_i = U_i S V^T (eq. 21), ||U_
 factors without bias: X^T g ~ (N/B) X_b^T g_b and X^T X ~ (N/B) X_b^T X_b, so R1 / N ~
 ||U_b^T g_b||^2 / B with U_b the basis of eq. (21) for the batch's own X_b. This ratio estimator
 is consistent, with a bias of order r/B relative (rank r <= 11 against B = 1e4 rows: about
-0.1 %, tested); summed over an epoch it is the exact projection of each batch, so the network is
-kept out of what the physical model can explain on every batch it sees.
+0.1 %; the test checks the estimate against the full projection to 2 %, the sampling
+spread); summed over an epoch it is the exact projection of each batch, so the network is kept out of what the physical model can explain on every batch it sees.
 
 Algorithm 1: zeta starts at the best physical-model fit (least squares), phi at PyTorch's default
 initialization (seeded); random 80/10/10 split of the samples; Adam (lr 1e-3), minibatches of 1e4;
@@ -140,10 +140,13 @@ def _batch_projection(X_b: torch.Tensor, g_b: torch.Tensor) -> torch.Tensor:
 
 def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: bool = False,
           seconds: float | None = None) -> dict:
-    """Algorithm 1 on ``module`` (in place). Returns the history and the wall time.
+    """Algorithm 1 on ``module`` (in place).
 
-    ``seconds`` (default ``config.max_seconds``): wall-time budget; no epoch is started unless
-    1.5 times the longest epoch so far still fits in it (the first epoch always runs).
+    Returns a dict: ``history`` (per epoch: train and validation J and its terms), ``epochs``,
+    ``seconds`` (wall time of this call), ``J_LS_test`` (on the test split), ``n_samples`` and
+    ``config``. ``seconds`` (default ``config.max_seconds``): wall-time budget counted from the
+    start of this call; no epoch is started unless 1.5 times the longest epoch so far still
+    fits in it (the first epoch always runs).
     """
     seconds = config.max_seconds if seconds is None else seconds
     from tqdm.auto import tqdm

@@ -3,8 +3,9 @@ lcgym kernels.
 
 The functions compiled here call the same ``register_jitable`` equations as the numpy and
 torch paths of ``physics/`` (no second implementation); they exist because the least-squares
-fit evaluates the regressor of 1e6 samples for 21 parameter sets, which numpy's temporaries
-make take half a minute.
+fit evaluates the regressor of 1e6 samples many times (once per candidate set of the
+nonlinear parameters), which numpy's temporaries make take half a minute. ``regressor`` is
+written for the IX (2 axes, 11 linear parameters); another system compiles its own.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@
 (the PGNN's physical part and its projection, the diagnosis): inverse dynamics (numpy and
 torch), the regressor of the parameters the model is linear in (Lemma 1 of paper 000), the mass
 matrix, and which parameters must stay positive. A learner written against it runs on any
-system that provides one: ``IX`` here, the arm with its own issue.
+system that provides one: ``IX`` here; another system adds its own ``RigidBodySystem``.
 """
 
 from __future__ import annotations
