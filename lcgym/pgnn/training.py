@@ -23,7 +23,8 @@ factors without bias: X^T g ~ (N/B) X_b^T g_b and X^T X ~ (N/B) X_b^T X_b, so R1
 ||U_b^T g_b||^2 / B with U_b the basis of eq. (21) for the batch's own X_b. This ratio estimator
 is consistent, with a bias of order r/B relative (rank r <= 11 against B = 1e4 rows: about
 0.1 %; the test checks the estimate against the full projection to 2 %, the sampling
-spread); summed over an epoch it is the exact projection of each batch, so the network is kept out of what the physical model can explain on every batch it sees.
+spread); summed over an epoch it is the exact projection of each batch, so the network is kept
+out of what the physical model can explain on every batch it sees.
 
 Algorithm 1: zeta starts at the best physical-model fit (least squares), phi at PyTorch's default
 initialization (seeded); random 80/10/10 split of the samples; Adam (lr 1e-3), minibatches of 1e4;
