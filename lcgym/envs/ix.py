@@ -30,6 +30,7 @@ Effects: any tuple of effects from `physics.effects` (model-side ones and the pl
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -139,6 +140,10 @@ def pack_effects(effects: Sequence[fx.Effect], rigid: ix.IXParameters) -> tuple[
             if p[j] - e.Jm <= 0:
                 raise ValueError(f"{e.key}: motor inertia {e.Jm} exceeds the axis inertia {p[j]}")
             p[j] -= e.Jm
+        elif isinstance(e, fx.TabulatedForce):
+            n, lo, start = (K.TV_N, K.TV_LO, K.TV_VALUES) if e.variable == "velocity" else (K.TP_N, K.TP_LO, K.TP_VALUES)
+            row[n], row[lo], row[lo + 1] = len(e.values), e.lo, e.hi
+            row[start : start + len(e.values)] = e.values
         else:
             raise TypeError(f"the IX plant has no model of effect {e.key} ({type(e).__name__})")
     return E, p
@@ -177,6 +182,23 @@ class IXPlant:
         self._cfg[[K.CFG_UMAX, K.CFG_TS, K.CFG_ERR, K.CFG_VEL, K.CFG_SUB]] = (
             self.gains.u_max, 1.0 / self.fs, self.max_error, self.max_velocity, self.substeps)
         self._cfg[[K.CFG_RES0, K.CFG_RES1]] = self.encoder_resolution
+
+    def record(self) -> dict:
+        """A JSON-ready description from which ``from_record`` rebuilds this plant (stored in the
+        sidecar of simulated measurement files, so that ``lcgym diagnose --replay`` can re-run it)."""
+        return {"system": "ix", "rigid": self.rigid.to_vector().tolist(), "effects": [fx.effect_record(e) for e in self.effects],
+                "gains": {k: list(v) if isinstance(v, tuple) else v for k, v in dataclasses.asdict(self.gains).items()},
+                "fs": self.fs, "substeps": self.substeps, "encoder_resolution": list(self.encoder_resolution),
+                "preroll": self.preroll, "max_error": self.max_error, "max_velocity": self.max_velocity}
+
+    @classmethod
+    def from_record(cls, record: dict) -> IXPlant:
+        """The plant that ``record`` describes."""
+        gains = FeedbackGains(**{k: tuple(v) if isinstance(v, list) else v for k, v in record["gains"].items()})
+        return cls(rigid=ix.IXParameters.from_vector(np.asarray(record["rigid"], dtype=float)),
+                   effects=tuple(fx.effect_from_record(r) for r in record["effects"]), gains=gains, fs=record["fs"],
+                   substeps=record["substeps"], encoder_resolution=tuple(record["encoder_resolution"]),
+                   preroll=record["preroll"], max_error=record["max_error"], max_velocity=record["max_velocity"])
 
     @property
     def preroll_samples(self) -> int:
@@ -244,7 +266,8 @@ class IXPlant:
                     t=np.arange(n) / self.fs, ref=ref[b, :n], pos=sig[b, :n, K.SIG_Y : K.SIG_Y + 2],
                     u=sig[b, :n, K.SIG_U : K.SIG_U + 2], ff=ff[b, :n], axes=self.axes,
                     extra={f"load_{ax}": sig[b, :n, K.SIG_LOAD + i] for i, ax in enumerate(self.axes)},
-                    meta={"system": "ix", "reference": names[b], "effects": [e.key for e in self.effects]},
+                    meta={"system": "ix", "reference": names[b], "effects": [e.key for e in self.effects],
+                          "plant": self.record()},
                 )
             )
         return trials[0] if single else trials

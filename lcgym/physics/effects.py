@@ -114,6 +114,20 @@ def gear_harmonic_basis(q, qd, period, v_ref):
     r = np.abs(qd) / v_ref
     return s, c, r * s, r * c, 2.0 * s * c, c * c - s * s
 
+@register_jitable
+def table_lookup(x, lo, hi, values):
+    """Piecewise-linear curve through ``values`` on a uniform grid over [lo, hi], held constant
+    outside it; x a float. Used by plants to carry force curves of any shape."""
+    n = values.shape[0]
+    if x <= lo:
+        return values[0]
+    if x >= hi:
+        return values[n - 1]
+    f = (x - lo) / (hi - lo) * (n - 1)
+    k = min(int(f), n - 2)
+    w = f - k
+    return values[k] * (1.0 - w) + values[k + 1] * w
+
 # ---------------------------------------------------------------------------------------------
 # Effect classes
 # ---------------------------------------------------------------------------------------------
@@ -414,11 +428,53 @@ class DrivetrainFlexibility(Effect):
             raise ValueError(f"{self.key}: need k > 0, Jm > 0, c >= 0 (got k={self.k}, Jm={self.Jm}, c={self.c})")
 
 
+@dataclass(frozen=True)
+class TabulatedForce(Effect):
+    """A force curve of any shape over the axis's velocity or position (plant only).
+
+    ``variable`` "velocity" [rad/s] or "position" [rad]; ``values`` [V] on a uniform grid of
+    ``len(values)`` points (2 to 64) over [lo, hi], linear in between and held constant outside.
+    It is not part of the vocabulary of `spec/effects.md`: it makes plants whose hidden effects
+    follow none of the library's formulas (a differently shaped friction curve, a spring that
+    engages smoothly), the way a real machine does, to test the diagnosis on them.
+    """
+
+    variable: str = "velocity"
+    lo: float = -1.0
+    hi: float = 1.0
+    values: tuple[float, ...] = (0.0, 0.0)
+    name: ClassVar[str] = "tabulated_force"
+    plant_only: ClassVar[bool] = True
+    max_points: ClassVar[int] = 64
+
+    def __post_init__(self):
+        super().__post_init__()
+        if self.variable not in ("velocity", "position"):
+            raise ValueError(f"{self.key}: variable must be 'velocity' or 'position', got {self.variable!r}")
+        values = np.asarray(self.values, dtype=float)
+        if not 2 <= values.size <= self.max_points or not np.all(np.isfinite(values)):
+            raise ValueError(f"{self.key}: need 2 to {self.max_points} finite values, got {values.size}")
+        if not (np.isfinite(self.lo) and np.isfinite(self.hi) and self.hi > self.lo):
+            raise ValueError(f"{self.key}: need finite lo < hi, got [{self.lo}, {self.hi}]")
+
+    @classmethod
+    def from_function(cls, axis: str, variable: str, function, lo: float, hi: float, points: int = 64) -> TabulatedForce:
+        """Tabulate ``function`` (a numpy function of the variable, returning V) on [lo, hi]."""
+        grid = np.linspace(lo, hi, points)
+        return cls(axis, variable, lo, hi, tuple(float(v) for v in function(grid)))
+
+    def force(self, x) -> np.ndarray:
+        """The curve [V] at the values x of its variable (the plant's own formula)."""
+        values = np.asarray(self.values, dtype=float)
+        return np.array([table_lookup(float(v), self.lo, self.hi, values) for v in np.ravel(x)]).reshape(np.shape(x))
+
+
 EFFECTS: dict[str, type[Effect]] = {
     cls.name: cls
     for cls in (
         ViscousFriction, CoulombFriction, StribeckFriction, PositionDependentFriction, Stiction,
         CableSpring, CableInertia, TorqueRipple, GearHarmonic, CableDrape, DrivetrainFlexibility,
+        TabulatedForce,
     )
 }
 
@@ -431,6 +487,18 @@ def make_effect(key: str, **params) -> Effect:
     if name not in EFFECTS:
         raise ValueError(f"unknown effect {name!r}; known: {', '.join(sorted(EFFECTS))}")
     return EFFECTS[name](axis=axis, **params)
+
+
+def effect_record(effect: Effect) -> dict:
+    """A JSON-ready description of an effect: its ``name@axis`` label and every parameter."""
+    params = {f.name: getattr(effect, f.name) for f in dataclasses.fields(effect) if f.name != "axis"}
+    return {"effect": effect.key, **{k: list(v) if isinstance(v, tuple) else v for k, v in params.items()}}
+
+
+def effect_from_record(record: dict) -> Effect:
+    """Inverse of ``effect_record``."""
+    params = {k: tuple(v) if isinstance(v, list) else v for k, v in record.items() if k != "effect"}
+    return make_effect(record["effect"], **params)
 
 
 def check_unique(effects) -> None:

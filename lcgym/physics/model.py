@@ -20,6 +20,15 @@ Fit (``fit(trials)``):
    norm in column-scaled units: combinations the data cannot identify keep their nominal values
    (e.g. the split between J2yy and J3yy + J3zz: their columns obey X_J2yy = X_J3yy + X_J3zz).
 
+``positions="measured"`` (what the diagnosis uses) fits the motion the machine made rather than
+the one it was asked for: the reference's kinematics corrected by the measured tracking error
+e = ref - pos, low-passed at ``error_filter_hz`` (zero phase) before it is differentiated:
+q = pos, qd = qd_ref - de/dt, qdd = qdd_ref - d2e/dt2 (all ``advance`` samples ahead). With
+feedback only, the reference leads the axis by tenths of a degree and the input u pays for the
+actual motion: a reference-only fit leaves that lag in the residual, where it looks like
+low-speed friction. Differentiating the quantized encoder reading itself would bias the inertia
+fit; the low-passed error carries far less quantization noise (tested).
+
 Effects' nonlinear parameters stay at the values the effect was built with (``diagnose``
 searches them). Ripple columns need the model's own torque: they are built from the rigid-body
 torque of the given parameters, then of the first pass's fit (two passes).
@@ -57,10 +66,14 @@ class PhysicalModel:
     filter_hz: float | None = 5.0
     decimate: int = 10
     fit_nonlinear: bool = True
+    positions: str = "reference"  # kinematics of the fit: "reference" or "measured" (see above)
+    error_filter_hz: float = 5.0
     system: ClassVar[RigidBodySystem] = IX  # the physics the learners (PGNN, diagnosis) share with it
 
     def __post_init__(self):
         self.effects = tuple(self.effects)
+        if self.positions not in ("reference", "measured"):
+            raise ValueError(f"positions must be 'reference' or 'measured', got {self.positions!r}")
         for e in self.effects:
             if e.plant_only:
                 raise ValueError(f"{e.key} has internal dynamics: it exists in plants only, not in a static model")
@@ -109,7 +122,7 @@ class PhysicalModel:
             cols.append(c)
         return np.concatenate(cols, axis=2)
 
-    def _reduce(self, A, lengths):
+    def reduce(self, A, lengths):
         """Per-trial zero-phase low-pass along time, then decimation; A is (T, ...)."""
         out, start = [], 0
         for n in lengths:
@@ -120,19 +133,27 @@ class PhysicalModel:
             out.append(seg[:: max(1, self.decimate)])
         return np.concatenate(out, axis=0)
 
-    def fit(self, trials: Sequence) -> PhysicalModel:
-        """Least-squares fit on measured trials (each with ``ref``, ``u`` and sample rate ``fs``)."""
+    def kinematics(self, trials: Sequence) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], list[int]]:
+        """(q, qd, qdd) of the fit, each (sum of T, 2), and the trial lengths (see ``positions``)."""
         if not trials:
             raise ValueError("PhysicalModel.fit: no trials given")
-        kins, us, lengths = [], [], []
+        kins, lengths = [], []
         for tr in trials:
             if abs(tr.fs - self.fs) > 1e-6 * self.fs:
                 raise ValueError(f"trial sampled at {tr.fs} Hz, model expects {self.fs} Hz")
-            kins.append(reference_kinematics(tr.ref, self.fs, self.advance))
-            us.append(tr.u)
+            q, qd, qdd = reference_kinematics(tr.ref, self.fs, self.advance)
+            if self.positions == "measured":
+                e = lowpass_zero_phase(tr.ref - tr.pos, self.fs, self.error_filter_hz)
+                e, ed, edd = reference_kinematics(e, self.fs, self.advance)
+                q, qd, qdd = q - e, qd - ed, qdd - edd
+            kins.append((q, qd, qdd))
             lengths.append(tr.n_samples)
-        kin = tuple(np.concatenate([k[i] for k in kins]) for i in range(3))
-        u_red = self._reduce(np.concatenate(us), lengths).reshape(-1)
+        return tuple(np.concatenate([k[i] for k in kins]) for i in range(3)), lengths
+
+    def fit(self, trials: Sequence) -> PhysicalModel:
+        """Least-squares fit on measured trials (each with ``ref``, ``pos``, ``u`` and sample rate ``fs``)."""
+        kin, lengths = self.kinematics(trials)
+        u_red = self.reduce(np.concatenate([tr.u for tr in trials]), lengths).reshape(-1)
 
         p0 = self.params.to_vector()
         theta0 = np.concatenate([p0[: ix.N_LINEAR], *[e.coefficients() for e in self.effects]])
@@ -140,8 +161,8 @@ class PhysicalModel:
         base = ix.inverse_dynamics(p0, *kin)  # rigid torque for ripple columns, refined per pass
         n_pass = 2 if any(e.needs_base_torque for e in self.effects) else 1
         for _ in range(n_pass):
-            rigid = _QuadraticDesign(lambda zn: self.system.regressor(zn, *kin), zeta_n.size, lambda A: self._reduce(A, lengths))
-            fixed = self._reduce(self._effect_columns(kin, base), lengths)
+            rigid = _QuadraticDesign(lambda zn: self.system.regressor(zn, *kin), zeta_n.size, lambda A: self.reduce(A, lengths))
+            fixed = self.reduce(self._effect_columns(kin, base), lengths)
             design = lambda zn, r=rigid, f=fixed: np.concatenate([r(zn), f], axis=2)  # noqa: E731
             if self.fit_nonlinear:
                 sol = least_squares(

@@ -1,0 +1,323 @@
+"""Which effect is missing: every candidate on every axis, scored on held-out data.
+
+The residual is worked with after the model's own reduction (``PhysicalModel.reduce``: zero-phase
+low-pass of u and of every regressor column, then decimation), so that the encoder-quantization
+noise the feedback puts into u does not count as something to explain.
+
+Held-out scoring (blocked two-fold cross-validation). Each trial is cut into blocks of
+``block_seconds``; blocks alternate between fold 0 and fold 1 (shifted by one from trial to
+trial). For fold f, the model (its linear parameters) plus the candidate (its coefficients, and
+its nonlinear parameters chosen among the grid values by the training fit) is fitted on the
+other fold and evaluated on f. A candidate's ``explained`` share is
+
+    1 - sum_f SSE_f(model + candidate) / sum_f SSE_f(model)
+
+on its axis, both SSE held-out. Blocks within trials, rather than whole trials, let a candidate
+be judged on configurations that only a few trials visit. A flexible candidate that fits noise
+gains nothing held-out.
+
+Periods of periodic candidates come from the spectrum of the training fold's residual over the
+axis angle, |sum_k r_k w_k exp(-2 pi i q_k / P)|^2 (w = 1, or the model torque for torque
+ripple), at the frequency resolution the angle range allows; the strongest peaks are tried.
+
+Greedy forward selection: the best passing candidate is added to the model, and the others are
+scored again against what remains; repeat until none passes. A candidate passes when it removes
+at least ``min_explained`` of its axis's current held-out residual energy and the removed part
+has an RMS of at least ``min_rms`` (the noise floor: a nearly perfect model otherwise makes a few
+millivolts of quantization structure look like a large share). Among candidates on the same axis
+within ``tie`` of the best, the one with the fewest parameters is taken (Coulomb friction before
+a Stribeck curve that nests it).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..physics.model import PhysicalModel
+from .candidates import Candidate
+
+DEG = math.pi / 180.0
+
+
+@dataclass
+class Prepared:
+    """Trials reduced once: full-rate kinematics ``kin``, model torque ``torque`` and its rigid-body
+    part ``rigid_torque`` (T, A);
+    reduced input ``u`` and reduced design ``design`` (R, A, p) of the fitted model (rigid
+    regressor at its fitted centres of mass + its effects' columns); ``fold`` (R,) in {0, 1};
+    ``rows`` (R,) the full-rate sample of each reduced row; ``trial`` (R,) its trial index."""
+
+    model: PhysicalModel
+    kin: tuple[np.ndarray, np.ndarray, np.ndarray]
+    lengths: list[int]
+    torque: np.ndarray
+    rigid_torque: np.ndarray
+    u: np.ndarray
+    design: np.ndarray
+    fold: np.ndarray
+    rows: np.ndarray
+    trial: np.ndarray
+
+    def reduce(self, columns: np.ndarray) -> np.ndarray:
+        return self.model.reduce(columns, self.lengths)
+
+    @property
+    def residual(self) -> np.ndarray:
+        """Reduced residual (R, A) of the fitted model: u minus the reduced model torque."""
+        return self.u - self.reduce(self.torque)
+
+
+def prepare(trials: Sequence, model: PhysicalModel, block_seconds: float = 4.0) -> Prepared:
+    """Fit ``model`` (unfitted) on ``trials`` and reduce everything the search needs."""
+    model.fit(trials)
+    kin, lengths = model.kinematics(trials)
+    p = model.fitted_params.to_vector()
+    n_lin = model.system.n_linear
+    torque = model.torque(*kin)
+    rigid = model.system.regressor(p[n_lin:], *kin)
+    rigid_torque = rigid @ p[:n_lin]
+    effect_cols = model._effect_columns(kin, rigid_torque)  # ripple columns scale the rigid torque
+    design = model.reduce(np.concatenate([rigid, effect_cols], axis=2), lengths)
+    u = model.reduce(np.concatenate([tr.u for tr in trials]), lengths)
+    dec = max(1, model.decimate)
+    rows, trial, fold = [], [], []
+    start = 0
+    for k, n in enumerate(lengths):
+        local = np.arange(0, n, dec)
+        rows.append(start + local)
+        trial.append(np.full(local.size, k))
+        fold.append((np.floor(local / model.fs / block_seconds).astype(int) + k) % 2)
+        start += n
+    fold = np.concatenate(fold)
+    if fold.min() == fold.max():
+        raise ValueError(f"the data are too short for held-out scoring: each trial needs more than {block_seconds} s")
+    return Prepared(model, kin, lengths, torque, rigid_torque, u, design, fold, np.concatenate(rows), np.concatenate(trial))
+
+
+def _solve(G, b, rtol=1e-10):
+    """Minimum-norm solution of G theta = b (G symmetric PSD), columns scaled to unit diagonal."""
+    s = np.sqrt(np.diag(G))
+    s[s == 0] = 1.0
+    w, V = np.linalg.eigh(G / np.outer(s, s))
+    keep = w > rtol * max(w.max(), 1e-300)
+    return (V[:, keep] @ ((V[:, keep].T @ (b / s)) / w[keep])) / s
+
+
+class Scorer:
+    """Two-fold least squares of the reduced design plus one candidate's columns on one axis."""
+
+    def __init__(self, design: np.ndarray, u: np.ndarray, fold: np.ndarray):
+        self.design, self.u, self.fold = design, u, fold
+        self.parts = []
+        for f in (0, 1):
+            tr, te = np.flatnonzero(fold != f), np.flatnonzero(fold == f)
+            D, y = design[tr], u[tr]
+            G = np.einsum("rap,raq->pq", D, D)
+            b = np.einsum("rap,ra->p", D, y)
+            theta = _solve(G, b)
+            self.parts.append({"tr": tr, "te": te, "G": G, "b": b, "uu": float((y * y).sum()),
+                               "D_axis": [np.ascontiguousarray(D[:, a, :]) for a in range(D.shape[1])],
+                               "resid_tr": y - D @ theta, "test_sse": ((u[te] - design[te] @ theta) ** 2).sum(axis=0)})
+
+    @property
+    def test_sse(self) -> np.ndarray:
+        """Held-out SSE per axis of the design alone, summed over the folds."""
+        return self.parts[0]["test_sse"] + self.parts[1]["test_sse"]
+
+    def evaluate(self, cols: np.ndarray, axis: int, f: int) -> tuple[float, float]:
+        """(training SSE of all axes, held-out SSE of ``axis``) of fold f with ``cols`` (R, k) added on ``axis``."""
+        P = self.parts[f]
+        E = cols[P["tr"]]
+        C = P["D_axis"][axis].T @ E
+        G = np.block([[P["G"], C], [C.T, E.T @ E]])
+        b = np.concatenate([P["b"], E.T @ self.u[P["tr"], axis]])
+        theta = _solve(G, b)
+        train = P["uu"] - 2 * theta @ b + theta @ G @ theta
+        p = self.design.shape[2]
+        te = P["te"]
+        pred = self.design[te, axis, :] @ theta[:p] + cols[te] @ theta[p:]
+        return float(train), float(((self.u[te, axis] - pred) ** 2).sum())
+
+    def with_columns(self, cols: np.ndarray, axis: int) -> Scorer:
+        """A scorer whose design has ``cols`` (R, k) added on ``axis`` (a selected effect)."""
+        extra = np.zeros((cols.shape[0], self.design.shape[1], cols.shape[1]))
+        extra[:, axis, :] = cols
+        return Scorer(np.concatenate([self.design, extra], axis=2), self.u, self.fold)
+
+
+def period_peaks(r: np.ndarray, q: np.ndarray, weight: np.ndarray | None, n_peaks: int = 3,
+                 shortest: float = 1 * DEG) -> list[float]:
+    """Periods [rad] of the strongest peaks of |sum_k r_k w_k exp(-2 pi i q_k / P)|^2.
+
+    Frequencies (cycles per rad) on a grid of 1/(4 x angle range), from the longest period that
+    repeats three times within the range (at least 3 deg) to ``shortest``; each peak refined by
+    parabolic interpolation.
+    """
+    travel = float(np.ptp(q))
+    if travel < 3 * shortest:
+        return []
+    df = 1.0 / (4.0 * travel)
+    freqs = np.arange(1.0 / max(3 * DEG, travel / 3), 1.0 / shortest, df)
+    x = r * (weight if weight is not None else 1.0)
+    x = x - x.mean()
+    power = np.zeros(freqs.size)
+    acc = np.zeros(freqs.size, dtype=complex)
+    for start in range(0, q.size, 4096):
+        qs = q[start : start + 4096]
+        acc += x[start : start + 4096] @ np.exp(-2j * np.pi * np.outer(qs, freqs))
+    power = np.abs(acc) ** 2
+    peaks = [k for k in range(1, freqs.size - 1) if power[k] >= power[k - 1] and power[k] > power[k + 1]]
+    peaks = sorted(peaks, key=lambda k: -power[k])[:n_peaks]
+    out = []
+    for k in peaks:
+        a, b, c = power[k - 1], power[k], power[k + 1]
+        shift = 0.5 * (a - c) / (a - 2 * b + c) if (a - 2 * b + c) != 0 else 0.0
+        out.append(1.0 / (freqs[k] + shift * df))
+    return out
+
+
+@dataclass
+class Score:
+    """A candidate on one axis: held-out SSE with it, its nonlinear parameters (fitted on all
+    data), and the reduced columns at those parameters."""
+
+    candidate: Candidate
+    axis: int
+    held_out_sse: float
+    params: dict
+    cols: np.ndarray = field(repr=False)
+
+
+class ColumnCache:
+    """Reduced columns of (candidate, axis, parameters), computed once per diagnosis."""
+
+    def __init__(self, prep: Prepared, axes: Sequence[str]):
+        self.prep, self.axes, self.store = prep, tuple(axes), {}
+
+    def use(self, prep: Prepared) -> None:
+        """Switch to a refitted model's data: columns that scale its torque are recomputed."""
+        self.prep = prep
+        self.store = {k: v for k, v in self.store.items() if not k[3]}
+
+    def __call__(self, cand: Candidate, axis: int, params: dict) -> np.ndarray:
+        key = (cand.name, axis, tuple(sorted(params.items())), cand.effect.needs_base_torque)
+        if key not in self.store:
+            eff = cand.build(self.axes[axis], **params)
+            q, qd, qdd = self.prep.kin
+            base = self.prep.rigid_torque[:, axis] if eff.needs_base_torque else None
+            cols = eff.columns(q, qd, qdd, base=base)
+            self.store[key] = self.prep.reduce(cols)
+        return self.store[key]
+
+
+def score_candidate(scorer: Scorer, cand: Candidate, axis: int, prep: Prepared, cache: ColumnCache) -> Score | None:
+    """Nested choice of the nonlinear parameters: per fold, the grid value with the smallest
+    training SSE, scored on the held-out fold; the reported parameters minimize the SSE on all
+    data (summed training SSE of both folds)."""
+    q_full = prep.kin[0]
+    grid = cand.settings(q_full, prep.kin[1], axis)
+    q_red = q_full[prep.rows, axis]
+    weight = prep.rigid_torque[prep.rows, axis] if cand.effect.needs_base_torque else None
+
+    def settings(f: int | None) -> list[dict]:
+        if cand.period is None:
+            return grid
+        if f is None:
+            periods = set()
+            for g in (0, 1):
+                P = scorer.parts[g]
+                periods.update(period_peaks(P["resid_tr"][:, axis], q_red[P["tr"]], None if weight is None else weight[P["tr"]]))
+        else:
+            P = scorer.parts[f]
+            periods = period_peaks(P["resid_tr"][:, axis], q_red[P["tr"]], None if weight is None else weight[P["tr"]])
+        return [{**g, cand.period: float(p)} for g in grid for p in periods]
+
+    held_out = 0.0
+    for f in (0, 1):
+        options = settings(f)
+        if not options:
+            return None
+        results = [scorer.evaluate(cache(cand, axis, s), axis, f) for s in options]
+        held_out += min(results)[1]
+    options = settings(None)
+    totals = [sum(scorer.evaluate(cache(cand, axis, s), axis, f)[0] for f in (0, 1)) for s in options]
+    best = options[int(np.argmin(totals))]
+    return Score(cand, axis, held_out, best, cache(cand, axis, best))
+
+
+@dataclass
+class Ranking:
+    """Outcome of the search: ``baseline`` held-out SSE per axis of the model alone;
+    ``alone`` every candidate's Score against the model alone; ``selected`` the greedy picks
+    as (Score, share of the baseline removed at that step); ``model`` the model refitted with
+    the selected effects."""
+
+    baseline: np.ndarray
+    n_rows: int
+    alone: list[Score]
+    selected: list[tuple[Score, float]]
+    model: PhysicalModel
+    min_explained: float
+    min_rms: float
+
+    def explained(self, s: Score) -> float:
+        return max(0.0, 1.0 - s.held_out_sse / self.baseline[s.axis]) if self.baseline[s.axis] > 0 else 0.0
+
+    def removed_rms(self, s: Score) -> float:
+        return math.sqrt(max(self.baseline[s.axis] - s.held_out_sse, 0.0) / self.n_rows)
+
+    def passes_alone(self, s: Score) -> bool:
+        return self.explained(s) >= self.min_explained and self.removed_rms(s) >= self.min_rms
+
+
+def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes: Sequence[str],
+         min_explained: float = 0.1, min_rms: float = 0.004, tie: float = 0.01, max_steps: int = 4,
+         block_seconds: float = 4.0, progress=None) -> Ranking:
+    """Score every candidate on every axis, then select greedily (module docstring). After each
+    pick the model is refitted with it (centres of mass included) before the rest are rescored.
+
+    The pass rule at every step: the candidate removes at least ``min_explained`` of its axis's
+    *baseline* held-out residual energy (so a late pick must matter against the original error,
+    not only against what is left) with a removed RMS of at least ``min_rms``.
+    """
+    cache = ColumnCache(prep, axes)
+    scorer = Scorer(prep.design, prep.u, prep.fold)
+    baseline = scorer.test_sse.copy()
+    n_rows = prep.u.shape[0]
+    pairs = [(c, a) for a in range(len(axes)) for c in candidates]
+    alone, selected, model = [], [], prep.model
+    for step in range(max_steps):
+        current = scorer.test_sse
+        scores = []
+        for cand, a in pairs:
+            if any(s.candidate.name == cand.name and s.axis == a for s, _ in selected):
+                continue
+            s = score_candidate(scorer, cand, a, prep, cache)
+            if progress is not None:
+                progress.update()
+            if s is not None:
+                scores.append(s)
+        if step == 0:
+            alone = scores
+        passing = []
+        for s in scores:
+            removed = current[s.axis] - s.held_out_sse
+            share = removed / baseline[s.axis] if baseline[s.axis] > 0 else 0.0
+            if share >= min_explained and math.sqrt(max(removed, 0.0) / n_rows) >= min_rms:
+                passing.append((s, share))
+        if not passing:
+            break
+        top = max(passing, key=lambda x: x[1])
+        near = [x for x in passing if x[0].axis == top[0].axis and x[1] >= top[1] - tie]
+        pick = min(near, key=lambda x: (x[0].candidate.n_params, -x[1]))
+        selected.append(pick)
+        model = model.with_effect(pick[0].candidate.build(axes[pick[0].axis], **pick[0].params))
+        prep = prepare(trials, model, block_seconds)
+        cache.use(prep)
+        scorer = Scorer(prep.design, prep.u, prep.fold)
+    return Ranking(baseline, n_rows, alone, selected, model, min_explained, min_rms)
+
