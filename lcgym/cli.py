@@ -93,7 +93,55 @@ def build_parser() -> argparse.ArgumentParser:
                      help="moving time of each reference [s]; a final rest of a few seconds follows")
     sim.add_argument("--out", type=_writable, help="measurement file (.csv or .parquet) of the validation runs")
     sim.add_argument("--plot", type=_writable, help="PNG of tracking errors with the scaled reference velocity")
+    diag = sub.add_parser("diagnose", help="compare the physical model with measurements; find the missing effect")
+    diag.add_argument("data", type=Path, help="measurement file (.csv or .parquet, spec/measurements.md)")
+    diag.add_argument("--system", choices=("ix", "flexarm"), required=True)
+    diag.add_argument("--add", action="append", default=[], metavar="EFFECT@AXIS",
+                      help="add this effect to the model, refit, show before/after (repeatable)")
+    diag.add_argument("--json", type=_writable, metavar="OUT.json", help="write the report as JSON")
+    diag.add_argument("--plots", type=Path, metavar="DIR", help="write residual_time.png, residual_map.png, before_after.png")
+    diag.add_argument("--replay", action="store_true",
+                      help="re-run the plant the data were simulated on with the model before/after (lcgym data only)")
+    diag.add_argument("--min-explained", type=float, default=0.1, help="significance: share of residual energy (default 0.1)")
+    eff = sub.add_parser("effects", help="list the effects diagnose can rank and add")
+    eff.add_argument("--system", choices=("ix", "flexarm"), default="ix")
     return parser
+
+
+def cmd_diagnose(args) -> int:
+    from .data import read_trials
+    from .diagnose import diagnose
+
+    if args.system not in SYSTEMS:
+        raise ValueError(f"system {args.system!r} has no physical model yet (available: {', '.join(SYSTEMS)})")
+    if args.plots is not None and args.plots.exists() and not args.plots.is_dir():
+        raise ValueError(f"--plots {args.plots}: exists and is not a folder")
+    trials = read_trials(args.data, system=args.system, min_samples=100)
+    report = diagnose(trials, system=args.system, add=args.add, replay=args.replay,
+                      min_explained=args.min_explained, progress=sys.stderr.isatty())
+    print(report.text())
+    if args.json:
+        print(f"wrote {report.write_json(args.json)}")
+    if args.plots is not None:
+        for path in report.plot(args.plots):
+            print(f"wrote {path}")
+    return 0
+
+
+def cmd_effects(args) -> int:
+    from .diagnose import CANDIDATES
+
+    if args.system not in SYSTEMS:
+        raise ValueError(f"system {args.system!r} has no physical model yet (available: {', '.join(SYSTEMS)})")
+    from .data import SYSTEM_AXES
+
+    print(f"effects diagnose ranks and --add accepts on {args.system} (axes: {', '.join(SYSTEM_AXES[args.system])}):")
+    for name, cand in CANDIDATES.items():
+        doc = (cand.effect.__doc__ or "").strip().splitlines()[0]
+        searched = [*cand.grid, *([cand.period] if cand.period else [])]
+        print(f"  {name:30s} [{cand.family}] {doc}" + (f" (searched: {', '.join(searched)})" if searched else ""))
+    print("the model already has: rigid_body, viscous_friction")
+    return 0
 
 
 def cmd_simulate(args) -> int:
@@ -161,7 +209,8 @@ def cmd_leaderboard(args) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    commands = {"simulate": cmd_simulate, "bench": cmd_bench, "leaderboard": cmd_leaderboard}
+    commands = {"simulate": cmd_simulate, "bench": cmd_bench, "leaderboard": cmd_leaderboard,
+                "diagnose": cmd_diagnose, "effects": cmd_effects}
     try:
         return commands[args.command](args)
     except (ValueError, OSError, RuntimeError) as exc:

@@ -192,7 +192,10 @@ def read_trials(path: str | Path, system: str | None = None, min_samples: int = 
         frame[col] = _numeric_column(frame[col], where, col)
 
     sidecar = Path(f"{path}.json")
-    meta = json.loads(sidecar.read_text()) if sidecar.exists() else {}
+    try:
+        meta = json.loads(sidecar.read_text()) if sidecar.exists() else {}
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise MeasurementFileError(f"{sidecar}: the JSON sidecar cannot be parsed: {exc}") from None
     trial_meta = meta.pop("trials", []) if isinstance(meta, dict) else []
 
     groups = [frame] if "trial" not in frame else [g for _, g in frame.groupby("trial", sort=False)]

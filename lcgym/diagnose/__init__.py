@@ -1,1 +1,16 @@
-"""Model-discrepancy workflow: where the model fails and which effect is missing (not built yet: see its issue)."""
+"""Model-discrepancy workflow: compare a physical model with measurements, see where it fails,
+learn which physical effect is missing, add it, and watch the error fall (`lcgym diagnose`).
+
+    from lcgym.diagnose import diagnose
+    report = diagnose(trials, system="ix", add=["coulomb_friction@roll"])
+    print(report.text())
+
+Steps in ``workflow.py``; the candidate search in ``search.py``; candidates and the registry of
+user effects in ``candidates.py``; regions in ``regions.py``; the report in ``report.py``.
+"""
+
+from .candidates import CANDIDATES, Candidate, register_effect
+from .report import NOTHING_FOUND, Diagnosis
+from .workflow import diagnose, replay_tracking
+
+__all__ = ["CANDIDATES", "NOTHING_FOUND", "Candidate", "Diagnosis", "diagnose", "register_effect", "replay_tracking"]

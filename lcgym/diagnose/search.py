@@ -20,8 +20,10 @@ Periods of periodic candidates come from the spectrum of the training fold's res
 axis angle, |sum_k r_k w_k exp(-2 pi i q_k / P)|^2 (w = 1, or the model torque for torque
 ripple), at the frequency resolution the angle range allows; the strongest peaks are tried.
 
-Greedy forward selection: the best passing candidate is added to the model, and the others are
-scored again against what remains; repeat until none passes. A candidate passes when it removes
+Greedy forward selection: the passing candidate that removes the most held-out residual energy
+(in the input's unit, so that axes compare by what matters, not by the share of a residual that
+may be tiny) is added to the model, and the others are scored again against what remains;
+repeat until none passes. A candidate passes when it removes
 at least ``min_explained`` of its axis's current held-out residual energy and the removed part
 has an RMS of at least ``min_rms`` (the noise floor: a nearly perfect model otherwise makes a few
 millivolts of quantization structure look like a large share). Among candidates on the same axis
@@ -292,6 +294,9 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
     alone, selected, model = [], [], prep.model
     for step in range(max_steps):
         current = scorer.test_sse
+        if progress is not None:
+            progress.total = progress.n + len(pairs) - len(selected)
+            progress.refresh()
         scores = []
         for cand, a in pairs:
             if any(s.candidate.name == cand.name and s.axis == a for s, _ in selected):
@@ -308,12 +313,12 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
             removed = current[s.axis] - s.held_out_sse
             share = removed / baseline[s.axis] if baseline[s.axis] > 0 else 0.0
             if share >= min_explained and math.sqrt(max(removed, 0.0) / n_rows) >= min_rms:
-                passing.append((s, share))
+                passing.append((s, share, removed))
         if not passing:
             break
-        top = max(passing, key=lambda x: x[1])
+        top = max(passing, key=lambda x: x[2])
         near = [x for x in passing if x[0].axis == top[0].axis and x[1] >= top[1] - tie]
-        pick = min(near, key=lambda x: (x[0].candidate.n_params, -x[1]))
+        pick = min(near, key=lambda x: (x[0].candidate.n_params, -x[1]))[:2]
         selected.append(pick)
         model = model.with_effect(pick[0].candidate.build(axes[pick[0].axis], **pick[0].params))
         prep = prepare(trials, model, block_seconds)

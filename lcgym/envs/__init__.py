@@ -11,3 +11,14 @@ def register_envs() -> None:
             entry_point="lcgym.envs.ix_env:IXEnv",
             vector_entry_point="lcgym.envs.ix_env:IXVectorEnv",
         )
+
+
+def plant_from_record(record: dict):
+    """The plant a ``record()`` describes (stored in simulated measurement files' sidecars)."""
+    from .ix import IXPlant
+
+    plants = {"ix": IXPlant}
+    system = record.get("system") if isinstance(record, dict) else None
+    if system not in plants:
+        raise ValueError(f"plant record of unknown system {system!r}; known: {sorted(plants)}")
+    return plants[system].from_record(record)

@@ -433,7 +433,7 @@ class TabulatedForce(Effect):
     """A force curve of any shape over the axis's velocity or position (plant only).
 
     ``variable`` "velocity" [rad/s] or "position" [rad]; ``values`` [V] on a uniform grid of
-    ``len(values)`` points (2 to 64) over [lo, hi], linear in between and held constant outside.
+    ``len(values)`` points (2 to 1024) over [lo, hi], linear in between and held constant outside.
     It is not part of the vocabulary of `spec/effects.md`: it makes plants whose hidden effects
     follow none of the library's formulas (a differently shaped friction curve, a spring that
     engages smoothly), the way a real machine does, to test the diagnosis on them.
@@ -445,7 +445,7 @@ class TabulatedForce(Effect):
     values: tuple[float, ...] = (0.0, 0.0)
     name: ClassVar[str] = "tabulated_force"
     plant_only: ClassVar[bool] = True
-    max_points: ClassVar[int] = 64
+    max_points: ClassVar[int] = 1024
 
     def __post_init__(self):
         super().__post_init__()

@@ -260,3 +260,4 @@ def _sparse_columns(A, scale, rtol=1e-9):
     peak = np.abs(flat).max(axis=0) if flat.shape[0] else np.zeros(flat.shape[1])
     idx = np.flatnonzero(peak > rtol * scale)
     return idx, flat[:, idx]
+MODELS: dict[str, type[PhysicalModel]] = {"ix": PhysicalModel}  # the physical model class of each system

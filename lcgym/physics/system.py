@@ -24,6 +24,8 @@ class RigidBodySystem:
     mass_matrix(p, q) -> (..., n_axes, n_axes); numpy or torch.
     positive: indices of parameters that are positive physically (masses, inertias, damping).
     parameters: a dataclass type with ``from_vector(p)`` and ``to_vector()``.
+    input_unit: unit of the actuator input; noise_rms: the RMS [input_unit] below which a
+    diagnosis does not count an improvement as real (the low-passed input's noise scale).
     """
 
     name: str
@@ -35,6 +37,8 @@ class RigidBodySystem:
     mass_matrix: Callable
     positive: tuple[int, ...]
     parameters: type
+    input_unit: str = "V"
+    noise_rms: float = 0.004
 
 
 IX = RigidBodySystem(
