@@ -140,7 +140,9 @@ def cmd_effects(args) -> int:
         doc = (cand.effect.__doc__ or "").strip().splitlines()[0]
         searched = [*cand.grid, *([cand.period] if cand.period else [])]
         print(f"  {name:30s} [{cand.family}] {doc}" + (f" (searched: {', '.join(searched)})" if searched else ""))
-    print("the model already has: rigid_body, viscous_friction")
+    from .physics.model import MODELS
+
+    print(f"the model already has: {', '.join(MODELS[args.system].built_in)}")
     return 0
 
 

@@ -15,6 +15,7 @@ import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+
 import numpy as np
 
 from ..physics import effects as fx

@@ -82,7 +82,8 @@ class Diagnosis:
             lines.append(f"  {NOTHING_FOUND} (none removes {100 * self.min_explained:.0f}% with at least "
                          f"{self.min_rms:g} {u} RMS)")
         for k, c in enumerate(self.candidates, 1):
-            how = "selected" if c["selected"] else "not needed once the selected ones are in"
+            how = (f"selected, {100 * c['explained_at_selection']:.0f}% more at its turn" if c["selected"]
+                   else "not needed once the selected ones are in")
             params = ", ".join(f"{n}={_fmt(n, v)}" for n, v in c["parameters"].items())
             lines.append(f"  {k}. {c['effect']}@{c['axis']} [{c['family']}]: {100 * c['explained']:.0f}%, "
                          f"RMS after {c['RMS_after']:.4f} {u} ({how}{'; ' + params if params else ''})")

@@ -93,15 +93,16 @@ def diagnose(trials: Sequence, system: str = "ix", add: Sequence[str | Effect] =
     bar.close()
 
     rows = []
-    for s, share in ranking.selected:
-        rows.append(_candidate_row(ranking, s, axes, unit, selected=True, step=share))
+    alone = {(s.candidate.name, s.axis): s for s in ranking.alone}
+    for s, share in ranking.selected:  # explained and RMS_after of the effect alone, as for the rest
+        rows.append(_candidate_row(ranking, alone.get((s.candidate.name, s.axis), s), axes, unit, selected=True, step=share))
     picked = {(s.candidate.name, s.axis) for s, _ in ranking.selected}
     rest = [s for s in ranking.alone if (s.candidate.name, s.axis) not in picked and ranking.passes_alone(s)]
     for s in sorted(rest, key=lambda s: -ranking.explained(s)):
         rows.append(_candidate_row(ranking, s, axes, unit, selected=False, step=None))
 
     report = Diagnosis(system=system, axes=axes, unit=unit, n_samples=sum(prep.lengths), fs=fs,
-                       model_effects=["rigid_body", "viscous_friction"] + [e.key for e in prep.model.effects],
+                       model_effects=[*prep.model.built_in, *(e.key for e in prep.model.effects)],
                        residual=norms(residual, axes, unit), regions=regions, candidates=rows,
                        min_explained=min_explained, min_rms=min_rms, model=prep.model, suggested_model=ranking.model,
                        series={"t": prep.rows / fs, "residual": residual, "q": q, "qd": qd})

@@ -69,6 +69,7 @@ class PhysicalModel:
     positions: str = "reference"  # kinematics of the fit: "reference" or "measured" (see above)
     error_filter_hz: float = 5.0
     system: ClassVar[RigidBodySystem] = IX  # the physics the learners (PGNN, diagnosis) share with it
+    built_in: ClassVar[tuple[str, ...]] = ("rigid_body", "viscous_friction")  # what the model has without effects
 
     def __post_init__(self):
         self.effects = tuple(self.effects)
