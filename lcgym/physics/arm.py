@@ -1,0 +1,292 @@
+"""Rigid-body physics of the FlexArm: a 6-joint industrial arm of the FANUC M-16iB/20 class
+(paper 002, section 2.1, the load side of eq. 1).
+
+Kinematics: standard (distal) Denavit-Hartenberg, frame i fixed to link i at the far end of
+joint i, T_{i-1,i} = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i), theta_i = q_i + offset_i. Lengths
+in m, angles in rad; base frame z up; gravity g = 9.81 m/s^2 along -z.
+
+Inertial parameters, per link i, in frame i, the 10 "standard" ones in which the dynamics are
+linear (Atkinson, An and Hollerbach 1986):
+
+    pi_i = [m, m cx, m cy, m cz, Ixx, Ixy, Ixz, Iyy, Iyz, Izz]
+
+m [kg], m c [kg m] (first moment; c the centre of mass), I [kg m^2] the inertia tensor about the
+frame's origin (not about the centre of mass). The 60 of the arm are ``ArmParameters``.
+
+Inverse dynamics by the recursive Newton-Euler algorithm in link frames (Luh, Walker and Paul
+1980), written with (m, m c, I_origin) so that the torque is linear in pi:
+
+    tau = M(q) qdd + C(q, qd) qd + G(q)        [N m, load side]      (eq. 1 without friction)
+
+and the regressor Y(q, qd, qdd) (tau = Y pi) is RNEA evaluated with unit parameter vectors.
+The mass matrix comes from RNEA columns (qd = 0, no gravity, qdd = e_j), forward dynamics from
+qdd = M^-1 (tau - C qd - G). The functions here are ``register_jitable``: plain numpy on one
+sample from Python, compiled inside numba kernels; ``*_batch`` versions loop over samples.
+Verified in tests/test_physics_arm.py against an independent Euler-Lagrange derivation (torch
+autograd of the kinetic and potential energy from the DH chain), M symmetric positive definite,
+and energy conservation of the unforced arm.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numba
+import numpy as np
+from numba.extending import register_jitable
+
+N_JOINTS = 6
+N_PARAMS_LINK = 10
+N_PARAMS = N_JOINTS * N_PARAMS_LINK
+GRAVITY = 9.81  # m/s^2, along -z of the base
+AXES = ("j1", "j2", "j3", "j4", "j5", "j6")
+LINK_PARAM_NAMES = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz")
+
+
+@dataclass(frozen=True)
+class DH:
+    """Standard DH table of the arm: d, a [m], alpha, offset [rad] per joint (6 each).
+
+    Defaults: a 20 kg-payload arm of the M-16iB/20 class: base height 0.525 m, shoulder offset
+    0.15 m, upper arm 0.77 m, elbow offset 0.10 m, forearm 0.74 m, wrist to flange 0.10 m. At
+    q = 0 the upper arm points up and the forearm forward (+x), the flange faces down.
+    """
+
+    d: tuple[float, ...] = (0.525, 0.0, 0.0, 0.74, 0.0, 0.10)
+    a: tuple[float, ...] = (0.15, 0.77, 0.10, 0.0, 0.0, 0.0)
+    alpha: tuple[float, ...] = (-math.pi / 2, 0.0, -math.pi / 2, math.pi / 2, -math.pi / 2, 0.0)
+    offset: tuple[float, ...] = (0.0, -math.pi / 2, 0.0, 0.0, 0.0, math.pi)
+
+    def table(self) -> np.ndarray:
+        """(6, 4) array of [d, a, alpha, offset]."""
+        return np.array([self.d, self.a, self.alpha, self.offset], dtype=float).T
+
+
+def link_parameters(m: float, com, inertia_com) -> np.ndarray:
+    """The 10 standard parameters of a link from its mass [kg], centre of mass [m] in its frame and
+    inertia tensor about the centre of mass [kg m^2] (3x3), by the parallel-axis theorem."""
+    c = np.asarray(com, dtype=float)
+    Ic = np.asarray(inertia_com, dtype=float)
+    Io = Ic + m * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
+    return np.array([m, m * c[0], m * c[1], m * c[2], Io[0, 0], Io[0, 1], Io[0, 2], Io[1, 1], Io[1, 2], Io[2, 2]])
+
+
+def _box(m, lx, ly, lz):
+    """Inertia about the centre of a solid box [kg m^2]."""
+    return np.diag([m * (ly**2 + lz**2), m * (lx**2 + lz**2), m * (lx**2 + ly**2)]) / 12.0
+
+
+def _default_links() -> np.ndarray:
+    """Plausible masses and inertias (boxes) of a 20 kg-payload arm, 220 kg in all, in DH frames."""
+    links = [
+        # turret: frame 1 at the shoulder, the mass below it (toward -y1 in frame 1 = down)
+        link_parameters(80.0, (-0.05, 0.20, 0.0), _box(80.0, 0.45, 0.40, 0.45)),
+        # upper arm: frame 2 at the elbow, the arm lies along -x2
+        link_parameters(45.0, (-0.38, 0.0, 0.12), _box(45.0, 0.90, 0.20, 0.25)),
+        # elbow housing with the wrist motors: frame 3 at the elbow offset
+        link_parameters(35.0, (-0.05, 0.0, 0.05), _box(35.0, 0.30, 0.30, 0.35)),
+        # forearm: frame 4 at the wrist centre, the forearm along +y4
+        link_parameters(18.0, (0.0, 0.30, 0.0), _box(18.0, 0.15, 0.60, 0.15)),
+        # wrist
+        link_parameters(5.0, (0.0, 0.0, 0.02), _box(5.0, 0.12, 0.12, 0.12)),
+        # flange and tool
+        link_parameters(2.0, (0.0, 0.0, -0.03), _box(2.0, 0.10, 0.10, 0.06)),
+    ]
+    return np.concatenate(links)
+
+
+@dataclass(frozen=True)
+class ArmParameters:
+    """The arm's kinematics (``dh``) and its 60 inertial parameters ``pi`` (6 links x
+    ``LINK_PARAM_NAMES``, in each link's DH frame; see the module docstring)."""
+
+    dh: DH = field(default_factory=DH)
+    pi: tuple[float, ...] = field(default_factory=lambda: tuple(_default_links()))
+
+    def __post_init__(self):
+        p = np.asarray(self.pi, dtype=float)
+        if p.shape != (N_PARAMS,) or not np.all(np.isfinite(p)):
+            raise ValueError(f"ArmParameters.pi must hold {N_PARAMS} finite values, got shape {p.shape}")
+
+    def vector(self) -> np.ndarray:
+        return np.asarray(self.pi, dtype=float)
+
+    def with_payload(self, mass: float, com=(0.0, 0.0, 0.0), inertia_com=None) -> ArmParameters:
+        """The same arm with a payload [kg] rigidly fixed to the flange (link 6), centre of mass
+        ``com`` [m] in frame 6 and inertia ``inertia_com`` [kg m^2] about it (default a point)."""
+        extra = link_parameters(mass, com, np.zeros((3, 3)) if inertia_com is None else inertia_com)
+        p = self.vector().copy()
+        p[5 * N_PARAMS_LINK :] += extra
+        return ArmParameters(self.dh, tuple(p))
+
+
+# ---------------------------------------------------------------------------------------------
+# Equations: one sample, numpy on small arrays (plain Python or compiled by numba)
+# ---------------------------------------------------------------------------------------------
+
+
+@register_jitable
+def joint_transforms(dh, q):
+    """Rotation R_i (3x3, frame i in frame i-1) and origin p_i of frame i in frame i-1 (3,),
+    for each joint: R (6, 3, 3), p (6, 3). ``dh`` is the (6, 4) table [d, a, alpha, offset]."""
+    R = np.zeros((N_JOINTS, 3, 3))
+    p = np.zeros((N_JOINTS, 3))
+    for i in range(N_JOINTS):
+        th = q[i] + dh[i, 3]
+        ct, st = math.cos(th), math.sin(th)
+        ca, sa = math.cos(dh[i, 2]), math.sin(dh[i, 2])
+        R[i, 0, 0], R[i, 0, 1], R[i, 0, 2] = ct, -st * ca, st * sa
+        R[i, 1, 0], R[i, 1, 1], R[i, 1, 2] = st, ct * ca, -ct * sa
+        R[i, 2, 0], R[i, 2, 1], R[i, 2, 2] = 0.0, sa, ca
+        p[i, 0], p[i, 1], p[i, 2] = dh[i, 1] * ct, dh[i, 1] * st, dh[i, 0]
+    return R, p
+
+
+@register_jitable
+def forward_kinematics(dh, q):
+    """Pose of every link frame in the base: rotations (6, 3, 3) and origins (6, 3) [m]."""
+    R, p = joint_transforms(dh, q)
+    Rw = np.zeros((N_JOINTS, 3, 3))
+    pw = np.zeros((N_JOINTS, 3))
+    Rc = np.eye(3)
+    pc = np.zeros(3)
+    for i in range(N_JOINTS):
+        pc = pc + Rc @ p[i]
+        Rc = Rc @ R[i]
+        Rw[i] = Rc
+        pw[i] = pc
+    return Rw, pw
+
+
+@register_jitable
+def _cross(a, b):
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+@register_jitable
+def rnea(dh, pi, q, qd, qdd, gravity):
+    """Joint torques [N m] (6,) for motion q, qd, qdd (rad, rad/s, rad/s^2) with inertial
+    parameters pi (60,) and gravity [m/s^2] (0 to leave it out). Linear in pi."""
+    R, p = joint_transforms(dh, q)
+    w = np.zeros(3)
+    wd = np.zeros(3)
+    a = np.array([0.0, 0.0, gravity])  # the base accelerates up at g: gravity on every link
+    z = np.array([0.0, 0.0, 1.0])
+    W = np.zeros((N_JOINTS, 3))
+    WD = np.zeros((N_JOINTS, 3))
+    A = np.zeros((N_JOINTS, 3))
+    PS = np.zeros((N_JOINTS, 3))
+    for i in range(N_JOINTS):
+        Rt = R[i].T
+        ps = Rt @ p[i]  # origin i seen from origin i-1, in frame i
+        wd = Rt @ (wd + z * qdd[i] + _cross(w, z * qd[i]))
+        w = Rt @ (w + z * qd[i])
+        a = Rt @ a + _cross(wd, ps) + _cross(w, _cross(w, ps))
+        W[i], WD[i], A[i], PS[i] = w, wd, a, ps
+    f_next = np.zeros(3)
+    n_next = np.zeros(3)
+    tau = np.zeros(N_JOINTS)
+    for i in range(N_JOINTS - 1, -1, -1):
+        k = i * N_PARAMS_LINK
+        m = pi[k]
+        h = np.array([pi[k + 1], pi[k + 2], pi[k + 3]])
+        I = np.array([[pi[k + 4], pi[k + 5], pi[k + 6]], [pi[k + 5], pi[k + 7], pi[k + 8]], [pi[k + 6], pi[k + 8], pi[k + 9]]])
+        w, wd, a = W[i], WD[i], A[i]
+        f = m * a + _cross(wd, h) + _cross(w, _cross(w, h))
+        n = I @ wd + _cross(w, I @ w) + _cross(h, a)
+        if i < N_JOINTS - 1:
+            f_child = R[i + 1] @ f_next
+            n = n + R[i + 1] @ n_next + _cross(p[i + 1], f_child)
+            f = f + f_child
+        # f, n: wrench link i-1 exerts on the subtree from link i, n about origin i (the far end);
+        # joint i turns about z_{i-1} through origin i-1, so move the moment there
+        tau[i] = (n + _cross(PS[i], f)) @ (R[i].T @ z)
+        f_next, n_next = f, n
+    return tau
+
+
+@register_jitable
+def mass_matrix(dh, pi, q):
+    """M(q) (6, 6) [kg m^2]: column j is RNEA with qdd = e_j, qd = 0, no gravity."""
+    M = np.zeros((N_JOINTS, N_JOINTS))
+    zero = np.zeros(N_JOINTS)
+    for j in range(N_JOINTS):
+        e = np.zeros(N_JOINTS)
+        e[j] = 1.0
+        M[:, j] = rnea(dh, pi, q, zero, e, 0.0)
+    return M
+
+
+@register_jitable
+def bias_torques(dh, pi, q, qd, gravity):
+    """C(q, qd) qd + G(q) [N m]: RNEA with qdd = 0."""
+    return rnea(dh, pi, q, qd, np.zeros(N_JOINTS), gravity)
+
+
+@register_jitable
+def forward_dynamics(dh, pi, q, qd, tau, gravity):
+    """qdd = M^-1 (tau - C qd - G) [rad/s^2] for load-side torques tau [N m]."""
+    return np.linalg.solve(mass_matrix(dh, pi, q), tau - bias_torques(dh, pi, q, qd, gravity))
+
+
+@register_jitable
+def regressor(dh, q, qd, qdd, gravity):
+    """Y (6, 60) with tau = Y pi: RNEA with unit parameter vectors (the dynamics are linear in pi)."""
+    Y = np.zeros((N_JOINTS, N_PARAMS))
+    for j in range(N_PARAMS):
+        e = np.zeros(N_PARAMS)
+        e[j] = 1.0
+        Y[:, j] = rnea(dh, e, q, qd, qdd, gravity)
+    return Y
+
+
+@register_jitable
+def energy(dh, pi, q, qd, gravity):
+    """Kinetic + potential energy [J] of the arm (reference: base height, potential m g z)."""
+    Rw, pw = forward_kinematics(dh, q)
+    ekin = 0.5 * qd @ (mass_matrix(dh, pi, q) @ qd)
+    epot = 0.0
+    for i in range(N_JOINTS):
+        k = i * N_PARAMS_LINK
+        h = np.array([pi[k + 1], pi[k + 2], pi[k + 3]])
+        epot += gravity * (pi[k] * pw[i, 2] + (Rw[i] @ h)[2])
+    return ekin + epot
+
+
+# ---------------------------------------------------------------------------------------------
+# Many samples at once (compiled loops)
+# ---------------------------------------------------------------------------------------------
+
+
+@numba.njit(cache=True)
+def _rnea_batch(dh, pi, q, qd, qdd, gravity):
+    out = np.empty(q.shape)
+    for k in range(q.shape[0]):
+        out[k] = rnea(dh, pi, q[k], qd[k], qdd[k], gravity)
+    return out
+
+
+@numba.njit(cache=True)
+def _regressor_batch(dh, q, qd, qdd, gravity):
+    out = np.empty((q.shape[0], N_JOINTS, N_PARAMS))
+    for k in range(q.shape[0]):
+        out[k] = regressor(dh, q[k], qd[k], qdd[k], gravity)
+    return out
+
+
+def inverse_dynamics(params: ArmParameters, q, qd, qdd, gravity: float = GRAVITY) -> np.ndarray:
+    """Load-side joint torques (T, 6) [N m] for kinematics (T, 6) (rad, rad/s, rad/s^2)."""
+    args = [np.ascontiguousarray(np.atleast_2d(x), dtype=float) for x in (q, qd, qdd)]
+    return _rnea_batch(params.dh.table(), params.vector(), *args, float(gravity))
+
+
+def regressor_batch(params: ArmParameters, q, qd, qdd, gravity: float = GRAVITY) -> np.ndarray:
+    """Y (T, 6, 60) with tau = Y @ pi, for kinematics (T, 6)."""
+    args = [np.ascontiguousarray(np.atleast_2d(x), dtype=float) for x in (q, qd, qdd)]
+    return _regressor_batch(params.dh.table(), *args, float(gravity))
+
+
+# compiled single-sample versions, for loops in Python (tests, small studies)
+forward_dynamics_compiled = numba.njit(cache=True)(forward_dynamics)
+energy_compiled = numba.njit(cache=True)(energy)
