@@ -109,22 +109,28 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def cmd_diagnose(args) -> int:
-    from .data import read_trials
+    from .data import MeasurementFileError, read_trials
     from .diagnose import diagnose
+    from .diagnose.search import DataTooShort
 
     if args.system not in SYSTEMS:
         raise ValueError(f"system {args.system!r} has no physical model yet (available: {', '.join(SYSTEMS)})")
-    if args.plots is not None and args.plots.exists() and not args.plots.is_dir():
-        raise ValueError(f"--plots {args.plots}: exists and is not a folder")
+    if args.plots is not None:  # the folder must be creatable: check before any work
+        existing = next(p for p in (args.plots, *args.plots.parents) if p.exists())
+        if not existing.is_dir():
+            raise ValueError(f"--plots {args.plots}: {existing} exists and is not a folder")
     trials = read_trials(args.data, system=args.system, min_samples=100)
-    report = diagnose(trials, system=args.system, add=args.add, replay=args.replay,
-                      min_explained=args.min_explained, progress=sys.stderr.isatty())
+    try:
+        report = diagnose(trials, system=args.system, add=args.add, replay=args.replay,
+                          min_explained=args.min_explained, progress=sys.stderr.isatty())
+    except DataTooShort as exc:
+        raise MeasurementFileError(f"{args.data}: column 't': {exc}") from None
     print(report.text())
-    if args.json:
-        print(f"wrote {report.write_json(args.json)}")
-    if args.plots is not None:
+    if args.plots is not None:  # plots first, JSON last: a failure leaves no report behind
         for path in report.plot(args.plots):
             print(f"wrote {path}")
+    if args.json:
+        print(f"wrote {report.write_json(args.json)}")
     return 0
 
 
@@ -137,7 +143,8 @@ def cmd_effects(args) -> int:
 
     print(f"effects diagnose ranks and --add accepts on {args.system} (axes: {', '.join(SYSTEM_AXES[args.system])}):")
     for name, cand in CANDIDATES.items():
-        doc = (cand.effect.__doc__ or "").strip().splitlines()[0]
+        doc = " ".join((cand.effect.__doc__ or "").strip().split("\n\n")[0].split())
+        doc = doc if len(doc) <= 100 else doc[:97] + "..."
         searched = [*cand.grid, *([cand.period] if cand.period else [])]
         print(f"  {name:30s} [{cand.family}] {doc}" + (f" (searched: {', '.join(searched)})" if searched else ""))
     from .physics.model import MODELS

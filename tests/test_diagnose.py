@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from lcgym.cli import main
-from lcgym.data import read_trials, write_trials
+from lcgym.data import Trial, read_trials, write_trials
 from lcgym.diagnose import NOTHING_FOUND, diagnose, register_effect
 from lcgym.diagnose.candidates import CANDIDATES
 from lcgym.diagnose.search import Scorer, period_peaks
@@ -222,7 +222,7 @@ def test_cli_diagnose_bad_file_fails_clearly_and_writes_nothing(tmp_path, capsys
 def test_cli_rejects_unknown_effect_and_lists_effects(tmp_path, capsys):
     data = write_trials(tmp_path / "m.csv", _trials(()), meta={"system": "ix"})
     assert main(["diagnose", str(data), "--system", "ix", "--add", "warp_drive@roll"]) == 1
-    assert "unknown effect 'warp_drive'" in capsys.readouterr().err
+    assert "'warp_drive' is not an effect diagnose can add" in capsys.readouterr().err
     assert main(["diagnose", str(data), "--system", "ix", "--add", "stiction@roll"]) == 1
     assert main(["effects", "--system", "ix"]) == 0
     listed = capsys.readouterr().out
@@ -234,3 +234,20 @@ def test_read_back_keeps_the_plant_record_for_replay(tmp_path):
     back = read_trials(write_trials(tmp_path / "m.parquet", trials), system="ix")
     plant = IXPlant.from_record(back[0].meta["plant"])
     assert plant.effects == (SINGLE["cable_drape@roll"],)
+
+
+def test_cli_refuses_too_short_data_and_an_unusable_plot_folder(tmp_path, capsys):
+    runs = _trials(())
+    short = [Trial(t=r.t[:1500], ref=r.ref[:1500], pos=r.pos[:1500], u=r.u[:1500], axes=r.axes) for r in runs]
+    data = write_trials(tmp_path / "short.csv", short)
+    out = tmp_path / "r.json"
+    out.write_text("{}")
+    assert main(["diagnose", str(data), "--system", "ix", "--json", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert str(data) in err and "column 't'" in err and "two complete 4 s blocks" in err
+    assert out.read_text() == "{}"  # an existing file is left as it was
+    full = write_trials(tmp_path / "m.csv", runs)
+    assert main(["diagnose", str(full), "--system", "ix", "--json", str(out), "--plots", str(out / "sub")]) == 1
+    assert "is not a folder" in capsys.readouterr().err and out.read_text() == "{}"
+    assert main(["diagnose", str(full), "--system", "ix", "--add", "viscous_friction@roll"]) == 1
+    assert "already has viscous_friction" in capsys.readouterr().err

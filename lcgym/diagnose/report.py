@@ -51,7 +51,9 @@ class Diagnosis:
     def to_dict(self) -> dict:
         out = {"system": self.system, "model_effects": self.model_effects, "n_samples": self.n_samples, "fs": self.fs,
                "residual": self.residual, "regions": self.regions, "candidates": self.candidates,
-               "significance": {"min_explained": self.min_explained, "min_rms": self.min_rms, "unit": self.unit}}
+               "significance": {"min_explained": self.min_explained, "min_rms": self.min_rms, "unit": self.unit,
+                             "order": "greedy forward selection (selected: true), then the other passing "
+                                      "candidates by explained; explained and RMS_after: the effect alone, held-out"}}
         if self.after is not None:
             out["after"] = self.after
         if self.replay is not None:
@@ -77,7 +79,8 @@ class Diagnosis:
             for reg in [r for r in self.regions if r["axis"] == ax][:n_regions]:
                 lines.append(f"  {ax:10s} {reg['where']:44s} RMS {reg['RMS']:.4f} {u} ({reg['ratio']:.2f}x, "
                              f"{100 * reg['samples']:.0f}% of samples)")
-        lines += ["", "candidate missing effects (share of the axis's residual energy removed on held-out data):"]
+        lines += ["", "candidate missing effects (share of the axis's residual energy each removes alone on held-out"
+                  " data; selected ones in the order of greedy forward selection):"]
         if not self.candidates:
             lines.append(f"  {NOTHING_FOUND} (none removes {100 * self.min_explained:.0f}% with at least "
                          f"{self.min_rms:g} {u} RMS)")
@@ -86,7 +89,8 @@ class Diagnosis:
                    else "not needed once the selected ones are in")
             params = ", ".join(f"{n}={_fmt(n, v)}" for n, v in c["parameters"].items())
             lines.append(f"  {k}. {c['effect']}@{c['axis']} [{c['family']}]: {100 * c['explained']:.0f}%, "
-                         f"RMS after {c['RMS_after']:.4f} {u} ({how}{'; ' + params if params else ''})")
+                         f"held-out RMS {c['RMS_before']:.4f} -> {c['RMS_after']:.4f} {u} "
+                         f"({how}{'; ' + params if params else ''})")
         if self.candidates:
             lines.append(f"  add the selected ones: lcgym diagnose DATA --system {self.system} "
                          + " ".join(f"--add {m}" for m in self.missing))
@@ -118,10 +122,11 @@ class Diagnosis:
         fig, axs = plt.subplots(n, 1, figsize=(11, 3 * n), sharex=True, squeeze=False)
         for i, ax_name in enumerate(self.axes):
             ax, r = axs[i, 0], s["residual"][:, i]
-            v = s["qd"][:, i]
+            v = s["ref_velocity"][:, i]
             ax.plot(t, r, lw=0.7, label=f"residual (RMS {np.sqrt(np.mean(r ** 2)):.4f} {self.unit})")
             if np.abs(v).max() > 0:
-                ax.plot(t, v / np.abs(v).max() * np.abs(r).max(), "k--", lw=0.6, alpha=0.6, label="velocity (scaled)")
+                ax.plot(t, v / np.abs(v).max() * np.abs(r).max(), "k--", lw=0.6, alpha=0.6,
+                        label="reference velocity (scaled)")
             ax.set_ylabel(f"{ax_name} [{self.unit}]")
             ax.legend(loc="upper right", fontsize=8)
             ax.grid(alpha=0.3)

@@ -23,12 +23,13 @@ ripple), at the frequency resolution the angle range allows; the strongest peaks
 Greedy forward selection: the passing candidate that removes the most held-out residual energy
 (in the input's unit, so that axes compare by what matters, not by the share of a residual that
 may be tiny) is added to the model, and the others are scored again against what remains;
-repeat until none passes. A candidate passes when it removes
-at least ``min_explained`` of its axis's current held-out residual energy and the removed part
-has an RMS of at least ``min_rms`` (the noise floor: a nearly perfect model otherwise makes a few
+repeat until none passes, or until a pick, once the model is refitted with it, no longer lowers
+its axis's held-out error (the pick is then undone). A candidate passes when, at its step, it
+removes at least ``min_explained`` of its axis's *baseline* held-out residual energy (the model
+alone) and the removed part has an RMS of at least ``min_rms`` (the noise floor: a nearly perfect model otherwise makes a few
 millivolts of quantization structure look like a large share). Among candidates on the same axis
-within ``tie`` of the best, the one with the fewest parameters is taken (Coulomb friction before
-a Stribeck curve that nests it).
+within ``tie`` of the best, the one with the fewest parameters is taken (the simpler of two
+friction curves that fit equally well).
 """
 
 from __future__ import annotations
@@ -73,6 +74,24 @@ class Prepared:
         return self.u - self.reduce(self.torque)
 
 
+class DataTooShort(ValueError):
+    """Too little data for held-out scoring."""
+
+
+def check_length(trials: Sequence, block_seconds: float) -> None:
+    """Held-out scoring needs at least two complete blocks in each fold (``prepare``'s layout)."""
+    complete = [0, 0]
+    for k, tr in enumerate(trials):
+        for b in range(int(tr.n_samples / tr.fs // block_seconds)):
+            complete[(b + k) % 2] += 1
+    if min(complete) < 2:
+        total = sum(tr.n_samples / tr.fs for tr in trials)
+        raise DataTooShort(
+            f"{total:.1f} s of data in {len(trials)} trial(s): held-out scoring needs two complete {block_seconds:g} s "
+            f"blocks in each of its two folds (at least {4 * block_seconds:g} s in all, in trials of at least "
+            f"{block_seconds:g} s; blocks alternate between the folds)")
+
+
 def prepare(trials: Sequence, model: PhysicalModel, block_seconds: float = 4.0) -> Prepared:
     """Fit ``model`` (unfitted) on ``trials`` and reduce everything the search needs."""
     model.fit(trials)
@@ -95,8 +114,6 @@ def prepare(trials: Sequence, model: PhysicalModel, block_seconds: float = 4.0) 
         fold.append((np.floor(local / model.fs / block_seconds).astype(int) + k) % 2)
         start += n
     fold = np.concatenate(fold)
-    if fold.min() == fold.max():
-        raise ValueError(f"the data are too short for held-out scoring: each trial needs more than {block_seconds} s")
     return Prepared(model, kin, lengths, torque, rigid_torque, u, design, fold, np.concatenate(rows), np.concatenate(trial))
 
 
@@ -114,13 +131,16 @@ class Scorer:
 
     def __init__(self, design: np.ndarray, u: np.ndarray, fold: np.ndarray):
         self.design, self.u, self.fold = design, u, fold
+        # every fold's fit is a minimum-norm correction to the fit on all data (as PhysicalModel.fit
+        # corrects the nominal values): directions one fold cannot identify keep the full-data values
+        self.theta0 = _solve(np.einsum("rap,raq->pq", design, design), np.einsum("rap,ra->p", design, u))
         self.parts = []
         for f in (0, 1):
             tr, te = np.flatnonzero(fold != f), np.flatnonzero(fold == f)
             D, y = design[tr], u[tr]
             G = np.einsum("rap,raq->pq", D, D)
             b = np.einsum("rap,ra->p", D, y)
-            theta = _solve(G, b)
+            theta = self.theta0 + _solve(G, b - G @ self.theta0)
             self.parts.append({"tr": tr, "te": te, "G": G, "b": b, "uu": float((y * y).sum()),
                                "D_axis": [np.ascontiguousarray(D[:, a, :]) for a in range(D.shape[1])],
                                "resid_tr": y - D @ theta, "test_sse": ((u[te] - design[te] @ theta) ** 2).sum(axis=0)})
@@ -137,7 +157,8 @@ class Scorer:
         C = P["D_axis"][axis].T @ E
         G = np.block([[P["G"], C], [C.T, E.T @ E]])
         b = np.concatenate([P["b"], E.T @ self.u[P["tr"], axis]])
-        theta = _solve(G, b)
+        theta0 = np.concatenate([self.theta0, np.zeros(E.shape[1])])
+        theta = theta0 + _solve(G, b - G @ theta0)
         train = P["uu"] - 2 * theta @ b + theta @ G @ theta
         p = self.design.shape[2]
         te = P["te"]
@@ -244,7 +265,7 @@ def score_candidate(scorer: Scorer, cand: Candidate, axis: int, prep: Prepared, 
         if not options:
             return None
         results = [scorer.evaluate(cache(cand, axis, s), axis, f) for s in options]
-        held_out += min(results)[1]
+        held_out += min(results, key=lambda r: r[0])[1]  # chosen by the training fit alone
     options = settings(None)
     totals = [sum(scorer.evaluate(cache(cand, axis, s), axis, f)[0] for f in (0, 1)) for s in options]
     best = options[int(np.argmin(totals))]
@@ -319,10 +340,13 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
         top = max(passing, key=lambda x: x[2])
         near = [x for x in passing if x[0].axis == top[0].axis and x[1] >= top[1] - tie]
         pick = min(near, key=lambda x: (x[0].candidate.n_params, -x[1]))[:2]
+        new_model = model.with_effect(pick[0].candidate.build(axes[pick[0].axis], **pick[0].params))
+        new_prep = prepare(trials, new_model, block_seconds)
+        new_scorer = Scorer(new_prep.design, new_prep.u, new_prep.fold)
+        if new_scorer.test_sse[pick[0].axis] >= current[pick[0].axis]:
+            break  # refitted with it, the model does no better held-out: do not keep it
         selected.append(pick)
-        model = model.with_effect(pick[0].candidate.build(axes[pick[0].axis], **pick[0].params))
-        prep = prepare(trials, model, block_seconds)
+        model, prep, scorer = new_model, new_prep, new_scorer
         cache.use(prep)
-        scorer = Scorer(prep.design, prep.u, prep.fold)
     return Ranking(baseline, n_rows, alone, selected, model, min_explained, min_rms)
 

@@ -10,7 +10,8 @@ missing effect, add it and watch the error fall. The steps, in order:
 3. What is missing: every candidate effect on every axis, scored on held-out data, greedy
    forward selection (``search.py``); candidates that pass the significance rule, best first.
 4. Add it: ``add=["coulomb_friction@roll", ...]`` refits the model with those effects (their
-   nonlinear parameters as found in step 3) and gives the residual after, computed the same way;
+   nonlinear parameters as the search found them for the effect alone, step 3) and gives the
+   residual after, computed the same way;
    ``replay`` re-runs the plant the data came from with the feedforward of the model before and
    after and compares the tracking errors.
 """
@@ -24,12 +25,13 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from ..physics.effects import Effect, make_effect
+from ..physics.kinematics import reference_kinematics
 from ..physics.model import MODELS, PhysicalModel
 from ..physics.system import SYSTEMS
 from .candidates import CANDIDATES, Candidate
 from .regions import region_masks, region_table
 from .report import Diagnosis
-from .search import prepare, rank
+from .search import check_length, prepare, rank
 
 DEG = math.pi / 180.0
 
@@ -73,13 +75,17 @@ def diagnose(trials: Sequence, system: str = "ix", add: Sequence[str | Effect] =
     fs = trials[0].fs
     model = model if model is not None else MODELS[system](fs=fs, positions="measured")
     cands = list(CANDIDATES.values()) if candidates is None else list(candidates)
-    added = [make_effect(a) if isinstance(a, str) else a for a in add]  # validate names before the work
-    for e in added:
-        if e.name not in {c.name for c in CANDIDATES.values()}:
-            raise ValueError(f"cannot add {e.key}: not a candidate effect; see `lcgym effects --system {system}`")
+    added = [_parse_add(a, model, system) for a in add]  # every check before the work
+    keys = [e.key for e in added]
+    if len(set(keys)) < len(keys):
+        raise ValueError(f"an effect is added twice: {keys}")
+    if replay and not isinstance(trials[0].meta.get("plant"), dict):
+        raise ValueError("--replay needs data simulated by lcgym: the file's sidecar has no 'plant' record")
+    check_length(trials, block_seconds)
 
     bar = tqdm(total=2, desc="diagnose", disable=not progress, leave=False)
     bar.set_postfix_str("fit nominal model")
+    ref_velocity = np.concatenate([reference_kinematics(tr.ref, fs)[1] for tr in trials])
     prep = prepare(trials, model, block_seconds)
     bar.update()
     residual = prep.residual
@@ -105,7 +111,8 @@ def diagnose(trials: Sequence, system: str = "ix", add: Sequence[str | Effect] =
                        model_effects=[*prep.model.built_in, *(e.key for e in prep.model.effects)],
                        residual=norms(residual, axes, unit), regions=regions, candidates=rows,
                        min_explained=min_explained, min_rms=min_rms, model=prep.model, suggested_model=ranking.model,
-                       series={"t": prep.rows / fs, "residual": residual, "q": q, "qd": qd})
+                       series={"t": prep.rows / fs, "residual": residual, "q": q, "qd": qd,
+                               "ref_velocity": ref_velocity[prep.rows]})
     report.found = {f"{s.candidate.name}@{axes[s.axis]}": s.candidate.build(axes[s.axis], **s.params)
                     for s in ranking.alone}
     if added:
@@ -123,6 +130,20 @@ def diagnose(trials: Sequence, system: str = "ix", add: Sequence[str | Effect] =
     return report
 
 
+def _parse_add(item, model: PhysicalModel | None, system: str) -> Effect:
+    """An effect to add: an Effect, or a ``name@axis`` label of a candidate."""
+    if isinstance(item, Effect):
+        return item
+    name = str(item).partition("@")[0]
+    built_in = (model or MODELS[system]).built_in
+    if name in built_in:
+        raise ValueError(f"cannot add {item}: the model already has {name}")
+    if name not in CANDIDATES:
+        raise ValueError(f"cannot add {item}: {name!r} is not an effect diagnose can add; choose from "
+                         f"{', '.join(CANDIDATES)} (`lcgym effects --system {system}`)")
+    return make_effect(str(item))
+
+
 def _effect_params(e: Effect) -> dict:
     return {"effect": e.key, **{n: float(getattr(e, n)) for n in (*e.linear, *e.nonlinear)}}
 
@@ -130,6 +151,7 @@ def _effect_params(e: Effect) -> dict:
 def _candidate_row(ranking, s, axes, unit, selected: bool, step: float | None) -> dict:
     cand = s.candidate
     return {"effect": cand.name, "axis": axes[s.axis], "family": cand.family, "explained": ranking.explained(s),
+            "RMS_before": math.sqrt(ranking.baseline[s.axis] / ranking.n_rows),
             "RMS_after": math.sqrt(s.held_out_sse / ranking.n_rows), "unit": unit, "selected": selected,
             "explained_at_selection": step, "parameters": {k: float(v) for k, v in s.params.items()}}
 

@@ -23,7 +23,8 @@ Fit (``fit(trials)``):
 ``positions="measured"`` (what the diagnosis uses) fits the motion the machine made rather than
 the one it was asked for: the reference's kinematics corrected by the measured tracking error
 e = ref - pos, low-passed at ``error_filter_hz`` (zero phase) before it is differentiated:
-q = pos, qd = qd_ref - de/dt, qdd = qdd_ref - d2e/dt2 (all ``advance`` samples ahead). With
+q = ref - e, qd = qd_ref - de/dt, qdd = qdd_ref - d2e/dt2 (all ``advance`` samples ahead; q is
+the encoder reading smoothed). With
 feedback only, the reference leads the axis by tenths of a degree and the input u pays for the
 actual motion: a reference-only fit leaves that lag in the residual, where it looks like
 low-speed friction. Differentiating the quantized encoder reading itself would bias the inertia
