@@ -135,3 +135,70 @@ def test_link_parameters_parallel_axis():
     assert p[4] == pytest.approx(2 * 0.04)  # Ixx: masses at (+-0.1, 0, 0.2): 2 * 0.2^2
     assert p[7] == pytest.approx(2 * (0.01 + 0.04))  # Iyy: 2 * (0.1^2 + 0.2^2)
     assert p[9] == pytest.approx(2 * 0.01)  # Izz: 2 * 0.1^2
+
+
+def test_flexible_arm_conserves_energy_without_damping_friction_and_input():
+    """Eqs. (1)-(2) with D = F = 0 and u = 0: load + motor kinetic, gravity and spring energy is
+    constant (RK4, 0.1 ms, 0.3 s through several joint-resonance periods)."""
+    zero = np.zeros(6)
+    drive = arm.DriveParameters(Dm=zero, Fmc=zero, DJ=zero, Dl=zero, Flc=zero).table()
+    N = drive[0]
+    ql = np.array([0.2, -0.3, 0.4, 0.3, -0.6, 0.2])
+    x = np.concatenate([ql, [0.3, -0.5, 0.6, 1.0, -1.0, 2.0], N * ql + 0.002 * N, N * np.array([0.2, 0.1, 0.0, 0.5, 0.3, 1.0])])
+    f = lambda s: arm.flexible_derivatives_compiled(DH, PI, drive, s, zero, arm.GRAVITY, 1e-3)  # noqa: E731
+    e0 = arm.flexible_energy_compiled(DH, PI, drive, x, arm.GRAVITY)
+    h = 1e-4
+    for _ in range(3000):
+        k1 = f(x)
+        k2 = f(x + 0.5 * h * k1)
+        k3 = f(x + 0.5 * h * k2)
+        k4 = f(x + h * k3)
+        x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    e1 = arm.flexible_energy_compiled(DH, PI, drive, x, arm.GRAVITY)
+    assert abs(e1 - e0) < 1e-6 * abs(e0)
+
+
+def test_stiff_joints_reach_the_rigid_limit():
+    """Rigid limit of eqs. (1)-(2): at the spring deflection where motor and load accelerate
+    together (what infinitely stiff joints enforce), the load acceleration equals the rigid
+    forward dynamics with the motor inertia reflected (N^2 Jm added to the diagonal of M) and
+    the motor torque geared up (N u)."""
+    drive = arm.DriveParameters(Fmc=np.zeros(6), Flc=np.zeros(6), Dm=np.zeros(6), Dl=np.zeros(6)).table()
+    N, Jm = drive[0], drive[1]
+    q = np.array([0.1, -0.2, 0.3, 0.2, -0.4, 0.1])
+    u = np.array([20.0, -30.0, 10.0, 0.5, 0.3, 0.1])
+    # rigid: (M + N^2 Jm) qdd + b = N u
+    M = arm.mass_matrix(DH, PI, q) + np.diag(N**2 * Jm)
+    qdd_rigid = np.linalg.solve(M, N * u - arm.bias_torques(DH, PI, q, np.zeros(6), arm.GRAVITY))
+    # flexible: solve for the spring deflection that makes motor and load accelerate together
+    stiff = drive
+    def acc_gap(defl):
+        x = np.concatenate([q, np.zeros(6), N * (q + defl), np.zeros(6)])
+        d = arm.flexible_derivatives_compiled(DH, PI, stiff, x, u, arm.GRAVITY, 1e-3)
+        return d[6:12] - d[18:24] / N, d[6:12]
+    defl = np.zeros(6)
+    for _ in range(3):  # the gap is linear in the deflection: Newton converges in one step
+        J = np.column_stack([(acc_gap(defl + 1e-7 * e)[0] - acc_gap(defl)[0]) / 1e-7 for e in np.eye(6)])
+        defl = defl - np.linalg.solve(J, acc_gap(defl)[0])
+    np.testing.assert_allclose(acc_gap(defl)[1], qdd_rigid, rtol=1e-6, atol=1e-8)
+
+
+def test_accelerometer_reads_acceleration_minus_gravity_in_the_sensor_frame():
+    """Against finite differences of the sensor point's position along a smooth motion."""
+    offset = np.array([0.03, -0.02, 0.05])
+    w0 = np.array([0.7, 1.1, 0.9, 1.7, 1.3, 2.1])
+
+    def q_of(t):
+        return 0.4 * np.sin(w0 * t), 0.4 * w0 * np.cos(w0 * t), -0.4 * w0**2 * np.sin(w0 * t)
+
+    def sensor_position(t):
+        Rw, pw = arm.forward_kinematics(DH, q_of(t)[0])
+        return pw[5] + Rw[5] @ offset
+
+    for t in (0.3, 1.1, 2.0):
+        h = 1e-4
+        acc = (sensor_position(t + h) - 2 * sensor_position(t) + sensor_position(t - h)) / h**2
+        Rw, _ = arm.forward_kinematics(DH, q_of(t)[0])
+        expected = Rw[5].T @ (acc - np.array([0.0, 0.0, -arm.GRAVITY]))
+        got = arm.specific_force_compiled(DH, *q_of(t), offset, arm.GRAVITY)
+        np.testing.assert_allclose(got, expected, atol=2e-5 * max(1.0, np.abs(expected).max()))

@@ -115,7 +115,8 @@ def _function_effect(function, name: str, n_coefficients: int, nonlinear: tuple[
 
 for _cand in (
     Candidate(fx.CoulombFriction, "friction", {"eps": tuple(np.array([0.05, 0.2, 0.5, 1.0, 2.0]) * DEG)}),
-    Candidate(fx.StribeckFriction, "friction", {"vs": tuple(np.geomspace(0.1, 16.0, 23) * DEG),
+    # Stribeck velocities stop at 8 deg/s: a wider bump is Coulomb friction over the IX's speed range
+    Candidate(fx.StribeckFriction, "friction", {"vs": tuple(np.geomspace(0.1, 8.0, 20) * DEG),
                                                 "eps": (0.05 * DEG, 0.2 * DEG)}),
     Candidate(fx.PositionDependentFriction, "friction", {"eps": tuple(np.array([0.05, 0.5, 2.0]) * DEG)}),
     Candidate(fx.CableSpring, "spring", {"q0": _angle_quantiles, "width": (1 * DEG, 5 * DEG), "side": (-1.0, 1.0)}),

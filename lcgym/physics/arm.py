@@ -121,6 +121,42 @@ class ArmParameters:
         return ArmParameters(self.dh, tuple(p))
 
 
+DRIVE_FIELDS = ("N", "Jm", "Dm", "Fmc", "KJ", "DJ", "Dl", "Flc")
+
+
+@dataclass(frozen=True)
+class DriveParameters:
+    """Drive train per joint (paper 002, eqs. 1-2), 6 values each: gear ratio N [-], motor
+    inertia Jm [kg m^2] (M_m), motor viscous Dm [N m s/rad] and Coulomb friction Fmc [N m]
+    (motor side), joint stiffness KJ [N m/rad] and damping DJ [N m s/rad] (gear compliance,
+    load side), load viscous Dl [N m s/rad] and Coulomb friction Flc [N m].
+
+    Defaults: plausible for a 20 kg-payload arm; the first resonances of joints 1-3 fall near
+    10-15 Hz as on such arms (the reason paper 002 learns the residual vibration)."""
+
+    N: tuple[float, ...] = (150.0, 160.0, 120.0, 100.0, 100.0, 60.0)
+    Jm: tuple[float, ...] = (2.0e-3, 2.5e-3, 1.2e-3, 2.5e-4, 2.5e-4, 1.0e-4)
+    Dm: tuple[float, ...] = (5e-3, 6e-3, 3e-3, 5e-4, 5e-4, 2e-4)
+    Fmc: tuple[float, ...] = (0.3, 0.35, 0.2, 0.05, 0.05, 0.02)
+    KJ: tuple[float, ...] = (3.0e5, 2.5e5, 1.5e5, 6.0e3, 5.0e3, 1.5e3)
+    DJ: tuple[float, ...] = (300.0, 250.0, 150.0, 6.0, 5.0, 1.5)
+    Dl: tuple[float, ...] = (20.0, 20.0, 10.0, 1.0, 1.0, 0.5)
+    Flc: tuple[float, ...] = (15.0, 15.0, 10.0, 1.0, 1.0, 0.5)
+
+    def __post_init__(self):
+        for name in DRIVE_FIELDS:
+            v = np.asarray(getattr(self, name), dtype=float)
+            if v.shape != (N_JOINTS,) or not np.all(np.isfinite(v)) or np.any(v < 0):
+                raise ValueError(f"DriveParameters.{name} must be {N_JOINTS} finite values >= 0, got {getattr(self, name)}")
+        for name in ("N", "Jm", "KJ"):
+            if np.any(np.asarray(getattr(self, name)) <= 0):
+                raise ValueError(f"DriveParameters.{name} must be positive")
+
+    def table(self) -> np.ndarray:
+        """(8, 6) array in the order of ``DRIVE_FIELDS``."""
+        return np.array([getattr(self, n) for n in DRIVE_FIELDS], dtype=float)
+
+
 # ---------------------------------------------------------------------------------------------
 # Equations: one sample, numpy on small arrays (plain Python or compiled by numba)
 # ---------------------------------------------------------------------------------------------
@@ -165,13 +201,16 @@ def _cross(a, b):
 
 
 @register_jitable
-def rnea(dh, pi, q, qd, qdd, gravity):
-    """Joint torques [N m] (6,) for motion q, qd, qdd (rad, rad/s, rad/s^2) with inertial
-    parameters pi (60,) and gravity [m/s^2] (0 to leave it out). Linear in pi."""
+def forward_pass(dh, q, qd, qdd, gravity):
+    """Outward recursion of Newton-Euler: per link i, in frame i, the angular velocity W[i] and
+    acceleration WD[i] [rad/s, rad/s^2], the acceleration of the frame's origin *minus gravity*
+    A[i] [m/s^2] (the base is given an upward acceleration g; with ``gravity`` = g, A[i] is the
+    specific force an accelerometer at that origin reads), and PS[i], origin i seen from origin
+    i-1 in frame i [m]. Also returns the joint transforms (R, p) of ``joint_transforms``."""
     R, p = joint_transforms(dh, q)
     w = np.zeros(3)
     wd = np.zeros(3)
-    a = np.array([0.0, 0.0, gravity])  # the base accelerates up at g: gravity on every link
+    a = np.array([0.0, 0.0, gravity])
     z = np.array([0.0, 0.0, 1.0])
     W = np.zeros((N_JOINTS, 3))
     WD = np.zeros((N_JOINTS, 3))
@@ -179,11 +218,20 @@ def rnea(dh, pi, q, qd, qdd, gravity):
     PS = np.zeros((N_JOINTS, 3))
     for i in range(N_JOINTS):
         Rt = R[i].T
-        ps = Rt @ p[i]  # origin i seen from origin i-1, in frame i
+        ps = Rt @ p[i]
         wd = Rt @ (wd + z * qdd[i] + _cross(w, z * qd[i]))
         w = Rt @ (w + z * qd[i])
         a = Rt @ a + _cross(wd, ps) + _cross(w, _cross(w, ps))
         W[i], WD[i], A[i], PS[i] = w, wd, a, ps
+    return W, WD, A, PS, R, p
+
+
+@register_jitable
+def rnea(dh, pi, q, qd, qdd, gravity):
+    """Joint torques [N m] (6,) for motion q, qd, qdd (rad, rad/s, rad/s^2) with inertial
+    parameters pi (60,) and gravity [m/s^2] (0 to leave it out). Linear in pi."""
+    W, WD, A, PS, R, p = forward_pass(dh, q, qd, qdd, gravity)
+    z = np.array([0.0, 0.0, 1.0])
     f_next = np.zeros(3)
     n_next = np.zeros(3)
     tau = np.zeros(N_JOINTS)
@@ -287,6 +335,51 @@ def regressor_batch(params: ArmParameters, q, qd, qdd, gravity: float = GRAVITY)
     return _regressor_batch(params.dh.table(), *args, float(gravity))
 
 
+@register_jitable
+def specific_force(dh, q, qd, qdd, offset, gravity):
+    """What a 3-axis accelerometer fixed to link 6 at ``offset`` [m] (in frame 6, axes parallel
+    to frame 6) reads: the sensor point's acceleration minus gravity, in frame 6 [m/s^2]."""
+    W, WD, A, PS, R, p = forward_pass(dh, q, qd, qdd, gravity)
+    w, wd = W[N_JOINTS - 1], WD[N_JOINTS - 1]
+    return A[N_JOINTS - 1] + _cross(wd, offset) + _cross(w, _cross(w, offset))
+
+
+@register_jitable
+def flexible_derivatives(dh, pi, drive, x, u, gravity, eps):
+    """d/dt of the flexible-joint state x = [q_l, qd_l, q_m, qd_m] (24,) for motor torques u (6,)
+    [N m] (paper 002, eqs. 1-2, no external force):
+
+        M_l(q_l) qdd_l + C qd_l + G + D_l qd_l + F_lc sgn(qd_l) = tau_J
+        J_m qdd_m + D_m qd_m + F_mc sgn(qd_m) = u - tau_J / N
+        tau_J = K_J (q_m / N - q_l) + D_J (qd_m / N - qd_l)
+
+    sgn smoothed as tanh(v / eps) [rad/s]. ``drive`` is ``DriveParameters.table()``."""
+    n = N_JOINTS
+    ql, qdl, qm, qdm = x[:n], x[n : 2 * n], x[2 * n : 3 * n], x[3 * n :]
+    N, Jm, Dm, Fmc, KJ, DJ, Dl, Flc = drive[0], drive[1], drive[2], drive[3], drive[4], drive[5], drive[6], drive[7]
+    tau_j = KJ * (qm / N - ql) + DJ * (qdm / N - qdl)
+    load = tau_j - Dl * qdl - Flc * np.tanh(qdl / eps)
+    out = np.empty(4 * n)
+    out[:n] = qdl
+    out[n : 2 * n] = forward_dynamics(dh, pi, ql, qdl, load, gravity)
+    out[2 * n : 3 * n] = qdm
+    out[3 * n :] = (u - Dm * qdm - Fmc * np.tanh(qdm / eps) - tau_j / N) / Jm
+    return out
+
+
+@register_jitable
+def flexible_energy(dh, pi, drive, x, gravity):
+    """Energy [J] of the flexible arm: load (kinetic + potential), motors (kinetic), joint springs."""
+    n = N_JOINTS
+    ql, qdl, qm, qdm = x[:n], x[n : 2 * n], x[2 * n : 3 * n], x[3 * n :]
+    N, Jm, KJ = drive[0], drive[1], drive[4]
+    spring = qm / N - ql
+    return energy(dh, pi, ql, qdl, gravity) + 0.5 * np.sum(Jm * qdm * qdm) + 0.5 * np.sum(KJ * spring * spring)
+
+
 # compiled single-sample versions, for loops in Python (tests, small studies)
 forward_dynamics_compiled = numba.njit(cache=True)(forward_dynamics)
 energy_compiled = numba.njit(cache=True)(energy)
+flexible_derivatives_compiled = numba.njit(cache=True)(flexible_derivatives)
+flexible_energy_compiled = numba.njit(cache=True)(flexible_energy)
+specific_force_compiled = numba.njit(cache=True)(specific_force)
