@@ -117,22 +117,9 @@ class Diagnosis:
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
         s, n = self.series, len(self.axes)
-        t = s["t"]
         figs = []
-        fig, axs = plt.subplots(n, 1, figsize=(11, 3 * n), sharex=True, squeeze=False)
-        for i, ax_name in enumerate(self.axes):
-            ax, r = axs[i, 0], s["residual"][:, i]
-            v = s["ref_velocity"][:, i]
-            ax.plot(t, r, lw=0.7, label=f"residual (RMS {np.sqrt(np.mean(r ** 2)):.4f} {self.unit})")
-            if np.abs(v).max() > 0:
-                ax.plot(t, v / np.abs(v).max() * np.abs(r).max(), "k--", lw=0.6, alpha=0.6,
-                        label="reference velocity (scaled)")
-            ax.set_ylabel(f"{ax_name} [{self.unit}]")
-            ax.legend(loc="upper right", fontsize=8)
-            ax.grid(alpha=0.3)
-        axs[-1, 0].set_xlabel("time over all trials [s]")
-        fig.suptitle("Residual u - f of the fitted model")
-        figs.append((fig, folder / "residual_time.png"))
+        figs.append((self._time_panels(plt, [("residual", "residual")], velocity=True,
+                                       title="Residual u - f of the fitted model"), folder / "residual_time.png"))
 
         fig, axs = plt.subplots(1, n, figsize=(5.5 * n, 4.2), squeeze=False)
         for i, ax_name in enumerate(self.axes):
@@ -152,18 +139,10 @@ class Diagnosis:
         figs.append((fig, folder / "residual_map.png"))
 
         if "residual_after" in s:
-            fig, axs = plt.subplots(n, 1, figsize=(11, 3 * n), sharex=True, squeeze=False)
-            for i, ax_name in enumerate(self.axes):
-                ax = axs[i, 0]
-                for key, label in (("residual", "before"), ("residual_after", "after " + ", ".join(self.after["added"]))):
-                    r = s[key][:, i]
-                    ax.plot(t, r, lw=0.7, label=f"{label} (RMS {np.sqrt(np.mean(r ** 2)):.4f} {self.unit})")
-                ax.set_ylabel(f"{ax_name} [{self.unit}]")
-                ax.legend(loc="upper right", fontsize=8)
-                ax.grid(alpha=0.3)
-            axs[-1, 0].set_xlabel("time over all trials [s]")
-            fig.suptitle("Residual before and after adding the effects")
-            figs.append((fig, folder / "before_after.png"))
+            after = "after " + ", ".join(self.after["added"])
+            figs.append((self._time_panels(plt, [("residual", "before"), ("residual_after", after)], velocity=False,
+                                           title="Residual before and after adding the effects"),
+                         folder / "before_after.png"))
         paths = []
         try:
             for fig, path in figs:
@@ -173,6 +152,29 @@ class Diagnosis:
             for fig, _ in figs:
                 plt.close(fig)
         return paths
+
+
+    def _time_panels(self, plt, series: list[tuple[str, str]], velocity: bool, title: str):
+        """One panel per axis: the named residual series over time, optionally with the scaled
+        reference velocity."""
+        s, n = self.series, len(self.axes)
+        fig, axs = plt.subplots(n, 1, figsize=(11, 3 * n), sharex=True, squeeze=False)
+        for i, ax_name in enumerate(self.axes):
+            ax = axs[i, 0]
+            for key, label in series:
+                r = s[key][:, i]
+                ax.plot(s["t"], r, lw=0.7, label=f"{label} (RMS {np.sqrt(np.mean(r ** 2)):.4f} {self.unit})")
+            v = s["ref_velocity"][:, i]
+            if velocity and np.abs(v).max() > 0:
+                r = s[series[0][0]][:, i]
+                ax.plot(s["t"], v / np.abs(v).max() * np.abs(r).max(), "k--", lw=0.6, alpha=0.6,
+                        label="reference velocity (scaled)")
+            ax.set_ylabel(f"{ax_name} [{self.unit}]")
+            ax.legend(loc="upper right", fontsize=8)
+            ax.grid(alpha=0.3)
+        axs[-1, 0].set_xlabel("time over all trials [s]")
+        fig.suptitle(title)
+        return fig
 
 
 def _fmt(name: str, value: float) -> str:
