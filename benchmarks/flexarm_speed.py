@@ -1,0 +1,48 @@
+"""Speed of the FlexArm plant (issue budget: one 10 s validation move in at most 2 s).
+
+Simulates the validation TCP lines (feedback only, default hidden effects, 4 RK4 steps per 1 ms
+sample) and prints the wall time per 10 s of motion, its ratio to the 2 s budget, and, as a
+reference measured in the same run, the IX plant's wall time per 10 s (500 Hz, 16 hidden effects).
+
+Run:  .venv/bin/python benchmarks/flexarm_speed.py
+The first run compiles the kernel (cached on disk); its time is printed separately.
+"""
+
+from __future__ import annotations
+
+import time
+
+from lcgym.envs.arm_references import arm_reference_set
+from lcgym.envs.flexarm import FlexArmPlant
+from lcgym.envs.ix import IXPlant
+from lcgym.envs.references import reference_set
+
+BUDGET_S = 2.0
+
+
+def main() -> None:
+    refs = arm_reference_set("validation", seed=0, n_references=4)
+    plant = FlexArmPlant()
+    t0 = time.perf_counter()
+    plant.run(refs[0])
+    print(f"first run (compiles or loads the kernel): {time.perf_counter() - t0:.1f} s")
+    t0 = time.perf_counter()
+    for r in refs:
+        plant.run(r)
+    wall = time.perf_counter() - t0
+    seconds = sum(r.n_samples for r in refs) / plant.fs
+    per10 = wall / seconds * 10
+    ix_refs = reference_set("validation", 0, 2, duration=10.0)
+    ix = IXPlant()
+    ix.run(ix_refs[:1])
+    t0 = time.perf_counter()
+    for r in ix_refs:
+        ix.run(r)
+    ix_per10 = (time.perf_counter() - t0) / (sum(r.n_samples for r in ix_refs) / ix.fs) * 10
+    print(f"FlexArm: {seconds:.1f} s of motion in {wall:.2f} s: {per10:.2f} s per 10 s move "
+          f"({per10 / BUDGET_S:.2f} of the {BUDGET_S:.0f} s budget)")
+    print(f"IX plant, same run: {ix_per10:.3f} s per 10 s (FlexArm / IX = {per10 / ix_per10:.0f}x)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,223 @@
+"""The FlexArm plant: a 6-joint arm with gear compliance under motor-side PID, at 1 kHz
+(paper 002, sections 2 and 5.1). First part of its issue: the closed loop, the true dynamics with
+their mismatch against the nominal model, and the sensors; the nominal feedforward structure
+(F1, F2, tau_nl,0 of eqs. 9-15) and the Gymnasium env come next.
+
+What one run does, per sample k (Ts = 1 ms):
+
+1. The motor encoders read the motor angles, quantized to ``encoder_counts`` per motor turn.
+2. The PID of each joint (motor side, ``PIDGains``) acts on e = q_mr - q_m,measured with motor
+   reference q_mr = N q_lr + ``motor_offset`` (q_lr the load-side reference); the derivative is
+   low-passed (first order, ``f_d`` Hz). u = fb + feedforward, saturated at +-``u_max``.
+3. u is held over [t_k, t_{k+1}); the true flexible-joint dynamics (``physics.arm.
+   flexible_derivatives``, eqs. 1-2, the same equations as the model) advance by ``substeps``
+   classical RK4 steps (default 4: 0.25 ms, omega h below 0.3 for the stiffest default joint
+   mode; tests/test_plant_flexarm.py shows the trajectory converging as the step shrinks).
+
+True versus nominal: the plant runs ``true_arm`` and ``true_drive``; controllers get the nominal
+``physics.arm.ArmParameters()`` and ``DriveParameters()``. ``default_true_arm`` and
+``default_true_drive`` hold the hidden effects: an unmodelled 12 kg payload, joint stiffness 15 %
+lower and joint damping 40 % lower than nominal, motor and load Coulomb friction 30 % higher,
+motor inertia 5 % higher.
+
+Sensors recorded per sample: the quantized motor angles, an accelerometer fixed to the flange
+(``physics.arm.specific_force`` at ``accel_offset``, plus a constant bias and white noise), the
+TCP position (forward kinematics of the true load angles, ground truth) and the true load angles.
+The run starts in static balance: motors at the first reference sample, the load sagging by the
+joint torsion that gravity causes (what r_q of eq. 11 compensates, when given as ``motor_offset``),
+PID integrators carrying the gravity torque; it holds that for ``preroll`` s before recording.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numba
+import numpy as np
+
+from ..data import Trial
+from ..physics import arm
+from .ix import SimulationDiverged
+from .references import Reference
+
+
+def default_true_arm() -> arm.ArmParameters:
+    """The true arm: the nominal one with an unmodelled 12 kg payload (a 20 x 20 x 15 cm block)
+    8 cm beyond the flange."""
+    return arm.ArmParameters().with_payload(12.0, com=(0.0, 0.0, 0.08), inertia_com=arm._box(12.0, 0.2, 0.2, 0.15))
+
+
+def default_true_drive() -> arm.DriveParameters:
+    """The true drives: stiffness -15 %, joint damping -40 %, Coulomb friction +30 %, Jm +5 %."""
+    nom = arm.DriveParameters()
+    scale = lambda name, f: tuple(f * v for v in getattr(nom, name))  # noqa: E731
+    return arm.DriveParameters(N=nom.N, Jm=scale("Jm", 1.05), Dm=nom.Dm, Fmc=scale("Fmc", 1.3), KJ=scale("KJ", 0.85),
+                               DJ=scale("DJ", 0.6), Dl=nom.Dl, Flc=scale("Flc", 1.3))
+
+
+@dataclass(frozen=True)
+class PIDGains:
+    """Motor-side PID per joint: kp [N m/rad], ki [N m/(rad s)], kd [N m s/rad] (motor angle), and
+    the derivative low-pass corner f_d [Hz]. ``tuned`` places each loop at ``bandwidth`` Hz for the
+    nominal motor + reflected load inertia at the home pose."""
+
+    kp: tuple[float, ...]
+    ki: tuple[float, ...]
+    kd: tuple[float, ...]
+    f_d: float = 200.0
+
+    @classmethod
+    def tuned(cls, bandwidth: float = 5.0, zeta: float = 0.7) -> PIDGains:
+        nominal, drive = arm.ArmParameters(), arm.DriveParameters()
+        M = arm.mass_matrix(nominal.dh.table(), nominal.vector(), HOME)
+        J = np.asarray(drive.Jm) + np.diag(M) / np.asarray(drive.N) ** 2
+        w = 2 * math.pi * bandwidth
+        return cls(tuple(J * w * w), tuple(J * w**3 / 8), tuple(2 * zeta * J * w))
+
+
+HOME = np.array([0.0, 0.3, -0.3, 0.0, math.pi / 2, 0.0])  # elbow up, tool down
+
+
+@dataclass
+class FlexArmPlant:
+    """Closed-loop FlexArm simulator; see the module docstring. fs [Hz]; u_max [N m] per motor;
+    encoder_counts per motor turn; accel_offset [m] in frame 6; accel_bias [m/s^2] (3,);
+    accel_noise [m/s^2] RMS per axis; seed for the noise; max_error [rad] of any load angle
+    from its reference before the run counts as diverged; friction_eps [rad/s]: the Coulomb
+    frictions' sgn is tanh(v / friction_eps). A much smaller value makes the friction of the light
+    wrist joints a stiff damper (Flc / eps over a small inertia) that RK4 at the default step
+    cannot integrate: the wrist then chatters."""
+
+    true_arm: arm.ArmParameters = field(default_factory=default_true_arm)
+    true_drive: arm.DriveParameters = field(default_factory=default_true_drive)
+    gains: PIDGains = field(default_factory=PIDGains.tuned)
+    fs: float = 1000.0
+    substeps: int = 4
+    u_max: float = 40.0
+    encoder_counts: int = 2**17
+    accel_offset: tuple[float, float, float] = (0.0, 0.05, 0.04)
+    accel_bias: tuple[float, float, float] = (0.05, -0.03, 0.02)
+    accel_noise: float = 0.02
+    preroll: float = 0.5
+    max_error: float = 0.2
+    friction_eps: float = 0.01
+    seed: int = 0
+
+    axes = arm.AXES
+
+    def __post_init__(self):
+        if self.substeps < 1 or self.fs <= 0 or self.encoder_counts < 0:
+            raise ValueError(f"need substeps >= 1, fs > 0, encoder_counts >= 0 (got {self.substeps}, {self.fs}, "
+                             f"{self.encoder_counts})")
+
+    def run(self, reference: Reference, feedforward=None, motor_offset=None) -> Trial:
+        """Run one reference (load-side joint angles (T, 6) [rad]); ``feedforward`` motor torques
+        (T, 6) [N m] and ``motor_offset`` (T, 6) [rad of the motor] default to zero."""
+        q_ref = np.ascontiguousarray(reference.positions, dtype=float)
+        T = q_ref.shape[0]
+        if q_ref.ndim != 2 or q_ref.shape[1] != 6 or not np.all(np.isfinite(q_ref)):
+            raise ValueError(f"{reference.name}: reference must be finite with shape (T, 6), got {q_ref.shape}")
+        ff = np.zeros((T, 6)) if feedforward is None else np.ascontiguousarray(feedforward, dtype=float)
+        off = np.zeros((T, 6)) if motor_offset is None else np.ascontiguousarray(motor_offset, dtype=float)
+        for label, a in (("feedforward", ff), ("motor_offset", off)):
+            if a.shape != (T, 6) or not np.all(np.isfinite(a)):
+                raise ValueError(f"{reference.name}: {label} must be finite with shape ({T}, 6)")
+        g = self.gains
+        C = np.array([g.kp, g.ki, g.kd], dtype=float)
+        res = 2 * math.pi / self.encoder_counts if self.encoder_counts else 0.0
+        cfg = np.array([1.0 / self.fs, self.substeps, self.u_max, res,
+                        math.exp(-2 * math.pi * g.f_d / self.fs), self.max_error, int(round(self.preroll * self.fs)),
+                        self.friction_eps])
+        sig = np.zeros((T, N_SIG))
+        fail = simulate(q_ref, ff, off, self.true_arm.dh.table(), self.true_arm.vector(), self.true_drive.table(), C, cfg,
+                        np.asarray(self.accel_offset, dtype=float), sig)
+        if fail >= 0:
+            raise SimulationDiverged(f"{reference.name}: the FlexArm left its safe range at t = {fail / self.fs:.3f} s "
+                                     f"(sample {fail}): load angles {np.degrees(sig[fail, S_QL:S_QL + 6]).round(2).tolist()} deg")
+        rng = np.random.default_rng(self.seed)
+        acc = sig[:, S_ACC : S_ACC + 3] + np.asarray(self.accel_bias) + self.accel_noise * rng.standard_normal((T, 3))
+        N = np.asarray(self.true_drive.N)
+        motor = sig[:, S_QM : S_QM + 6]
+        extra = {f"motor_{a}": motor[:, i] for i, a in enumerate(self.axes)}
+        extra.update({f"acc_{c}": acc[:, i] for i, c in enumerate("xyz")})
+        extra.update({f"tcp_{c}": sig[:, S_TCP + i] for i, c in enumerate("xyz")})
+        extra.update({f"load_{a}": sig[:, S_QL + i] for i, a in enumerate(self.axes)})
+        return Trial(t=np.arange(T) / self.fs, ref=q_ref, pos=motor / N, u=sig[:, S_U : S_U + 6], axes=self.axes, ff=ff,
+                     extra=extra, meta={"system": "flexarm", "reference": reference.name})
+
+
+# per-sample signals of the kernel
+S_QM, S_U, S_QL, S_ACC, S_TCP = 0, 6, 12, 18, 21
+N_SIG = 24
+
+
+@numba.njit(cache=True)
+def _rk4(x, u, dh, pi, drive, h, n, eps):
+    for _ in range(n):
+        k1 = arm.flexible_derivatives(dh, pi, drive, x, u, arm.GRAVITY, eps)
+        k2 = arm.flexible_derivatives(dh, pi, drive, x + 0.5 * h * k1, u, arm.GRAVITY, eps)
+        k3 = arm.flexible_derivatives(dh, pi, drive, x + 0.5 * h * k2, u, arm.GRAVITY, eps)
+        k4 = arm.flexible_derivatives(dh, pi, drive, x + h * k3, u, arm.GRAVITY, eps)
+        x = x + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    return x
+
+
+@numba.njit(cache=True)
+def simulate(q_ref, ff, off, dh, pi, drive, C, cfg, accel_offset, sig):
+    """Closed loop over the reference; fills sig (T, N_SIG); returns -1, or the sample where the
+    state left the safe range (non-finite, or a load angle off its reference by cfg[5])."""
+    ts, sub, umax, res, alpha, max_err, pre, eps = cfg[0], int(cfg[1]), cfg[2], cfg[3], cfg[4], cfg[5], int(cfg[6]), cfg[7]
+    N = drive[0]
+    KJ = drive[4]
+    T = q_ref.shape[0]
+    # static balance at the first sample: the motors at their reference, the load sagging until the
+    # joint springs carry gravity, K_J (q_mr / N - q_l) = G(q_l) (fixed point), integrators holding it
+    q_mr0 = N * q_ref[0] + off[0]
+    ql = q_ref[0].copy()
+    for _ in range(20):
+        grav = arm.bias_torques(dh, pi, ql, np.zeros(6), arm.GRAVITY)
+        ql = q_mr0 / N - grav / KJ
+    grav = arm.bias_torques(dh, pi, ql, np.zeros(6), arm.GRAVITY)
+    x = np.zeros(24)
+    x[:6] = ql
+    x[12:18] = q_mr0
+    integ = np.zeros(6)
+    e_prev = np.zeros(6)
+    d_filt = np.zeros(6)
+    u = np.zeros(6)
+    for k in range(-pre, T):
+        kk = max(k, 0)
+        for i in range(6):
+            qm = x[12 + i]
+            meas = math.floor(qm / res + 0.5) * res if res > 0.0 else qm
+            e = N[i] * q_ref[kk, i] + off[kk, i] - meas
+            if k == -pre:  # start: integrator carries the static motor torque, no derivative kick
+                integ[i] = (grav[i] / N[i] - C[0, i] * e) / C[1, i]
+                e_prev[i] = e
+            d_filt[i] = alpha * d_filt[i] + (1.0 - alpha) * (e - e_prev[i]) / ts
+            integ[i] += e * ts
+            e_prev[i] = e
+            u[i] = min(max(C[0, i] * e + C[1, i] * integ[i] + C[2, i] * d_filt[i] + ff[kk, i], -umax), umax)
+            if k >= 0:
+                sig[k, S_QM + i] = meas
+                sig[k, S_U + i] = u[i]
+                sig[k, S_QL + i] = x[i]
+        if k >= 0:
+            qdd = arm.flexible_derivatives(dh, pi, drive, x, u, arm.GRAVITY, eps)[6:12]
+            a = arm.specific_force(dh, x[:6], x[6:12], qdd, accel_offset, arm.GRAVITY)
+            Rw, pw = arm.forward_kinematics(dh, x[:6])
+            for c in range(3):
+                sig[k, S_ACC + c] = a[c]
+                sig[k, S_TCP + c] = pw[5, c]
+        x = _rk4(x, u, dh, pi, drive, ts / sub, sub, eps)
+        bad = False
+        for j in range(24):
+            if not math.isfinite(x[j]):
+                bad = True
+        for i in range(6):
+            if abs(x[i] - q_ref[min(kk + 1, T - 1), i]) > max_err:
+                bad = True
+        if bad:
+            return kk
+    return -1
