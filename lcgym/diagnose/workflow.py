@@ -24,6 +24,7 @@ from collections.abc import Sequence
 import numpy as np
 from tqdm.auto import tqdm
 
+from ..leaderboard.metrics import norms as metric_norms
 from ..physics.effects import Effect, make_effect
 from ..physics.kinematics import reference_kinematics
 from ..physics.model import MODELS, PhysicalModel
@@ -38,8 +39,8 @@ DEG = math.pi / 180.0
 
 def norms(x: np.ndarray, axes: Sequence[str], unit: str) -> dict:
     """{axis: {MA, RMS, Inf, unit}} of a residual (R, A)."""
-    return {ax: {"MA": float(np.mean(np.abs(x[:, i]))), "RMS": float(np.sqrt(np.mean(x[:, i] ** 2))),
-                 "Inf": float(np.max(np.abs(x[:, i]))), "unit": unit} for i, ax in enumerate(axes)}
+    n = metric_norms(x)
+    return {ax: {**{k: float(v[i]) for k, v in n.items()}, "unit": unit} for i, ax in enumerate(axes)}
 
 
 def _check_trials(trials, system) -> None:

@@ -1,0 +1,87 @@
+"""FlexArm with the nominal feedforward only ("Basic" of paper 002): joint model-following error
+and TCP error on the validation TCP lines, as MA / RMS / Inf, and a plot.
+
+e_pl = P_lu mu - qdd_l (rad/s^2, joints 2, 3, 5) with the true load acceleration of the
+simulation; TCP error = Euclidean distance [mm] between the true TCP and the TCP of the
+reference. Feedback only is printed beside it. The plot shows e_pl of joint 3 and the TCP error
+over time with the scaled reference velocity of joint 3 (residual vibration after each stop, peaks
+at motion start and stop).
+
+Run:  .venv/bin/python studies/flexarm_basic.py [--seed 0] [--plot flexarm_basic.png]
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from lcgym.envs.arm_references import arm_reference_set
+from lcgym.envs.flexarm import FlexArmPlant
+from lcgym.leaderboard.metrics import norms
+from lcgym.physics import arm
+from lcgym.physics.arm_nominal import BasicFeedforward, model_following_error
+
+JOINTS = (1, 2, 4)
+
+
+def evaluate(plant, ref, nominal, basic, use_ff: bool):
+    kw = {"feedforward": basic["tau_ff"], "motor_offset": basic["motor_offset"]} if use_ff else {}
+    tr = plant.run(ref, **kw)
+    ql = np.column_stack([tr.extra[f"load_{a}"] for a in tr.axes])
+    qdd = np.gradient(np.gradient(ql, 1 / tr.fs, axis=0), 1 / tr.fs, axis=0)
+    split = basic if use_ff else {"tau_nl": np.zeros_like(tr.u)}
+    epl = model_following_error(tr, split, nominal, qdd)
+    dh = plant.true_arm.dh.table()
+    tcp_ref = np.array([arm.forward_kinematics(dh, q)[1][5] for q in ref.positions])
+    tcp = np.column_stack([tr.extra[f"tcp_{c}"] for c in "xyz"])
+    return tr, epl, 1000 * np.linalg.norm(tcp - tcp_ref, axis=1)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--plot", default="flexarm_basic.png")
+    args = parser.parse_args()
+    refs = arm_reference_set("validation", args.seed)
+    plant, nominal = FlexArmPlant(), BasicFeedforward()
+    print(f"FlexArm validation lines (seed {args.seed}, {len(refs)} references), MA / RMS / Inf")
+    print(f"{'controller':10s} {'signal':24s} {'MA':>8s} {'RMS':>8s} {'Inf':>8s}")
+    keep = None
+    for use_ff, label in ((False, "feedback"), (True, "Basic")):
+        epls, tcps = [], []
+        for ref in refs:
+            basic = nominal.compute(ref.positions, ref.fs)
+            tr, epl, tcp = evaluate(plant, ref, nominal, basic, use_ff)
+            epls.append(epl)
+            tcps.append(tcp)
+            if use_ff and keep is None:
+                keep = (ref, epl, tcp)
+        epl, tcp = np.concatenate(epls), np.concatenate(tcps)
+        for j in JOINTS:
+            n = norms(epl[:, j])
+            print(f"{label:10s} {'e_pl joint ' + str(j + 1) + ' [rad/s^2]':24s} {n['MA']:8.3f} {n['RMS']:8.3f} {n['Inf']:8.3f}")
+        n = norms(tcp)
+        print(f"{label:10s} {'TCP error [mm]':24s} {n['MA']:8.3f} {n['RMS']:8.3f} {n['Inf']:8.3f}")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ref, epl, tcp = keep
+    fig, axs = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
+    v = ref.velocities[:, 2]
+    for ax, y, lab in ((axs[0], epl[:, 2], "e_pl joint 3 [rad/s^2]"), (axs[1], tcp, "TCP error [mm]")):
+        ax.plot(ref.t, y, lw=0.7, label=lab)
+        ax.plot(ref.t, v / np.abs(v).max() * np.abs(y).max(), "k--", lw=0.6, alpha=0.6,
+                label="joint 3 reference velocity (scaled)")
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+    axs[1].set_xlabel("time [s]")
+    fig.suptitle(f"FlexArm, Basic feedforward: {ref.name}")
+    fig.savefig(args.plot, dpi=100)
+    print(f"wrote {args.plot}")
+
+
+if __name__ == "__main__":
+    main()
