@@ -163,61 +163,86 @@ def _rk4(x, u, dh, pi, drive, h, n, eps):
     return x
 
 
+# closed-loop state: plant x (24), then per joint the PID integral, previous error, filtered derivative
+N_LOOP = 24 + 18
+I_INT, I_EPREV, I_DF = 24, 30, 36
+
+
 @numba.njit(cache=True)
-def simulate(q_ref, ff, off, dh, pi, drive, C, cfg, accel_offset, sig):
-    """Closed loop over the reference; fills sig (T, N_SIG); returns -1, or the sample where the
-    state left the safe range (non-finite, or a load angle off its reference by cfg[5])."""
-    ts, sub, umax, res, alpha, max_err, pre, eps = cfg[0], int(cfg[1]), cfg[2], cfg[3], cfg[4], cfg[5], int(cfg[6]), cfg[7]
-    N = drive[0]
-    KJ = drive[4]
-    T = q_ref.shape[0]
-    # static balance at the first sample: the motors at their reference, the load sagging until the
-    # joint springs carry gravity, K_J (q_mr / N - q_l) = G(q_l) (fixed point), integrators holding it
-    q_mr0 = N * q_ref[0] + off[0]
-    ql = q_ref[0].copy()
+def _measure(x, i, res):
+    qm = x[12 + i]
+    return math.floor(qm / res + 0.5) * res if res > 0.0 else qm
+
+
+@numba.njit(cache=True)
+def loop_start(st, q0, off0, dh, pi, drive, C, cfg):
+    """Static balance at the reference sample q0: the motors at their reference, the load sagging
+    until the joint springs carry gravity, K_J (q_mr / N - q_l) = G(q_l) (fixed point), and the PID
+    integrators holding the gravity torque."""
+    N, KJ = drive[0], drive[4]
+    q_mr0 = N * q0 + off0
+    ql = q0.copy()
     for _ in range(20):
         grav = arm.bias_torques(dh, pi, ql, np.zeros(6), arm.GRAVITY)
         ql = q_mr0 / N - grav / KJ
     grav = arm.bias_torques(dh, pi, ql, np.zeros(6), arm.GRAVITY)
-    x = np.zeros(24)
-    x[:6] = ql
-    x[12:18] = q_mr0
-    integ = np.zeros(6)
-    e_prev = np.zeros(6)
-    d_filt = np.zeros(6)
-    u = np.zeros(6)
-    for k in range(-pre, T):
-        kk = max(k, 0)
-        for i in range(6):
-            qm = x[12 + i]
-            meas = math.floor(qm / res + 0.5) * res if res > 0.0 else qm
-            e = N[i] * q_ref[kk, i] + off[kk, i] - meas
-            if k == -pre:  # start: integrator carries the static motor torque, no derivative kick
-                integ[i] = (grav[i] / N[i] - C[0, i] * e) / C[1, i]
-                e_prev[i] = e
-            d_filt[i] = alpha * d_filt[i] + (1.0 - alpha) * (e - e_prev[i]) / ts
-            integ[i] += e * ts
-            e_prev[i] = e
-            u[i] = min(max(C[0, i] * e + C[1, i] * integ[i] + C[2, i] * d_filt[i] + ff[kk, i], -umax), umax)
-            if k >= 0:
-                sig[k, S_QM + i] = meas
-                sig[k, S_U + i] = u[i]
-                sig[k, S_QL + i] = x[i]
-        if k >= 0:
-            qdd = arm.flexible_derivatives(dh, pi, drive, x, u, arm.GRAVITY, eps)[6:12]
-            a = arm.specific_force(dh, x[:6], x[6:12], qdd, accel_offset, arm.GRAVITY)
-            Rw, pw = arm.forward_kinematics(dh, x[:6])
-            for c in range(3):
-                sig[k, S_ACC + c] = a[c]
-                sig[k, S_TCP + c] = pw[5, c]
-        x = _rk4(x, u, dh, pi, drive, ts / sub, sub, eps)
-        bad = False
-        for j in range(24):
-            if not math.isfinite(x[j]):
-                bad = True
-        for i in range(6):
-            if abs(x[i] - q_ref[min(kk + 1, T - 1), i]) > max_err:
-                bad = True
-        if bad:
-            return kk
+    st[:] = 0.0
+    st[:6] = ql
+    st[12:18] = q_mr0
+    for i in range(6):
+        e = q_mr0[i] - _measure(st, i, cfg[3])
+        st[I_INT + i] = (grav[i] / N[i] - C[0, i] * e) / C[1, i]
+        st[I_EPREV + i] = e
+
+
+@numba.njit(cache=True)
+def loop_sample(st, q_ref_k, q_ref_next, ff_k, off_k, dh, pi, drive, C, cfg, accel_offset, sig_row, record):
+    """One 1 ms sample in place on st: encoders, PID + feedforward, (signals into sig_row if
+    ``record``), integration over the sample. Returns True if the state left the safe range."""
+    ts, sub, umax, res, alpha, max_err, eps = cfg[0], int(cfg[1]), cfg[2], cfg[3], cfg[4], cfg[5], cfg[7]
+    N = drive[0]
+    u = np.empty(6)
+    for i in range(6):
+        meas = _measure(st, i, res)
+        e = N[i] * q_ref_k[i] + off_k[i] - meas
+        st[I_DF + i] = alpha * st[I_DF + i] + (1.0 - alpha) * (e - st[I_EPREV + i]) / ts
+        st[I_INT + i] += e * ts
+        st[I_EPREV + i] = e
+        u[i] = min(max(C[0, i] * e + C[1, i] * st[I_INT + i] + C[2, i] * st[I_DF + i] + ff_k[i], -umax), umax)
+        if record:
+            sig_row[S_QM + i] = meas
+            sig_row[S_U + i] = u[i]
+            sig_row[S_QL + i] = st[i]
+    x = st[:24]
+    if record:
+        qdd = arm.flexible_derivatives(dh, pi, drive, x, u, arm.GRAVITY, eps)[6:12]
+        a = arm.specific_force(dh, x[:6], x[6:12], qdd, accel_offset, arm.GRAVITY)
+        Rw, pw = arm.forward_kinematics(dh, x[:6])
+        for c in range(3):
+            sig_row[S_ACC + c] = a[c]
+            sig_row[S_TCP + c] = pw[5, c]
+    st[:24] = _rk4(x.copy(), u, dh, pi, drive, ts / sub, sub, eps)
+    for j in range(24):
+        if not math.isfinite(st[j]):
+            return True
+    for i in range(6):
+        if abs(st[i] - q_ref_next[i]) > max_err:
+            return True
+    return False
+
+
+@numba.njit(cache=True)
+def simulate(q_ref, ff, off, dh, pi, drive, C, cfg, accel_offset, sig):
+    """Closed loop over the reference after a pre-roll of cfg[6] samples at its first sample;
+    fills sig (T, N_SIG); returns -1, or the sample where the state left the safe range."""
+    T = q_ref.shape[0]
+    st = np.empty(N_LOOP)
+    loop_start(st, q_ref[0], off[0], dh, pi, drive, C, cfg)
+    for _ in range(int(cfg[6])):
+        if loop_sample(st, q_ref[0], q_ref[0], ff[0], off[0], dh, pi, drive, C, cfg, accel_offset, sig[0], False):
+            return 0
+    for k in range(T):
+        if loop_sample(st, q_ref[k], q_ref[min(k + 1, T - 1)], ff[k], off[k], dh, pi, drive, C, cfg, accel_offset,
+                       sig[k], True):
+            return k
     return -1
