@@ -4,13 +4,16 @@ import gymnasium as gym
 
 
 def register_envs() -> None:
-    """Register ``lcgym/IX-v0`` (single and vector entry points) with Gymnasium, once."""
+    """Register ``lcgym/IX-v0`` (single and vector entry points) and ``lcgym/FlexArm-v0`` with
+    Gymnasium, once."""
     if "lcgym/IX-v0" not in gym.registry:
         gym.register(
             id="lcgym/IX-v0",
             entry_point="lcgym.envs.ix_env:IXEnv",
             vector_entry_point="lcgym.envs.ix_env:IXVectorEnv",
         )
+    if "lcgym/FlexArm-v0" not in gym.registry:
+        gym.register(id="lcgym/FlexArm-v0", entry_point="lcgym.envs.flexarm_env:FlexArmEnv")
 
 
 def plant_from_record(record: dict):

@@ -111,6 +111,13 @@ class FlexArmPlant:
             raise ValueError(f"need substeps >= 1, fs > 0, encoder_counts >= 0 (got {self.substeps}, {self.fs}, "
                              f"{self.encoder_counts})")
 
+    def kernel_config(self) -> np.ndarray:
+        """The kernel's settings: sample time, substeps, u_max, encoder resolution [rad], derivative
+        filter pole, max_error, pre-roll samples, friction_eps."""
+        res = 2 * math.pi / self.encoder_counts if self.encoder_counts else 0.0
+        return np.array([1.0 / self.fs, self.substeps, self.u_max, res, math.exp(-2 * math.pi * self.gains.f_d / self.fs),
+                         self.max_error, int(round(self.preroll * self.fs)), self.friction_eps])
+
     def run(self, reference: Reference, feedforward=None, motor_offset=None) -> Trial:
         """Run one reference (load-side joint angles (T, 6) [rad]); ``feedforward`` motor torques
         (T, 6) [N m] and ``motor_offset`` (T, 6) [rad of the motor] default to zero."""
@@ -125,10 +132,7 @@ class FlexArmPlant:
                 raise ValueError(f"{reference.name}: {label} must be finite with shape ({T}, 6)")
         g = self.gains
         C = np.array([g.kp, g.ki, g.kd], dtype=float)
-        res = 2 * math.pi / self.encoder_counts if self.encoder_counts else 0.0
-        cfg = np.array([1.0 / self.fs, self.substeps, self.u_max, res,
-                        math.exp(-2 * math.pi * g.f_d / self.fs), self.max_error, int(round(self.preroll * self.fs)),
-                        self.friction_eps])
+        cfg = self.kernel_config()
         sig = np.zeros((T, N_SIG))
         fail = simulate(q_ref, ff, off, self.true_arm.dh.table(), self.true_arm.vector(), self.true_drive.table(), C, cfg,
                         np.asarray(self.accel_offset, dtype=float), sig)

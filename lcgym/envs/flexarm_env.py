@@ -1,0 +1,179 @@
+"""Gymnasium tracking environment of the FlexArm: ``lcgym/FlexArm-v0`` (paper 002).
+
+One episode tracks one TCP-line reference (``envs/arm_references.py``) on the closed-loop plant of
+``envs/flexarm.py`` (1 kHz, motor-side PID, flexible joints, hidden payload and drive mismatch,
+quantized motor encoders). The agent supplies the **nonlinear feedforward torque update**; the
+feedback loop runs inside the environment. One env step is one control sample (1 ms).
+
+Action (float32, shape (6,)): motor torque per joint [N m], added to the feedforward of the
+    sample. ``base_feedforward="basic"`` (default): the plant runs the nominal structure of
+    paper 002 Fig. 1 (motor reference with F1 and r_q,0, feedforward tau_ff,0;
+    ``physics/arm_nominal.py``) and the action is an update of tau_nl, bounds +-``ACTION_BOUND``
+    (2 N m; the largest nominal feedforward on the validation lines is about 7 N m).
+    ``base_feedforward="none"``: feedback only plus the action, bounds +-``plant.u_max``.
+    Out-of-bound actions are clipped and counted (``info["clipped_actions"]``); NaN, inf or a
+    wrong shape raise ``ValueError``. The total torque is saturated at +-``plant.u_max``.
+
+Observation (float32, shape (36,)), all O(1):
+    - [0:6]    load-side reference angle / (pi/2 rad)
+    - [6:12]   reference velocity / (1 rad/s)
+    - [12:18]  reference acceleration / (5 rad/s^2)
+    - [18:24]  base feedforward of the sample / (10 N m)
+    - [24:30]  reference velocity 50 ms ahead / (1 rad/s) (a preview; the last sample is repeated)
+    - [30:36]  joint tracking error as the motor encoders see it, e = q_lr - q_m / N, / 0.05 deg,
+               clipped to +-20 (the load-side error is not measured in real time)
+
+Reward: -1/2 sum over joints (e_i / 0.01 deg)^2 with e the encoder-side error after the sample.
+
+Episode end: ``truncated`` after the last sample; ``terminated`` when the plant leaves its safe
+    range (a load angle 0.2 rad off its reference, or a non-finite state).
+
+Info: per step ``u`` (motor torques [N m]) and ``clipped_actions``; at the episode end ``trial``:
+    the whole episode as a ``Trial`` (motor angles, accelerometer, TCP and true load angles as
+    extras, like ``FlexArmPlant.run``).
+
+Reset: the reference is drawn with the env's seeded generator from the set, or chosen with
+    ``options={"reference": i}``; the plant starts in static balance, held for ``plant.preroll`` s.
+
+No vector env yet: one step costs about 70 us (4 RK4 steps of the 6-joint flexible dynamics);
+a batched kernel like the IX's is the way to one.
+"""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+
+from ..data import Trial
+from . import flexarm as F
+from .arm_references import arm_reference_set
+from .references import Reference
+
+ACTION_BOUND = 2.0  # N m
+POS_SCALE, VEL_SCALE, ACC_SCALE, FF_SCALE = math.pi / 2, 1.0, 5.0, 10.0
+ERR_SCALE, ERR_CLIP = math.radians(0.05), 20.0
+REWARD_SCALE = math.radians(0.01)
+PREVIEW = 50  # samples
+OBS_BOUND = 25.0
+
+
+class FlexArmEnv(gym.Env):
+    """``lcgym/FlexArm-v0``; see the module docstring."""
+
+    metadata = {"render_modes": []}
+
+    def __init__(self, references="train", reference_seed: int = 0, n_references: int | None = None,
+                 base_feedforward: str = "basic", plant: F.FlexArmPlant | None = None):
+        if base_feedforward not in ("basic", "none"):
+            raise ValueError(f"base_feedforward must be 'basic' or 'none', got {base_feedforward!r}")
+        self.plant = plant or F.FlexArmPlant()
+        if isinstance(references, str):
+            references = arm_reference_set(references, reference_seed, n_references, fs=self.plant.fs)
+        self.references: list[Reference] = list(references)
+        if not self.references:
+            raise ValueError("FlexArmEnv: no references")
+        self.base_feedforward = base_feedforward
+        bound = ACTION_BOUND if base_feedforward == "basic" else self.plant.u_max
+        self.action_space = gym.spaces.Box(-bound, bound, shape=(6,), dtype=np.float32)
+        self.observation_space = gym.spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(36,), dtype=np.float32)
+        self._base: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._idx, self._k, self._st = 0, 0, None
+
+    def _base_of(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+        """(feedforward, motor offset) (T, 6) of reference i: the nominal structure or zeros."""
+        if i not in self._base:
+            ref = self.references[i]
+            if self.base_feedforward == "basic":
+                from ..physics.arm_nominal import BasicFeedforward
+
+                b = BasicFeedforward().compute(ref.positions, ref.fs)
+                self._base[i] = (b["tau_ff"], b["motor_offset"])
+            else:
+                z = np.zeros((ref.n_samples, 6))
+                self._base[i] = (z, z)
+        return self._base[i]
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        n = len(self.references)
+        i = (options or {}).get("reference")
+        if i is None:
+            i = int(self.np_random.integers(n))
+        if not 0 <= int(i) < n:
+            raise ValueError(f"options['reference'] must be in 0..{n - 1}, got {i}")
+        self._idx, self._k = int(i), 0
+        ref = self.references[self._idx]
+        ff, off = self._base_of(self._idx)
+        p = self.plant
+        self._args = (p.true_arm.dh.table(), p.true_arm.vector(), p.true_drive.table(),
+                      np.array([p.gains.kp, p.gains.ki, p.gains.kd], dtype=float), p.kernel_config(),
+                      np.asarray(p.accel_offset, dtype=float))
+        self._st = np.empty(F.N_LOOP)
+        dh, pi, drive, C, cfg, _ = self._args
+        F.loop_start(self._st, ref.positions[0], off[0], dh, pi, drive, C, cfg)
+        zero = np.zeros(F.N_SIG)
+        for _ in range(int(cfg[6])):
+            F.loop_sample(self._st, ref.positions[0], ref.positions[0], ff[0], off[0], *self._args[:5], self._args[5],
+                          zero, False)
+        self._sig = np.zeros((ref.n_samples, F.N_SIG))
+        self._ff_applied = np.zeros((ref.n_samples, 6))
+        self._clipped = 0
+        return self._observation(), {}
+
+    def _error(self, k: int) -> np.ndarray:
+        ref = self.references[self._idx]
+        N = np.asarray(self.plant.true_drive.N)
+        res = self._args[4][3]
+        motor = np.floor(self._st[12:18] / res + 0.5) * res if res > 0 else self._st[12:18]
+        return ref.positions[min(k, ref.n_samples - 1)] - motor / N
+
+    def _observation(self) -> np.ndarray:
+        ref = self.references[self._idx]
+        k = min(self._k, ref.n_samples - 1)
+        ff, _ = self._base_of(self._idx)
+        obs = np.concatenate([ref.positions[k] / POS_SCALE, ref.velocities[k] / VEL_SCALE,
+                              ref.accelerations[k] / ACC_SCALE, ff[k] / FF_SCALE,
+                              ref.velocities[min(k + PREVIEW, ref.n_samples - 1)] / VEL_SCALE,
+                              np.clip(self._error(k) / ERR_SCALE, -ERR_CLIP, ERR_CLIP)])
+        return np.clip(obs, -OBS_BOUND, OBS_BOUND).astype(np.float32)
+
+    def step(self, action):
+        if self._st is None:
+            raise RuntimeError("FlexArmEnv: call reset() before step()")
+        a = np.asarray(action, dtype=float)
+        if a.shape != (6,):
+            raise ValueError(f"FlexArmEnv: action must have shape (6,), got {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"FlexArmEnv: action contains NaN or inf: {a.tolist()}")
+        bound = float(self.action_space.high[0])
+        if np.any(np.abs(a) > bound):
+            self._clipped += 1
+            a = np.clip(a, -bound, bound)
+        ref = self.references[self._idx]
+        k, T = self._k, ref.n_samples
+        ff, off = self._base_of(self._idx)
+        self._ff_applied[k] = ff[k] + a
+        bad = F.loop_sample(self._st, ref.positions[k], ref.positions[min(k + 1, T - 1)], self._ff_applied[k], off[k],
+                            *self._args[:5], self._args[5], self._sig[k], True)
+        self._k = k + 1
+        e = self._error(self._k)
+        reward = -0.5 * float(np.sum((e / REWARD_SCALE) ** 2))
+        truncated = self._k >= T and not bad
+        info = {"u": self._sig[k, F.S_U : F.S_U + 6].copy(), "clipped_actions": self._clipped}
+        if bad or truncated:
+            info["trial"] = self._trial(self._k)
+        return self._observation(), reward, bool(bad), bool(truncated), info
+
+    def _trial(self, n: int) -> Trial:
+        ref, sig, p = self.references[self._idx], self._sig[:n], self.plant
+        N = np.asarray(p.true_drive.N)
+        motor = sig[:, F.S_QM : F.S_QM + 6]
+        extra = {f"motor_{a}": motor[:, i] for i, a in enumerate(p.axes)}
+        extra.update({f"tcp_{c}": sig[:, F.S_TCP + i] for i, c in enumerate("xyz")})
+        noise = p.accel_noise * self.np_random.standard_normal((n, 3))
+        extra.update({f"acc_{c}": sig[:, F.S_ACC + i] + p.accel_bias[i] + noise[:, i] for i, c in enumerate("xyz")})
+        extra.update({f"load_{a}": sig[:, F.S_QL + i] for i, a in enumerate(p.axes)})
+        return Trial(t=np.arange(n) / p.fs, ref=ref.positions[:n], pos=motor / N, u=sig[:, F.S_U : F.S_U + 6],
+                     axes=p.axes, ff=self._ff_applied[:n], extra=extra, meta={"system": "flexarm", "reference": ref.name})

@@ -1,0 +1,54 @@
+"""lcgym/FlexArm-v0: conformance, agreement with the plant, bad actions."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env as gym_check_env
+from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+import lcgym  # noqa: F401  (registers the ids)
+from lcgym.envs.arm_references import arm_reference_set
+from lcgym.envs.flexarm import FlexArmPlant
+from lcgym.envs.flexarm_env import FlexArmEnv
+from lcgym.physics.arm_nominal import BasicFeedforward
+
+
+@pytest.fixture(scope="module")
+def refs():
+    return arm_reference_set("validation", seed=0, n_references=1)
+
+
+@pytest.mark.parametrize("base", ["basic", "none"])
+def test_check_env_gymnasium_and_sb3(refs, base):
+    gym_check_env(gym.make("lcgym/FlexArm-v0", references=refs, base_feedforward=base).unwrapped, skip_render_check=True)
+    sb3_check_env(FlexArmEnv(references=refs, base_feedforward=base), warn=False)
+
+
+def test_zero_action_episode_is_the_plant_run_with_the_basic_feedforward(refs):
+    env = FlexArmEnv(references=refs)
+    env.reset(seed=0)
+    done, steps, info = False, 0, {}
+    while not done:
+        _, reward, terminated, truncated, info = env.step(np.zeros(6, dtype=np.float32))
+        assert np.isfinite(reward)
+        done = terminated or truncated
+        steps += 1
+    assert truncated and steps == refs[0].n_samples
+    b = BasicFeedforward().compute(refs[0].positions, refs[0].fs)
+    run = FlexArmPlant().run(refs[0], b["tau_ff"], b["motor_offset"])
+    trial = info["trial"]
+    np.testing.assert_array_equal(trial.u, run.u)
+    np.testing.assert_array_equal(trial.extra["load_j3"], run.extra["load_j3"])
+
+
+def test_bad_actions_and_clipping(refs):
+    env = FlexArmEnv(references=refs)
+    env.reset(seed=1)
+    with pytest.raises(ValueError, match="NaN or inf"):
+        env.step(np.array([0, np.nan, 0, 0, 0, 0]))
+    with pytest.raises(ValueError, match="shape"):
+        env.step(np.zeros(2))
+    _, _, _, _, info = env.step(np.full(6, 100.0))
+    assert info["clipped_actions"] == 1
+    with pytest.raises(ValueError, match="base_feedforward"):
+        FlexArmEnv(references=refs, base_feedforward="physical")
