@@ -31,3 +31,14 @@ def test_accelerometer_estimate_matches_the_true_load_acceleration():
     rel = rms((est - true)[:, j]) / rms(true[:, j])
     assert rel[0] < 0.06 and rel[1] < 0.06 and rel[2] < 0.30, rel
     assert np.all(rms((est - true)[:, j[:2]]) < rms((from_motor - true)[:, j[:2]]))
+
+
+def test_run_basic_stores_the_model_following_error():
+    """e_pl from the accelerometer estimate follows e_pl from the truth (joints 2, 3)."""
+    from lcgym.envs.flexarm import run_basic
+
+    ref = arm_reference_set("validation", seed=0, n_references=1)[0]
+    tr = run_basic(FlexArmPlant(), ref)
+    for a in ("j2", "j3"):
+        est, true = tr.extra[f"e_pl_{a}"], tr.extra[f"e_pl_true_{a}"]
+        assert np.sqrt(np.mean((est - true) ** 2)) < 0.25 * np.sqrt(np.mean(true**2))

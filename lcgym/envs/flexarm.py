@@ -151,6 +151,30 @@ class FlexArmPlant:
                      extra=extra, meta={"system": "flexarm", "reference": reference.name})
 
 
+def run_basic(plant: FlexArmPlant, reference: Reference, tau_nl_update=None) -> Trial:
+    """Run ``reference`` with the nominal feedforward of paper 002 Fig. 1 ("Basic", plus an optional
+    update of tau_nl (T, 6) [N m]) and add the model-following error to the trial's extras:
+    ``e_pl_<joint>`` [rad/s^2] from the accelerometer-based load acceleration (what the paper's
+    learning uses) and ``e_pl_true_<joint>`` from the simulation's true load acceleration."""
+    from ..physics.arm_nominal import BasicFeedforward, model_following_error
+    from ..physics.arm_sensors import estimate_load_acceleration
+    from ..physics.kinematics import lowpass_zero_phase
+
+    nominal = BasicFeedforward()
+    basic = nominal.compute(reference.positions, reference.fs)
+    update = 0.0 if tau_nl_update is None else np.asarray(tau_nl_update, dtype=float)
+    trial = plant.run(reference, basic["tau_ff"] + update, basic["motor_offset"])
+    split = {**basic, "tau_nl": basic["tau_nl"] + update}
+    qdd_est = estimate_load_acceleration(trial, nominal.arm_params, nominal.drive, offset=plant.accel_offset)
+    ql = np.column_stack([trial.extra[f"load_{a}"] for a in trial.axes])
+    qdd_true = lowpass_zero_phase(np.gradient(np.gradient(ql, 1 / trial.fs, axis=0), 1 / trial.fs, axis=0), trial.fs, 50.0)
+    for label, qdd in (("e_pl", qdd_est), ("e_pl_true", qdd_true)):
+        e = model_following_error(trial, split, nominal, qdd)
+        trial.extra.update({f"{label}_{a}": e[:, i] for i, a in enumerate(trial.axes)})
+    trial.meta["controller"] = "basic"
+    return trial
+
+
 # per-sample signals of the kernel
 S_QM, S_U, S_QL, S_ACC, S_TCP = 0, 6, 12, 18, 21
 N_SIG = 24
