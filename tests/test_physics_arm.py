@@ -128,7 +128,8 @@ def test_payload_adds_its_gravity_torque():
 
 
 def test_link_parameters_parallel_axis():
-    """Two point masses of 1 kg at +-0.1 m on x, about the origin 0.2 m away: I_yy = 2 (0.1^2 + 0.2^2)... by hand."""
+    """Two point masses of 1 kg at (+-0.1, 0, 0.2) m: the parallel-axis result against the inertia
+    of the two points about the origin, computed by hand."""
     Ic = np.diag([0.0, 2 * 0.01, 2 * 0.01])
     p = arm.link_parameters(2.0, (0.0, 0.0, 0.2), Ic)
     assert p[0] == 2.0 and p[3] == pytest.approx(0.4)

@@ -27,7 +27,7 @@ X_RANGE = (0.55, 1.55)  # m: where the lines lie (the TCP's reach at that height
 LENGTHS = (0.60, 1.00)  # m: line lengths (paper: 60-100 cm)
 LIMITS = {"v": (0.3, 1.0), "a": (1.0, 4.0), "j": (10.0, 40.0)}  # m/s, m/s^2, m/s^3: TCP setpoint limits
 MOVING = (1, 2, 4)  # joints 2, 3, 5 (0-based)
-START_GUESS = np.array([0.0, 0.3, -0.3, 0.0, math.pi / 2, 0.0])  # elbow up, tool about down
+START_GUESS = arm.HOME  # the IK starts from the home pose (elbow up, tool down)
 
 
 _fk = numba.njit(cache=True)(arm.forward_kinematics)

@@ -76,7 +76,7 @@ class PIDGains:
         return cls(tuple(J * w * w), tuple(J * w**3 / 8), tuple(2 * zeta * J * w))
 
 
-HOME = np.array([0.0, 0.3, -0.3, 0.0, math.pi / 2, 0.0])  # elbow up, tool down
+HOME = arm.HOME
 
 
 @dataclass
@@ -139,16 +139,22 @@ class FlexArmPlant:
         if fail >= 0:
             raise SimulationDiverged(f"{reference.name}: the FlexArm left its safe range at t = {fail / self.fs:.3f} s "
                                      f"(sample {fail}): load angles {np.degrees(sig[fail, S_QL:S_QL + 6]).round(2).tolist()} deg")
-        rng = np.random.default_rng(self.seed)
-        acc = sig[:, S_ACC : S_ACC + 3] + np.asarray(self.accel_bias) + self.accel_noise * rng.standard_normal((T, 3))
-        N = np.asarray(self.true_drive.N)
+        return self.trial_from_signals(reference, sig, ff, np.random.default_rng(self.seed))
+
+    def trial_from_signals(self, reference: Reference, sig: np.ndarray, ff: np.ndarray, rng: np.random.Generator) -> Trial:
+        """The Trial of the kernel's signals sig (n, N_SIG) (n <= reference length): motor angles
+        (``pos`` = motor / N), torques, and as extras the motor angles, the accelerometer (plus
+        bias and white noise drawn from ``rng``), the TCP and the true load angles."""
+        n = sig.shape[0]
+        acc = sig[:, S_ACC : S_ACC + 3] + np.asarray(self.accel_bias) + self.accel_noise * rng.standard_normal((n, 3))
         motor = sig[:, S_QM : S_QM + 6]
         extra = {f"motor_{a}": motor[:, i] for i, a in enumerate(self.axes)}
         extra.update({f"acc_{c}": acc[:, i] for i, c in enumerate("xyz")})
         extra.update({f"tcp_{c}": sig[:, S_TCP + i] for i, c in enumerate("xyz")})
         extra.update({f"load_{a}": sig[:, S_QL + i] for i, a in enumerate(self.axes)})
-        return Trial(t=np.arange(T) / self.fs, ref=q_ref, pos=motor / N, u=sig[:, S_U : S_U + 6], axes=self.axes, ff=ff,
-                     extra=extra, meta={"system": "flexarm", "reference": reference.name})
+        return Trial(t=np.arange(n) / self.fs, ref=reference.positions[:n], pos=motor / np.asarray(self.true_drive.N),
+                     u=sig[:, S_U : S_U + 6], axes=self.axes, ff=ff[:n], extra=extra,
+                     meta={"system": "flexarm", "reference": reference.name})
 
 
 def run_basic(plant: FlexArmPlant, reference: Reference, tau_nl_update=None) -> Trial:

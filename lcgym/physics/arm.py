@@ -41,6 +41,7 @@ N_PARAMS_LINK = 10
 N_PARAMS = N_JOINTS * N_PARAMS_LINK
 GRAVITY = 9.81  # m/s^2, along -z of the base
 AXES = ("j1", "j2", "j3", "j4", "j5", "j6")
+HOME = np.array([0.0, 0.3, -0.3, 0.0, math.pi / 2, 0.0])  # rad: elbow up, tool pointing down
 LINK_PARAM_NAMES = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz")
 
 

@@ -31,7 +31,7 @@ from scipy import signal
 from . import arm
 from .kinematics import reference_kinematics
 
-HOME = np.array([0.0, 0.3, -0.3, 0.0, np.pi / 2, 0.0])  # where M_n is taken (elbow up, tool down)
+HOME = arm.HOME  # where M_n is taken
 
 
 @dataclass
