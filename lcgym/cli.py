@@ -1,6 +1,6 @@
 """The ``lcgym`` command. Thin: parses, calls library functions, prints.
 
-    lcgym bench [--systems ix] [--methods feedback,physical] [--seeds 0,1,2] [--quick]
+    lcgym bench [--systems ix,flexarm] [--methods feedback,physical] [--seeds 0,1,2] [--quick]
                 [--out results.csv] [--jobs N] [--dask ADDRESS] [--resume]
     lcgym leaderboard [results.csv] [--markdown OUT.md] [--html OUT.html]
     lcgym simulate --system ix --controller feedback,physical --out run.csv --plot run.png
@@ -147,7 +147,7 @@ def cmd_effects(args) -> int:
         doc = doc if len(doc) <= 100 else doc[:97] + "..."
         searched = [*cand.grid, *([cand.period] if cand.period else [])]
         print(f"  {name:30s} [{cand.family}] {doc}" + (f" (searched: {', '.join(searched)})" if searched else ""))
-    from .physics.model import MODELS
+    from .physics.registry import MODELS
 
     print(f"the model already has: {', '.join(MODELS[args.system].built_in)}")
     return 0
@@ -180,11 +180,10 @@ def cmd_simulate(args) -> int:
 
 def cmd_bench(args) -> int:
     from .leaderboard.report import format_text, select
-    from .leaderboard.runner import PLANTS, BenchConfig, run_benchmark
+    from .leaderboard.runner import BenchConfig, run_benchmark
     from .leaderboard.store import read_results
 
     chosen = {k: v for k, v in (("systems", args.systems), ("methods", args.methods), ("seeds", args.seeds)) if v}
-    chosen.setdefault("systems", tuple(PLANTS))
     config = BenchConfig.quick(**chosen) if args.quick else BenchConfig(**chosen)
     try:
         summary = run_benchmark(config, args.out, jobs=args.jobs, dask=args.dask, resume=args.resume)

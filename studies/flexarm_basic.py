@@ -17,10 +17,9 @@ import argparse
 
 import numpy as np
 
-from lcgym.envs.arm_references import arm_reference_set
+from lcgym.envs.arm_references import arm_reference_set, tcp_positions
 from lcgym.envs.flexarm import FlexArmPlant, run_basic
 from lcgym.leaderboard.metrics import norms
-from lcgym.physics import arm
 from lcgym.physics.arm_nominal import BasicFeedforward, model_following_error
 from lcgym.physics.kinematics import lowpass_zero_phase
 
@@ -37,8 +36,7 @@ def evaluate(plant, ref, use_ff: bool):
         ql = np.column_stack([tr.extra[f"load_{a}"] for a in tr.axes])
         qdd = lowpass_zero_phase(np.gradient(np.gradient(ql, 1 / tr.fs, axis=0), 1 / tr.fs, axis=0), tr.fs, 50.0)
         epl = model_following_error(tr, {"tau_nl": np.zeros_like(tr.u)}, BasicFeedforward(), qdd)
-    dh = plant.true_arm.dh.table()
-    tcp_ref = np.array([arm.forward_kinematics(dh, q)[1][5] for q in ref.positions])
+    tcp_ref = tcp_positions(ref.positions, plant.true_arm.dh)
     tcp = np.column_stack([tr.extra[f"tcp_{c}"] for c in "xyz"])
     return tr, epl, 1000 * np.linalg.norm(tcp - tcp_ref, axis=1)
 

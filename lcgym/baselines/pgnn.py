@@ -13,6 +13,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..pgnn import PGNN, PGNNConfig
+from ..physics.registry import system_of
 from .protocol import Controller, Cost
 
 
@@ -26,7 +27,8 @@ class PGNNFeedforward(Controller):
         self.config = config
 
     def fit(self, trials: Sequence) -> PGNNFeedforward:
-        cfg = replace(self.config or PGNNConfig(threads=1), regularize=self.regularize)
+        cfg = self.config or replace(PGNNConfig.for_system(system_of(trials)), threads=1)
+        cfg = replace(cfg, regularize=self.regularize)
         self.pgnn_ = PGNN(cfg, fs=trials[0].fs).fit(trials)
         self.cost_ = Cost()
         return self
@@ -36,6 +38,9 @@ class PGNNFeedforward(Controller):
 
     def nn_contribution(self, reference) -> np.ndarray:
         return self.pgnn_.nn_contribution(reference)
+
+    def reference_offset(self, reference) -> np.ndarray | None:
+        return self.pgnn_.reference_offset(reference)
 
 
 class PGNNLSFeedforward(PGNNFeedforward):

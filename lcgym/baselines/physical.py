@@ -1,4 +1,6 @@
-"""Physical-model feedforward: the rigid-body model (eq. 9 of paper 000) fitted by least squares."""
+"""Physical-model feedforward: the system's physical model fitted by least squares (IX: the rigid
+body of paper 000, eq. 9; FlexArm: the motor-side rigid-joint model of ``physics.arm_model``, with
+its joint-torsion reference offset)."""
 
 from __future__ import annotations
 
@@ -7,12 +9,14 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..physics.model import PhysicalModel
+from ..physics.registry import MODELS, system_of
 from .protocol import Controller, Cost
 
 
 class PhysicalFeedforward(Controller):
-    """``fit`` identifies a ``PhysicalModel`` (nominal rigid body, optionally with effects) on
-    training trials; ``feedforward`` evaluates it on a reference."""
+    """``fit`` identifies the physical model of the trials' system (or the ``model`` given) on
+    training trials; ``feedforward`` evaluates it on a reference, ``reference_offset`` gives the
+    model's reference offset where it has one (the arm), else None."""
 
     name = "physical"
 
@@ -20,13 +24,22 @@ class PhysicalFeedforward(Controller):
         self.model = model
 
     def fit(self, trials: Sequence) -> PhysicalFeedforward:
-        model = self.model if self.model is not None else PhysicalModel(fs=trials[0].fs)
+        model = self.model if self.model is not None else MODELS[system_of(trials)](fs=trials[0].fs)
         self.model_ = model.fit(trials)
         self.cost_ = Cost()
         return self
 
     def feedforward(self, reference) -> np.ndarray:
-        """Feedforward (T, 2) [V] for a reference (array of positions, Trial or Reference)."""
+        """Feedforward (T, n_axes) [V for the IX, N m for the arm] for a reference (array of
+        positions, Trial or Reference)."""
+        return self._model().predict(reference)
+
+    def reference_offset(self, reference) -> np.ndarray | None:
+        """Reference offset (T, n_axes) [rad] of the model (the arm's joint torsion), or None."""
+        model = self._model()
+        return model.reference_offset(reference) if hasattr(model, "reference_offset") else None
+
+    def _model(self) -> PhysicalModel:
         if not hasattr(self, "model_"):
             raise RuntimeError("PhysicalFeedforward: call fit(trials) before feedforward()")
-        return self.model_.predict(reference)
+        return self.model_

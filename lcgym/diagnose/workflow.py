@@ -27,7 +27,8 @@ from tqdm.auto import tqdm
 from ..leaderboard.metrics import norms as metric_norms
 from ..physics.effects import Effect, make_effect
 from ..physics.kinematics import reference_kinematics
-from ..physics.model import MODELS, PhysicalModel
+from ..physics.model import PhysicalModel
+from ..physics.registry import MODELS
 from ..physics.system import SYSTEMS
 from .candidates import CANDIDATES, Candidate
 from .regions import region_masks, region_table

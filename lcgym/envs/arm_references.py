@@ -66,6 +66,19 @@ def inverse_kinematics_line(dh, xs, z, q0):
     return out
 
 
+@numba.njit(cache=True)
+def _tcp_batch(dh, q):
+    out = np.empty((q.shape[0], 3))
+    for k in range(q.shape[0]):
+        out[k] = _fk(dh, q[k])[1][5]
+    return out
+
+
+def tcp_positions(q: np.ndarray, dh: arm.DH | None = None) -> np.ndarray:
+    """TCP (flange centre) positions (T, 3) [m] in the base frame for joint angles q (T, 6) [rad]."""
+    return _tcp_batch((dh or arm.DH()).table(), np.ascontiguousarray(np.atleast_2d(q), dtype=float))
+
+
 def tcp_line(name: str, rng: np.random.Generator, fs: float = 1000.0, dh: arm.DH | None = None) -> Reference:
     """One reference: the TCP goes out along +X by a random length and back, at random fractions of
     the setpoint limits, with rests; joint angles (T, 6) [rad] sampled at ``fs`` [Hz]."""

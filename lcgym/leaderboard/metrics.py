@@ -34,21 +34,22 @@ def tracking_error_table(trials: Sequence, label: str = "") -> pd.DataFrame:
     if not trials:
         raise ValueError("tracking_error_table: no trials given")
     e = np.degrees(np.concatenate([t.error for t in trials]))
-    return _table(e, trials[0].axes, "tracking_error", "deg", label)
+    return norms_table(e, trials[0].axes, "tracking_error", "deg", label)
 
 
-def input_residual_table(trials: Sequence, feedforward: Sequence, label: str = "") -> pd.DataFrame:
-    """Norms of eps = u - f [V for the IX] of trials taken together, one row per axis."""
+def input_residual_table(trials: Sequence, feedforward: Sequence, label: str = "", unit: str = "V") -> pd.DataFrame:
+    """Norms of eps = u - f [``unit``: V for the IX, N m for the arm] of trials taken together, one row per axis."""
     if not trials or len(trials) != len(feedforward):
         raise ValueError(f"input_residual_table: {len(trials)} trials but {len(feedforward)} feedforward signals")
     for i, (t, f) in enumerate(zip(trials, feedforward, strict=True)):
         if np.shape(f) != t.u.shape:
             raise ValueError(f"input_residual_table: feedforward {i} has shape {np.shape(f)}, its trial's input {t.u.shape}")
     eps = np.concatenate([t.u - np.asarray(f) for t, f in zip(trials, feedforward, strict=True)])
-    return _table(eps, trials[0].axes, "input_residual", "V", label)
+    return norms_table(eps, trials[0].axes, "input_residual", unit, label)
 
 
-def _table(x, axes, signal, unit, label) -> pd.DataFrame:
+def norms_table(x, axes: Sequence[str], signal: str, unit: str, label: str = "") -> pd.DataFrame:
+    """One row per column of x (T, len(axes)): label, axis, signal, MA, RMS, Inf, unit."""
     n = norms(x)
     rows = [{"label": label, "axis": ax, "signal": signal, **{m: float(n[m][i]) for m in METRICS}, "unit": unit}
             for i, ax in enumerate(axes)]

@@ -6,8 +6,10 @@ A cell (system, method, seed):
    training data, counted in every method's ``plant_trials``);
 2. builds the method's controller and calls ``fit(training trials)``; methods that learn on the
    plant (``uses_plant``) also get ``learn(plant, reference)`` before each evaluation reference;
-3. applies its feedforward on the training and the validation references and computes MA, RMS and
-   Inf of the tracking error [deg] and of the input residual u - f per axis.
+3. applies its feedforward (and, on the FlexArm, its reference offset) on the training and the
+   validation references and computes MA, RMS and Inf of what the system scores
+   (``systems.py``: tracking error [deg] and input residual u - f per axis; on the arm also the
+   TCP position error [mm]).
 
 Cells run in parallel through joblib (``jobs``; workers use one numba and one torch thread each),
 or on an existing Dask cluster through joblib's dask backend (``dask="tcp://host:port"``). Rows
@@ -36,12 +38,9 @@ from tqdm.auto import tqdm
 from .. import __version__
 from ..baselines import CONTROLLERS, Cost, load_method
 from ..data import atomic_write
-from ..envs.ix import IXPlant
-from ..envs.references import reference_set
-from .metrics import input_residual_table, tracking_error_table
 from .store import append_rows, completed_cells
+from .systems import BENCH_SYSTEMS
 
-PLANTS = {"ix": IXPlant}
 EVALUATED_SETS = ("train", "validation")
 
 
@@ -49,10 +48,11 @@ EVALUATED_SETS = ("train", "validation")
 class BenchConfig:
     """What a benchmark runs: systems, method ids (or module:Class), seeds, and the budgets.
 
-    n_train / n_validation: references per set; duration: seconds of moves per reference.
+    n_train / n_validation: references per set; duration: seconds of moves per IX reference (an
+    arm reference is one TCP line out and back; ``systems.FlexArmBench``).
     """
 
-    systems: tuple[str, ...] = ("ix",)
+    systems: tuple[str, ...] = tuple(BENCH_SYSTEMS)
     methods: tuple[str, ...] = field(default_factory=lambda: tuple(CONTROLLERS))
     seeds: tuple[int, ...] = (0, 1, 2)
     n_train: int = 8
@@ -60,9 +60,9 @@ class BenchConfig:
     duration: float = 40.0
 
     def __post_init__(self):
-        unknown = [s for s in self.systems if s not in PLANTS]
+        unknown = [s for s in self.systems if s not in BENCH_SYSTEMS]
         if unknown:
-            raise ValueError(f"unknown system(s) {unknown}; available: {', '.join(PLANTS)}")
+            raise ValueError(f"unknown system(s) {unknown}; available: {', '.join(BENCH_SYSTEMS)}")
         for m in self.methods:
             load_method(m, CONTROLLERS)  # fails early with a clear message
         if any(s < 0 for s in self.seeds):
@@ -134,21 +134,17 @@ def _rms_per_axis(signals: Sequence[np.ndarray]) -> np.ndarray:
     return np.sqrt(np.mean(x * x, axis=0))
 
 
-TRACE_DECIMATION = 5  # samples per stored trace point (100 Hz)
-
-
 def run_cell(system: str, method: str, seed: int, config: BenchConfig,
              single_thread: bool = False) -> tuple[list[dict], pd.DataFrame | None]:
     """Run one cell: its result rows (without run id and provenance) and the trace of its first
-    validation reference (time, reference and tracking error per axis, every TRACE_DECIMATION-th
-    sample; None for a failed cell)."""
+    validation reference (``BenchSystem.trace``; None for a failed cell)."""
     if single_thread:
         _single_thread()
     key = {"system": system, "method": method, "seed": seed, "config_hash": config.config_hash()}
-    plant = PLANTS[system]()
-    refs = {name: reference_set(name, seed, n, config.duration, plant.fs)
+    bench = BENCH_SYSTEMS[system]()
+    refs = {name: bench.references(name, seed, n, config.duration)
             for name, n in (("train", config.n_train), ("validation", config.n_validation))}
-    train_trials = plant.run(refs["train"])
+    train_trials = bench.run(refs["train"])
     try:
         controller = load_method(method, CONTROLLERS)()
         t0 = time.perf_counter()
@@ -156,28 +152,25 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig,
         learn_seconds = time.perf_counter() - t0
         rows = []
         for set_name in EVALUATED_SETS:
-            ffs, nn = [], []
+            ffs, offsets, nn = [], [], []
             for r in refs[set_name]:
                 if getattr(controller, "uses_plant", False):
                     t1 = time.perf_counter()
-                    controller.learn(plant, r)
+                    controller.learn(bench.plant, r)
                     learn_seconds += time.perf_counter() - t1
-                f = np.asarray(controller.feedforward(r), dtype=float)
-                if f.shape != r.positions.shape:
-                    raise ValueError(f"feedforward for {r.name} has shape {f.shape}, expected {r.positions.shape}")
-                if not np.all(np.isfinite(f)):
-                    raise ValueError(f"feedforward for {r.name} contains NaN or inf")
-                ffs.append(f)
+                ffs.append(_checked(controller.feedforward(r), r, "feedforward"))
+                offset = getattr(controller, "reference_offset", lambda _: None)(r)
+                offsets.append(None if offset is None else _checked(offset, r, "reference_offset"))
                 if hasattr(controller, "nn_contribution"):
                     nn.append(controller.nn_contribution(r))
-            trials = plant.run(refs[set_name], ffs)
+            trials = bench.run(refs[set_name], ffs, offsets)
             if set_name == "validation":
-                trace = _trace(trials[0], plant.axes)
-            nn_rms = _rms_per_axis(nn) if nn else np.full(len(plant.axes), np.nan)
-            for table in (tracking_error_table(trials), input_residual_table(trials, ffs)):
-                for i, row in enumerate(table.to_dict("records")):
+                trace = bench.trace(trials[0])
+            nn_rms = dict(zip(bench.axes, _rms_per_axis(nn), strict=True)) if nn else {}
+            for table in bench.tables(trials, ffs):
+                for row in table.to_dict("records"):
                     row.pop("label")
-                    rows.append({**key, **row, "reference_set": set_name, "nn_rms": nn_rms[i]})
+                    rows.append({**key, **row, "reference_set": set_name, "nn_rms": nn_rms.get(row["axis"], np.nan)})
         cost = getattr(controller, "cost_", Cost())
         for row in rows:
             row.update(plant_trials=config.n_train + cost.plant_trials, env_steps=cost.env_steps,
@@ -187,13 +180,14 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig,
         return [{**key, "status": "failed", "error": f"{type(exc).__name__}: {exc}"[:500]}], None
 
 
-def _trace(trial, axes) -> pd.DataFrame:
-    k = slice(None, None, TRACE_DECIMATION)
-    cols = {"t": trial.t[k]}
-    for i, ax in enumerate(axes):
-        cols[f"ref_{ax}"] = trial.ref[k, i]
-        cols[f"error_{ax}"] = trial.error[k, i]
-    return pd.DataFrame(cols).astype("float32")  # plotting precision; halves the files
+def _checked(signal, reference, what: str) -> np.ndarray:
+    """A method's signal for ``reference`` as a float array, or a clear error: the reference's shape, finite."""
+    f = np.asarray(signal, dtype=float)
+    if f.shape != reference.positions.shape:
+        raise ValueError(f"{what} for {reference.name} has shape {f.shape}, expected {reference.positions.shape}")
+    if not np.all(np.isfinite(f)):
+        raise ValueError(f"{what} for {reference.name} contains NaN or inf")
+    return f
 
 
 def traces_dir(out: str | Path) -> Path:

@@ -12,6 +12,7 @@ no arbitrary objects are unpickled) and a JSON header with the configuration and
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import time
 from dataclasses import asdict
@@ -24,6 +25,7 @@ from .. import __version__
 from ..data import atomic_write
 from ..physics.kinematics import reference_kinematics, reference_positions
 from ..physics.model import PhysicalModel
+from ..physics.registry import MODELS, system_of
 from ..physics.system import SYSTEMS
 from .network import PGNNModule
 from .training import PGNNConfig, network_inputs, train, training_data
@@ -46,14 +48,19 @@ class PGNN:
 
     @property
     def config_(self) -> PGNNConfig:
-        return self.config or PGNNConfig()
+        if self.config is not None:
+            return self.config
+        return getattr(self, "_system_config", PGNNConfig())
 
     def fit(self, trials, progress: bool = False) -> PGNN:
+        system_name = system_of(trials)
+        if self.config is None:
+            self._system_config = PGNNConfig.for_system(system_name)
         cfg = self.config_
         start = time.perf_counter()
         if self.physical is not None and abs(self.physical.fs - self.fs) > 1e-6 * self.fs:
             raise ValueError(f"physical model samples at {self.physical.fs} Hz, the PGNN at {self.fs} Hz")
-        self.physical_ = (self.physical or PhysicalModel(fs=self.fs)).fit(trials)
+        self.physical_ = (self.physical or MODELS[system_name](fs=self.fs)).fit(trials)
         system = self.physical_.system
         zeta0 = self.physical_.params_.to_vector()
         data = training_data(trials, system, cfg, zeta0[system.n_linear :])
@@ -90,6 +97,13 @@ class PGNN:
     def nn_contribution(self, reference) -> np.ndarray:
         """f^C (T, n_axes): what the network adds to the physical model."""
         return self._parts(reference)[1]
+
+    def reference_offset(self, reference) -> np.ndarray | None:
+        """The physical model's reference offset with the trained parameters (the arm's joint
+        torsion, ``ArmModel.reference_offset``), or None for a system without one (the IX)."""
+        if not hasattr(self, "physical_") or not hasattr(self.physical_, "reference_offset"):
+            return None
+        return dataclasses.replace(self.physical_, params=self.params_).reference_offset(reference)
 
     def save(self, path: str | Path) -> Path:
         """Weights and configuration in one file (atomic write)."""

@@ -61,8 +61,12 @@ class PGNNModule(nn.Module):
     def zeta(self) -> torch.Tensor:
         return self.zeta0 + self.zeta_scale * self.delta
 
-    def physical(self, q, qd, qdd) -> torch.Tensor:
-        """f^M of eq. (9), (B, n_axes) [V for the IX]."""
+    def physical(self, q, qd, qdd, X=None) -> torch.Tensor:
+        """f^M of eq. (9), (B, n_axes) [V for the IX, N m for the arm]. A system whose parameters are
+        all linear (the arm) may pass its regressor X (B, n_axes, n_params) instead: f^M = X zeta,
+        the same value without evaluating the regressor again."""
+        if X is not None and self.system.fully_linear:
+            return X @ self.zeta.to(X.dtype)
         return self.system.inverse_dynamics(self.zeta, q, qd, qdd)
 
     def network(self, inputs) -> torch.Tensor:
@@ -72,14 +76,16 @@ class PGNNModule(nn.Module):
         x = (inputs - self.input_mean) / self.input_std
         return torch.cat([net(x) for net in self.nets], dim=1)
 
-    def forward(self, q, qd, qdd, inputs):
-        return self.physical(q, qd, qdd), self.network(inputs)
+    def forward(self, q, qd, qdd, inputs, X=None):
+        return self.physical(q, qd, qdd, X), self.network(inputs)
 
 
 def physical_constraints(system: RigidBodySystem, zeta: torch.Tensor, q: torch.Tensor) -> torch.Tensor:
     """h of eqs. (31)-(33), each > 0 when satisfied: the parameters that are positive physically
     (IX: masses, inertias, viscous coefficients) and the smallest eigenvalue of M(theta) over the
-    given configurations."""
+    given configurations (evenly thinned to ``system.constraint_configs`` where set)."""
+    if system.constraint_configs and q.shape[0] > system.constraint_configs:
+        q = q[:: -(-q.shape[0] // system.constraint_configs)]
     return torch.cat([zeta[list(system.positive)], min_eigenvalue(system.mass_matrix(zeta, q)).min().reshape(1)])
 
 

@@ -55,6 +55,7 @@ class PGNNConfig:
     mu2: float = 1.0  # weight of R2
     regularize: bool = True  # False: J_LS only (the paper's "PGNN with J_LS")
     filter_hz: float | None = 1.0  # low-pass of u [Hz]; None: unfiltered
+    decimate: int = 1  # lcgym: train on every decimate-th sample (after filtering; the arm's 1 kHz data)
     lr: float = 1e-3
     batch_size: int = 10_000
     patience: int = 5
@@ -67,6 +68,14 @@ class PGNNConfig:
     # beyond the paper (both off by default): extra network inputs
     history: tuple[float, ...] = ()  # delays [s]: add the reference velocity d seconds ago, per axis
     periods: tuple[tuple[int, float], ...] = ()  # (axis index, period [rad]): add sin, cos(2 pi q / period)
+
+    @classmethod
+    def for_system(cls, system: str, **overrides) -> PGNNConfig:
+        """The defaults for a system: the paper's for the IX; for the FlexArm (1 kHz, moves of 1-2 s)
+        u low-passed at 5 Hz instead of 1 Hz, every 10th sample, kinematics half a sample ahead
+        (as ``physics.arm_model.ArmModel``)."""
+        base = {"flexarm": {"filter_hz": 5.0, "decimate": 10, "advance": 0.5}}.get(system, {})
+        return cls(**{**base, **overrides})
 
 
 @dataclass
@@ -100,12 +109,14 @@ def network_inputs(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, config: PGNNC
 
 def training_data(trials, system: RigidBodySystem, config: PGNNConfig, zeta_n0: np.ndarray) -> TrainingData:
     """Kinematics of each trial's reference, network inputs, filtered input u, and the regressor
-    X at zeta_n0, concatenated over trials (each trial's filter and relay run on its own)."""
+    X at zeta_n0, concatenated over trials (each trial's filter and relay run on its own, at the
+    full rate, before ``config.decimate`` keeps every k-th sample)."""
     parts = []
     for tr in trials:
         q, qd, qdd = reference_kinematics(tr.ref, tr.fs, config.advance)
         u = lowpass_zero_phase(tr.u, tr.fs, config.filter_hz) if config.filter_hz else np.asarray(tr.u, float)
-        parts.append((q, qd, qdd, network_inputs(q, qd, qdd, config, tr.fs), u))
+        k = slice(None, None, max(1, config.decimate))
+        parts.append(tuple(a[k] for a in (q, qd, qdd, network_inputs(q, qd, qdd, config, tr.fs), u)))
     q, qd, qdd, inputs, u = (np.concatenate([p[i] for p in parts]) for i in range(5))
     return TrainingData(q, qd, qdd, inputs, u, system.regressor(zeta_n0, q, qd, qdd))
 
@@ -178,7 +189,7 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
 
         def cost(b):
             """(J, J_LS, R1, R2) of one batch ``b`` (dict of tensors), J normalized as the module docstring says."""
-            f_m, f_c = module(b["q"], b["qd"], b["qdd"], b["inputs"])
+            f_m, f_c = module(b["q"], b["qd"], b["qdd"], b["inputs"], b["X"])
             j_ls = ((b["u"] - f_m - f_c) ** 2).sum(dim=1).mean()
             if not config.regularize:
                 return j_ls, j_ls.detach(), j_ls.new_zeros(()), j_ls.new_zeros(())

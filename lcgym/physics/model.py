@@ -168,11 +168,11 @@ class PhysicalModel:
             design = lambda zn, r=rigid, f=fixed: np.concatenate([r(zn), f], axis=2)  # noqa: E731
             if self.fit_nonlinear:
                 sol = least_squares(
-                    lambda zn, d=design: _solve_linear(d(zn), u_red, theta0)[1],
+                    lambda zn, d=design: solve_min_norm(d(zn), u_red, theta0)[1],
                     zeta_n, x_scale=0.01, diff_step=1e-3, max_nfev=100,
                 )
                 zeta_n = sol.x
-            theta, resid = _solve_linear(design(zeta_n), u_red, theta0)
+            theta, resid = solve_min_norm(design(zeta_n), u_red, theta0)
             p = np.concatenate([theta[: ix.N_LINEAR], zeta_n])
             base = ix.inverse_dynamics(p, *kin)
         self.params_ = ix.IXParameters.from_vector(p)
@@ -189,13 +189,15 @@ class PhysicalModel:
         return self
 
 
-def _solve_linear(A, u, theta0):
-    """Minimum-norm correction to theta0 (column-scaled) of the least-squares problem A theta = u."""
+def solve_min_norm(A, u, theta0, rcond: float = 1e-9):
+    """Minimum-norm correction to theta0 (column-scaled) of the least-squares problem A theta = u;
+    singular values below ``rcond`` times the largest count as zero (directions the data lacks)."""
     A = A.reshape(-1, theta0.size)
     y = u - A @ theta0
     scale = np.linalg.norm(A, axis=0)
-    scale[scale == 0] = 1.0
-    delta, *_ = np.linalg.lstsq(A / scale, y, rcond=1e-9)
+    used = scale > 1e-12 * scale.max(initial=0.0)  # a column of round-off only is no direction
+    scale[~used] = 1.0
+    delta, *_ = np.linalg.lstsq(np.where(used, A / scale, 0.0), y, rcond=rcond)
     theta = theta0 + delta / scale
     return theta, u - A @ theta
 
@@ -262,4 +264,3 @@ def _sparse_columns(A, scale, rtol=1e-9):
     peak = np.abs(flat).max(axis=0) if flat.shape[0] else np.zeros(flat.shape[1])
     idx = np.flatnonzero(peak > rtol * scale)
     return idx, flat[:, idx]
-MODELS: dict[str, type[PhysicalModel]] = {"ix": PhysicalModel}  # the physical model class of each system

@@ -4,7 +4,7 @@
 (the PGNN's physical part and its projection, the diagnosis): inverse dynamics (numpy and
 torch), the regressor of the parameters the model is linear in (Lemma 1 of paper 000), the mass
 matrix, and which parameters must stay positive. A learner written against it runs on any
-system that provides one: ``IX`` here; another system adds its own ``RigidBodySystem``.
+system that provides one: ``IX`` and the FlexArm's motor-side model ``ARM`` (``physics.arm_motor``).
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from . import compiled, ix
+from . import arm_motor, compiled, ix
 
 
 @dataclass(frozen=True)
@@ -26,6 +26,8 @@ class RigidBodySystem:
     parameters: a dataclass type with ``from_vector(p)`` and ``to_vector()``.
     input_unit: unit of the actuator input; noise_rms: the RMS [input_unit] below which a
     diagnosis does not count an improvement as real (the low-passed input's noise scale).
+    constraint_configs: at most this many configurations of a batch enter the PGNN's mass-matrix
+    constraint (None: all; the arm's 6 x 6 matrices cost 6 regressor evaluations each).
     """
 
     name: str
@@ -39,6 +41,12 @@ class RigidBodySystem:
     parameters: type
     input_unit: str = "V"
     noise_rms: float = 0.004
+    constraint_configs: int | None = None
+
+    @property
+    def fully_linear(self) -> bool:
+        """True when every parameter is linear (no zeta_n): then u = regressor @ p exactly."""
+        return self.n_linear == len(self.param_names)
 
 
 IX = RigidBodySystem(
@@ -53,4 +61,19 @@ IX = RigidBodySystem(
     parameters=ix.IXParameters,
 )
 
-SYSTEMS = {IX.name: IX}
+ARM = RigidBodySystem(
+    name="flexarm",
+    axes=arm_motor.arm.AXES,
+    param_names=arm_motor.PARAM_NAMES,
+    n_linear=arm_motor.N_THETA,
+    inverse_dynamics=arm_motor.inverse_dynamics,
+    regressor=arm_motor.regressor,
+    mass_matrix=arm_motor.mass_matrix,
+    positive=(*arm_motor.MASS_INDICES, *range(arm_motor.N_PI, arm_motor.N_THETA)),
+    parameters=arm_motor.ArmMotorParameters,
+    input_unit="N m",
+    noise_rms=0.01,
+    constraint_configs=16,
+)
+
+SYSTEMS = {IX.name: IX, ARM.name: ARM}

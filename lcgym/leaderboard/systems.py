@@ -1,0 +1,120 @@
+"""What the benchmark knows about each system: its plant, its reference sets, what a cell scores.
+
+A bench system has
+
+* ``plant``: the closed-loop simulator (what ``learn(plant, reference)`` of a method gets);
+* ``references(set_name, seed, n, duration)``: the seeded references of a set;
+* ``run(references, feedforward=None, offsets=None)``: closed-loop trials, one per reference, with
+  the methods' feedforward (T, n_axes) and, where the system has that channel, reference offsets;
+* ``tables(trials, feedforward)``: the norm tables (``metrics``) the cell stores;
+* ``trace(trial)``: the tracking error of one trial to plot, per scored axis.
+
+IX (paper 000): feedforward in V on both axes; scored: tracking error (encoder) and input residual
+u - f per axis.
+
+FlexArm (paper 002): feedforward = motor torques [N m] (T, 6); a method may also return a
+reference offset (T, 6) [rad, load side] through ``reference_offset(reference)``, added to the
+motor loop's reference (q_mr = N (q_lr + offset): the reference modification F1 / r_q of the
+paper's Fig. 1). Scored on the moving joints 2, 3, 5: the load-side tracking error q_lr - q_l
+[deg] (the simulation's true load angle: the encoders sit on the motors and cannot see the gear
+torsion), the input residual u - f [N m], and the TCP position error (Euclidean distance between
+the true TCP and the reference's TCP [mm], axis ``tcp``). ``duration`` does not apply: an arm
+reference is one TCP line out and back (5-6 s).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pandas as pd
+
+from ..envs.arm_references import MOVING, arm_reference_set, tcp_positions
+from ..envs.flexarm import FlexArmPlant
+from ..envs.ix import IXPlant
+from ..envs.references import reference_set
+from .metrics import input_residual_table, norms_table, tracking_error_table
+
+TRACE_DECIMATION = 5  # samples per stored trace point
+
+
+def _trace_frame(trial, axes: Sequence[str], error: np.ndarray, columns: Sequence[int]) -> pd.DataFrame:
+    k = slice(None, None, TRACE_DECIMATION)
+    cols = {"t": trial.t[k]}
+    for ax, i in zip(axes, columns, strict=True):
+        cols[f"ref_{ax}"] = trial.ref[k, i]
+        cols[f"error_{ax}"] = error[k, i]
+    return pd.DataFrame(cols).astype("float32")  # plotting precision; halves the files
+
+
+class IXBench:
+    """The IX of paper 000 in the benchmark (see the module docstring)."""
+
+    name = "ix"
+
+    def __init__(self):
+        self.plant = IXPlant()
+        self.axes = self.plant.axes
+
+    def references(self, set_name: str, seed: int, n: int, duration: float):
+        return reference_set(set_name, seed, n, duration, self.plant.fs)
+
+    def run(self, references, feedforward=None, offsets=None):
+        if offsets is not None and any(o is not None for o in offsets):
+            raise ValueError("the IX has no reference-offset channel: reference_offset must return None")
+        return self.plant.run(list(references), feedforward)
+
+    def tables(self, trials, feedforward) -> list[pd.DataFrame]:
+        return [tracking_error_table(trials), input_residual_table(trials, feedforward)]
+
+    def trace(self, trial) -> pd.DataFrame:
+        """Every TRACE_DECIMATION-th sample (100 Hz) of the reference and the tracking error [rad]."""
+        return _trace_frame(trial, self.axes, trial.error, range(len(self.axes)))
+
+
+class FlexArmBench:
+    """The FlexArm of paper 002 in the benchmark (see the module docstring)."""
+
+    name = "flexarm"
+    scored = MOVING  # joints 2, 3, 5
+
+    def __init__(self):
+        self.plant = FlexArmPlant()
+        self.axes = self.plant.axes
+        self.scored_axes = tuple(self.axes[i] for i in self.scored)
+
+    def references(self, set_name: str, seed: int, n: int, duration: float):
+        return arm_reference_set(set_name, seed, n, self.plant.fs)
+
+    def run(self, references, feedforward=None, offsets=None):
+        references = list(references)
+        feedforward = [None] * len(references) if feedforward is None else list(feedforward)
+        offsets = [None] * len(references) if offsets is None else list(offsets)
+        N = np.asarray(self.plant.true_drive.N)
+        return [self.plant.run(r, f, None if o is None else N * np.asarray(o, dtype=float))
+                for r, f, o in zip(references, feedforward, offsets, strict=True)]
+
+    @staticmethod
+    def load_error(trial) -> np.ndarray:
+        """q_lr - q_l (T, 6) [rad]: reference minus the true load angle."""
+        return trial.ref - np.column_stack([trial.extra[f"load_{a}"] for a in trial.axes])
+
+    def tcp_error(self, trial) -> np.ndarray:
+        """|TCP - TCP of the reference| (T,) [mm]."""
+        tcp = np.column_stack([trial.extra[f"tcp_{c}"] for c in "xyz"])
+        return 1000.0 * np.linalg.norm(tcp - tcp_positions(trial.ref, self.plant.true_arm.dh), axis=1)
+
+    def tables(self, trials, feedforward) -> list[pd.DataFrame]:
+        cols = list(self.scored)
+        e = np.degrees(np.concatenate([self.load_error(t) for t in trials]))[:, cols]
+        residual = input_residual_table(trials, feedforward, unit="N m")
+        tcp = np.concatenate([self.tcp_error(t) for t in trials])[:, None]
+        return [norms_table(e, self.scored_axes, "tracking_error", "deg"),
+                residual[residual["axis"].isin(self.scored_axes)].reset_index(drop=True),
+                norms_table(tcp, ("tcp",), "tcp_position_error", "mm")]
+
+    def trace(self, trial) -> pd.DataFrame:
+        return _trace_frame(trial, self.scored_axes, self.load_error(trial), self.scored)
+
+
+BENCH_SYSTEMS = {"ix": IXBench, "flexarm": FlexArmBench}

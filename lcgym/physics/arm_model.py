@@ -1,0 +1,89 @@
+"""``ArmModel``: the FlexArm's physical model, fitted by least squares, as a feedforward.
+
+The model is the motor-side rigid-joint dynamics of ``physics.arm_motor`` (eqs. 1-2 of paper 002
+with stiff joints: the load-side rigid body reflected through the gears, plus motor inertia and
+viscous and Coulomb friction), linear in its 78 parameters theta. It gives two feedforward
+signals for a load-side reference q_lr:
+
+- ``predict``: the motor torque u(q_lr, qd_lr, qdd_lr) [N m] (T, 6), evaluated ``advance``
+  samples ahead (half a sample: the plant holds u over the sample);
+- ``reference_offset``: the joint torsion tau_l / K_J [rad, load side] (T, 6) that the gear springs
+  take when they carry the load torque tau_l = M_l qdd + C qd + G + D_l qd + F_lc sgn(qd). Added
+  to the reference of the motor loop, it makes the load arrive where the reference says instead
+  of sagging by the torsion: the quasi-static form of F1 and r_q (eqs. 9, 11), with the fitted
+  rigid body in place of the nominal one and without F1's D_J lag (a time constant
+  D_J / K_J of 1 ms).
+
+``fit(trials)`` works like ``PhysicalModel.fit`` (which it inherits the kinematics and the
+filtering from): kinematics of the reference (or, ``positions="measured"``, of the motion the
+encoders saw), the measured torque u and every regressor column low-passed at ``filter_hz``
+(zero phase) and decimated, then the minimum-norm correction of the nominal theta that fits them
+in least squares. Only joints 2, 3 and 5 move on the TCP lines, so only the combinations of
+inertial parameters those motions excite are identified; the rest keep their nominal (CAD)
+values. An unmodelled payload at the flange is such a combination: the fit takes it up into
+link 6's parameters (tested). K_J, D_l and F_lc are not identifiable from the motor torque and
+stay nominal.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+
+from . import arm, arm_motor
+from .kinematics import reference_kinematics, reference_positions
+from .model import PhysicalModel, solve_min_norm
+from .system import ARM, RigidBodySystem
+
+
+@dataclass
+class ArmModel(PhysicalModel):
+    """FlexArm motor-side model; ``fit`` then ``predict`` / ``reference_offset``. Constructor
+    arguments are stored as given; ``fit`` sets ``params_`` (``ArmMotorParameters``) and
+    ``fit_info_``; before ``fit`` the given (default nominal) parameters are used."""
+
+    params: arm_motor.ArmMotorParameters = field(default_factory=arm_motor.ArmMotorParameters)
+    fs: float = 1000.0
+    advance: float = 0.5
+    decimate: int = 10
+    system: ClassVar[RigidBodySystem] = ARM
+    built_in: ClassVar[tuple[str, ...]] = ("rigid_body", "motor_inertia", "viscous_friction", "coulomb_friction")
+
+    def __post_init__(self):
+        super().__post_init__()
+        if self.effects:
+            raise ValueError("ArmModel takes no effects (the effect library is the IX's)")
+
+    def torque(self, q, qd, qdd) -> np.ndarray:
+        """Motor torques [N m] (T, 6) for load-side kinematics (rad, rad/s, rad/s^2)."""
+        return arm_motor.inverse_dynamics(self.fitted_params.to_vector(), q, qd, qdd)
+
+    def reference_offset(self, reference) -> np.ndarray:
+        """Joint torsion tau_l / K_J [rad, load side] (T, 6) along a reference (module docstring)."""
+        q, qd, qdd = reference_kinematics(reference_positions(reference), self.fs, self.advance)
+        d = arm.DriveParameters()
+        p = self.fitted_params
+        tau_l = arm.inverse_dynamics(p.arm(), q, qd, qdd) + np.asarray(d.Dl) * qd + np.asarray(d.Flc) * np.tanh(
+            qd / arm_motor.EPS)
+        return tau_l / np.asarray(d.KJ)
+
+    def fit(self, trials: Sequence) -> ArmModel:
+        """Least-squares fit on measured trials (``ref``, ``pos`` = motor angle / N, ``u`` [N m])."""
+        kin, lengths = self.kinematics(trials)
+        design, target, start = [], [], 0
+        for tr, n in zip(trials, lengths, strict=True):  # one trial at a time: X is 3.7 kB per sample
+            k = slice(start, start + n)
+            start += n
+            design.append(self.reduce(arm_motor.regressor(None, kin[0][k], kin[1][k], kin[2][k]), [n]))
+            target.append(self.reduce(np.asarray(tr.u, dtype=float), [n]))
+        X, u = np.concatenate(design), np.concatenate(target).reshape(-1)
+        # rcond 1e-6: besides the exactly unexcited directions, the stationary joints' columns carry
+        # round-off of the inverse kinematics (1e-7 relative) that must not be fitted
+        theta, resid = solve_min_norm(X, u, self.params.to_vector(), rcond=1e-6)
+        self.params_ = arm_motor.ArmMotorParameters.from_vector(theta)
+        self.fit_info_ = {"residual_rms": float(np.sqrt(np.mean(resid**2))), "n_samples": int(sum(lengths)),
+                          "n_used": int(X.shape[0])}
+        return self
