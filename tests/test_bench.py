@@ -17,7 +17,7 @@ from lcgym.leaderboard.report import format_text, ranking, write_html, write_mar
 from lcgym.leaderboard.runner import BenchConfig, run_benchmark
 from lcgym.leaderboard.store import COLUMNS, ResultsFileError, append_rows, read_results
 
-TINY = {"seeds": (0,), "n_train": 1, "n_validation": 1, "duration": 4.0}
+TINY = {"systems": ("ix",), "seeds": (0,), "n_train": 1, "n_validation": 1, "duration": 4.0}
 BASE = ("feedback", "physical")  # the fast methods; the PGNN has its own tests
 METRICS = ["MA", "RMS", "Inf"]
 REPO = Path(__file__).resolve().parents[1]
@@ -45,6 +45,23 @@ def test_tiny_benchmark_rows_and_schema(tmp_path):
     trace = pd.read_parquet(out.parent / "r.csv.traces" / "ix_physical_0.parquet")
     assert list(trace.columns) == ["t", "ref_propeller", "error_propeller", "ref_roll", "error_roll"]
     assert len(trace) > 100 and np.isfinite(trace.to_numpy()).all()
+
+
+def test_flexarm_cells_score_load_side_and_tcp_errors(tmp_path):
+    """On the arm: load-side tracking error and input residual of joints 2, 3, 5, and the TCP error;
+    the fitted physical model (with its joint-torsion reference offset) beats feedback on all."""
+    out = tmp_path / "r.csv"
+    summary = run_benchmark(BenchConfig(methods=BASE, **{**TINY, "systems": ("flexarm",)}), out, progress=False)
+    df = read_results(out)
+    assert summary["cells_failed"] == 0 and (df["status"] == "ok").all()
+    val = df[df.reference_set == "validation"]
+    assert set(zip(val.signal, val.axis, val.unit)) == {
+        *(("tracking_error", j, "deg") for j in ("j2", "j3", "j5")),
+        *(("input_residual", j, "N m") for j in ("j2", "j3", "j5")), ("tcp_position_error", "tcp", "mm")}
+    rms = val.set_index(["signal", "axis", "method"])["RMS"].unstack()
+    assert (rms["physical"] < rms["feedback"]).all(), rms
+    trace = pd.read_parquet(out.parent / "r.csv.traces" / "flexarm_physical_0.parquet")
+    assert list(trace.columns) == ["t", "ref_j2", "error_j2", "ref_j3", "error_j3", "ref_j5", "error_j5"]
 
 
 def test_same_seeds_same_numbers(tmp_path):
@@ -102,7 +119,7 @@ def test_unknown_method_and_system_refused():
     with pytest.raises(ValueError, match="cannot import"):
         BenchConfig(methods=("no_such_module_xyz:Thing",), **TINY)
     with pytest.raises(ValueError, match="unknown system"):
-        BenchConfig(systems=("crane",), **TINY)
+        BenchConfig(**{**TINY, "systems": ("crane",)})
 
 
 def test_resume_skips_stored_cells(tmp_path):
@@ -137,7 +154,7 @@ def _cells_in(path: Path) -> int:
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL], ids=["SIGINT", "SIGKILL"])
 def test_killed_bench_leaves_valid_csv_and_resume_completes(tmp_path, sig):
     out = tmp_path / "r.csv"
-    args = ["bench", "--quick", "--methods", "feedback,physical", "--seeds", "0,1,2,3", "--out", str(out)]
+    args = ["bench", "--quick", "--systems", "ix", "--methods", "feedback,physical", "--seeds", "0,1,2,3", "--out", str(out)]
     proc = cli(*args)
     deadline = time.time() + 120
     while _cells_in(out) < 1 and time.time() < deadline and proc.poll() is None:
@@ -160,7 +177,7 @@ def test_killed_bench_leaves_valid_csv_and_resume_completes(tmp_path, sig):
 
 def test_concurrent_writers_lose_no_row(tmp_path):
     out = tmp_path / "r.csv"
-    procs = [cli("bench", "--quick", "--methods", "feedback", "--seeds", str(s), "--out", str(out)) for s in range(4)]
+    procs = [cli("bench", "--quick", "--systems", "ix", "--methods", "feedback", "--seeds", str(s), "--out", str(out)) for s in range(4)]
     for p in procs:
         _, stderr = p.communicate(timeout=300)
         assert p.returncode == 0, stderr
