@@ -12,7 +12,7 @@ import argparse
 import sys
 from pathlib import Path
 
-SYSTEMS = ("ix",)
+SIMULATE_SYSTEMS = ("ix",)  # lcgym simulate; bench and diagnose take both systems
 
 
 def _controllers(text: str) -> list[str]:
@@ -67,7 +67,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="lcgym", description="Learning feedforward control benchmark suite")
     sub = parser.add_subparsers(dest="command", required=True)
     bench = sub.add_parser("bench", help="run methods on systems over seeds; append MA/RMS/Inf to a results CSV")
-    bench.add_argument("--systems", type=_names, help="comma-separated systems (default: all: ix)")
+    bench.add_argument("--systems", type=_names, help="comma-separated systems (default: all: ix,flexarm)")
     bench.add_argument("--methods", type=_names,
                        help="comma-separated method ids or module:Class (default: every registered method)")
     bench.add_argument("--seeds", type=_seeds, help="comma-separated seeds (default 0,1,2; --quick: 0)")
@@ -83,7 +83,7 @@ def build_parser() -> argparse.ArgumentParser:
     board.add_argument("--markdown", type=_writable, help="write a Markdown page (figures beside it)")
     board.add_argument("--html", type=_writable, help="write an HTML page (figures beside it)")
     sim = sub.add_parser("simulate", help="fit controllers on training runs and simulate validation references")
-    sim.add_argument("--system", choices=SYSTEMS, default="ix")
+    sim.add_argument("--system", choices=SIMULATE_SYSTEMS, default="ix")
     sim.add_argument("--controller", type=_controllers, default=["feedback", "physical"],
                      help="controller name or comma-separated list (feedback, physical)")
     sim.add_argument("--seed", type=_nonnegative, default=0)
@@ -113,8 +113,6 @@ def cmd_diagnose(args) -> int:
     from .diagnose import diagnose
     from .diagnose.search import DataTooShort
 
-    if args.system not in SYSTEMS:
-        raise ValueError(f"system {args.system!r} has no physical model yet (available: {', '.join(SYSTEMS)})")
     if args.plots is not None:  # the folder must be creatable: check before any work
         existing = next(p for p in (args.plots, *args.plots.parents) if p.exists())
         if not existing.is_dir():
@@ -135,21 +133,18 @@ def cmd_diagnose(args) -> int:
 
 
 def cmd_effects(args) -> int:
-    from .diagnose import CANDIDATES
-
-    if args.system not in SYSTEMS:
-        raise ValueError(f"system {args.system!r} has no physical model yet (available: {', '.join(SYSTEMS)})")
     from .data import SYSTEM_AXES
+    from .diagnose.candidates import candidates_for
+    from .physics.registry import MODELS
 
     print(f"effects diagnose ranks and --add accepts on {args.system} (axes: {', '.join(SYSTEM_AXES[args.system])}):")
-    for name, cand in CANDIDATES.items():
+    for cand in candidates_for(args.system):
+        name = cand.name
         doc = " ".join((cand.effect.__doc__ or "").strip().split("\n\n")[0].split())
         doc = doc if len(doc) <= 100 else doc[:97] + "..."
         searched = [*cand.grid, *([cand.period] if cand.period else [])]
         print(f"  {name:30s} [{cand.family}] {doc}" + (f" (searched: {', '.join(searched)})" if searched else ""))
-    from .physics.registry import MODELS
-
-    print(f"the model already has: {', '.join(MODELS[args.system].built_in)}")
+    print(f"the model already has: {', '.join(MODELS[args.system].for_diagnosis(fs=1.0).parts())}")
     return 0
 
 

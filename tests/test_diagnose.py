@@ -12,7 +12,7 @@ import pytest
 from lcgym.cli import main
 from lcgym.data import Trial, read_trials, write_trials
 from lcgym.diagnose import NOTHING_FOUND, diagnose, register_effect
-from lcgym.diagnose.candidates import CANDIDATES
+from lcgym.diagnose.candidates import CANDIDATES, candidates_for
 from lcgym.diagnose.search import Scorer, period_peaks
 from lcgym.envs.ix import IXPlant
 from lcgym.envs.references import reference_set
@@ -222,11 +222,11 @@ def test_cli_diagnose_bad_file_fails_clearly_and_writes_nothing(tmp_path, capsys
 def test_cli_rejects_unknown_effect_and_lists_effects(tmp_path, capsys):
     data = write_trials(tmp_path / "m.csv", _trials(()), meta={"system": "ix"})
     assert main(["diagnose", str(data), "--system", "ix", "--add", "warp_drive@roll"]) == 1
-    assert "'warp_drive' is not an effect diagnose can add" in capsys.readouterr().err
+    assert "'warp_drive' is not an effect diagnose can add on ix" in capsys.readouterr().err
     assert main(["diagnose", str(data), "--system", "ix", "--add", "stiction@roll"]) == 1
     assert main(["effects", "--system", "ix"]) == 0
     listed = capsys.readouterr().out
-    assert all(name in listed for name in CANDIDATES)
+    assert all(c.name in listed for c in candidates_for("ix")) and "payload" not in listed
 
 
 def test_read_back_keeps_the_plant_record_for_replay(tmp_path):

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..data import SYSTEM_AXES
 from ..physics import effects as fx
 
 DEG = math.pi / 180.0
@@ -65,6 +66,11 @@ def _angle_quantiles(q, qd, i, n=9):
 CANDIDATES: dict[str, Candidate] = {}
 
 
+def candidates_for(system: str) -> list[Candidate]:
+    """The registered candidates whose effect applies to ``system`` (``Effect.systems``)."""
+    return [c for c in CANDIDATES.values() if system in c.effect.systems]
+
+
 def register_effect(effect, family: str = "user", grid: dict | None = None, period: str | None = None,
                     name: str | None = None, n_coefficients: int = 1) -> Candidate:
     """Add a candidate effect to the diagnosis (it is ranked with the built-in ones).
@@ -109,7 +115,8 @@ def _function_effect(function, name: str, n_coefficients: int, nonlinear: tuple[
 
     linear = tuple(f"c{k}" for k in range(n_coefficients))
     fields = [(p, float, dataclasses.field(default=0.0)) for p in linear + nonlinear]
-    namespace = {"name": name, "linear": linear, "nonlinear": nonlinear, "_columns": _columns}
+    namespace = {"name": name, "linear": linear, "nonlinear": nonlinear, "_columns": _columns,
+                 "systems": tuple(SYSTEM_AXES)}  # a function of the axis's own kinematics fits any system
     return dataclasses.make_dataclass(f"UserEffect_{name}", fields, bases=(fx.Effect,), frozen=True, namespace=namespace)
 
 
@@ -124,5 +131,6 @@ for _cand in (
     Candidate(fx.GearHarmonic, "periodic", period="period"),
     Candidate(fx.TorqueRipple, "periodic", period="period"),
     Candidate(fx.CableDrape, "gravity"),
+    Candidate(fx.Payload, "inertia"),
 ):
     CANDIDATES[_cand.name] = _cand

@@ -26,13 +26,17 @@ DEG = math.pi / 180.0
 
 
 def region_masks(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, trial: np.ndarray, fs_rows: float,
-                 axes: tuple[str, ...], window: float = 0.3) -> dict[str, list[tuple[str, np.ndarray]]]:
+                 axes: tuple[str, ...], window: float = 0.3,
+                 still_range: float = 1.0 * DEG) -> dict[str, list[tuple[str, np.ndarray]]]:
     """Boolean masks (R,) per axis: {axis: [(description, mask), ...]}. q, qd, qdd are (R, A)
-    at the reduced rows, ``trial`` (R,) the trial of each row, ``fs_rows`` their rate [Hz]."""
+    at the reduced rows, ``trial`` (R,) the trial of each row, ``fs_rows`` their rate [Hz].
+    Axes that stand still (angle range below ``still_range``) get no regions and split no others."""
     out = {}
     n = q.shape[0]
     quarter = np.minimum((np.arange(n) * 4) // max(n, 1), 3)
-    for i, ax in enumerate(axes):
+    moving = [i for i in range(len(axes)) if np.ptp(q[:, i]) >= still_range]
+    for i in moving:
+        ax = axes[i]
         v, a = qd[:, i], qdd[:, i]
         vmax = max(float(np.abs(v).max()), 1e-12)
         amax = max(float(np.abs(a).max()), 1e-12)
@@ -51,7 +55,8 @@ def region_masks(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, trial: np.ndarr
             ("accelerating", (np.abs(a) > 0.2 * amax) & (a * v > 0)),
             ("decelerating", (np.abs(a) > 0.2 * amax) & (a * v < 0)),
         ]
-        for j, other in enumerate(axes):
+        for j in moving:
+            other = axes[j]
             edges = np.quantile(q[:, j], [0, 0.25, 0.5, 0.75, 1.0])
             for k in range(4):
                 lo, hi = edges[k], edges[k + 1]
@@ -69,7 +74,7 @@ def region_table(residual: np.ndarray, masks: dict, axes: tuple[str, ...], min_s
         r = residual[:, i]
         total = float((r * r).sum()) or 1.0
         overall = math.sqrt(total / r.size)
-        for where, m in masks[ax]:
+        for where, m in masks.get(ax, ()):
             share = float(m.mean())
             if share < min_share:
                 continue

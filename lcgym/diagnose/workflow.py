@@ -1,9 +1,10 @@
 """``diagnose(trials)``: compare the model with measurements, see where it fails, find the
 missing effect, add it and watch the error fall. The steps, in order:
 
-1. Compare: the system's nominal physical model (rigid body + viscous friction) is fitted to the
-   trials by least squares (``PhysicalModel.fit`` with ``positions="measured"``: the motion the
-   machine made, see ``physics/model.py``); residual = u - f_model after the model's own
+1. Compare: the system's nominal physical model (``for_diagnosis``: IX rigid body + viscous
+   friction; FlexArm CAD rigid body + fitted motor inertia and viscous friction) is fitted to the
+   trials by least squares (``positions="measured"``: the motion the machine made, see
+   ``physics/model.py``); residual = u - f_model after the model's own
    low-pass and decimation (5 Hz zero phase, so the quantization noise that the feedback puts
    into u above that is not counted). MA, RMS, Inf per axis in the input's unit.
 2. Where it fails: the residual by operating region (``regions.py``).
@@ -30,7 +31,7 @@ from ..physics.kinematics import reference_kinematics
 from ..physics.model import PhysicalModel
 from ..physics.registry import MODELS
 from ..physics.system import SYSTEMS
-from .candidates import CANDIDATES, Candidate
+from .candidates import Candidate, candidates_for
 from .regions import region_masks, region_table
 from .report import Diagnosis
 from .search import check_length, prepare, rank
@@ -57,7 +58,7 @@ def _check_trials(trials, system) -> None:
 def diagnose(trials: Sequence, system: str = "ix", add: Sequence[str | Effect] = (), replay: bool = False,
              candidates: Sequence[Candidate] | None = None, model: PhysicalModel | None = None,
              min_explained: float = 0.1, min_rms: float | None = None, block_seconds: float = 4.0,
-             max_steps: int = 4, progress: bool = False) -> Diagnosis:
+             max_steps: int | None = None, progress: bool = False) -> Diagnosis:
     """Run the workflow of this module on measured ``trials`` of ``system``.
 
     model: the physical model to diagnose (unfitted; default the system's nominal one).
@@ -65,6 +66,9 @@ def diagnose(trials: Sequence, system: str = "ix", add: Sequence[str | Effect] =
     min_explained, min_rms [input unit]: the significance rule (``search.py``); min_rms
     defaults to the system's ``noise_rms``. add: effects (``name@axis`` or Effect objects)
     to add after the search. replay: re-run the plant recorded in the trials' metadata.
+    Candidates are tried on the axes that move (reference range above ``MIN_TRAVEL``: a joint that
+    stands still shows neither friction nor inertia); max_steps: most effects selected (default
+    two per moving axis).
     """
     if system not in SYSTEMS:
         raise ValueError(f"unknown system {system!r}; choose one of {sorted(SYSTEMS)}")
@@ -75,8 +79,8 @@ def diagnose(trials: Sequence, system: str = "ix", add: Sequence[str | Effect] =
     axes, unit = tuple(sysd.axes), sysd.input_unit
     min_rms = sysd.noise_rms if min_rms is None else float(min_rms)
     fs = trials[0].fs
-    model = model if model is not None else MODELS[system](fs=fs, positions="measured")
-    cands = list(CANDIDATES.values()) if candidates is None else list(candidates)
+    model = model if model is not None else MODELS[system].for_diagnosis(fs)
+    cands = candidates_for(system) if candidates is None else list(candidates)
     added = [_parse_add(a, model, system) for a in add]  # every check before the work
     keys = [e.key for e in added]
     if len(set(keys)) < len(keys):
@@ -84,6 +88,10 @@ def diagnose(trials: Sequence, system: str = "ix", add: Sequence[str | Effect] =
     if replay and not isinstance(trials[0].meta.get("plant"), dict):
         raise ValueError("--replay needs data simulated by lcgym: the file's sidecar has no 'plant' record")
     check_length(trials, block_seconds)
+    moving = moving_axes(trials)
+    if not moving:
+        raise ValueError(f"diagnose: no axis moves more than {np.degrees(MIN_TRAVEL):g} deg in the data")
+    max_steps = 2 * len(moving) if max_steps is None else max_steps
 
     bar = tqdm(total=2, desc="diagnose", disable=not progress, leave=False)
     bar.set_postfix_str("fit nominal model")
@@ -97,7 +105,7 @@ def diagnose(trials: Sequence, system: str = "ix", add: Sequence[str | Effect] =
     bar.update()
     bar.set_postfix_str("candidates")
     ranking = rank(prep, trials, cands, axes, min_explained=min_explained, min_rms=min_rms,
-                   block_seconds=block_seconds, max_steps=max_steps, progress=bar)
+                   block_seconds=block_seconds, max_steps=max_steps, progress=bar, search_axes=moving)
     bar.close()
 
     rows = []
@@ -110,7 +118,7 @@ def diagnose(trials: Sequence, system: str = "ix", add: Sequence[str | Effect] =
         rows.append(_candidate_row(ranking, s, axes, unit, selected=False, step=None))
 
     report = Diagnosis(system=system, axes=axes, unit=unit, n_samples=sum(prep.lengths), fs=fs,
-                       model_effects=[*prep.model.built_in, *(e.key for e in prep.model.effects)],
+                       model_effects=[*prep.model.parts(), *(e.key for e in prep.model.effects)],
                        residual=norms(residual, axes, unit), regions=regions, candidates=rows,
                        min_explained=min_explained, min_rms=min_rms, model=prep.model, suggested_model=ranking.model,
                        series={"t": prep.rows / fs, "residual": residual, "q": q, "qd": qd,
@@ -132,17 +140,26 @@ def diagnose(trials: Sequence, system: str = "ix", add: Sequence[str | Effect] =
     return report
 
 
-def _parse_add(item, model: PhysicalModel | None, system: str) -> Effect:
+MIN_TRAVEL = 1.0 * DEG  # rad: an axis whose reference spans less stands still
+
+
+def moving_axes(trials: Sequence) -> list[int]:
+    """Indices of the axes whose reference spans at least ``MIN_TRAVEL`` over the trials."""
+    ref = np.concatenate([tr.ref for tr in trials])
+    return [i for i in range(ref.shape[1]) if np.ptp(ref[:, i]) >= MIN_TRAVEL]
+
+
+def _parse_add(item, model: PhysicalModel, system: str) -> Effect:
     """An effect to add: an Effect, or a ``name@axis`` label of a candidate."""
     if isinstance(item, Effect):
         return item
     name = str(item).partition("@")[0]
-    built_in = (model or MODELS[system]).built_in
-    if name in built_in:
+    if name in model.parts():
         raise ValueError(f"cannot add {item}: the model already has {name}")
-    if name not in CANDIDATES:
-        raise ValueError(f"cannot add {item}: {name!r} is not an effect diagnose can add; choose from "
-                         f"{', '.join(CANDIDATES)} (`lcgym effects --system {system}`)")
+    available = [c.name for c in candidates_for(system)]
+    if name not in available:
+        raise ValueError(f"cannot add {item}: {name!r} is not an effect diagnose can add on {system}; choose from "
+                         f"{', '.join(available)} (`lcgym effects --system {system}`)")
     return make_effect(str(item))
 
 

@@ -112,6 +112,8 @@ def pack_effects(effects: Sequence[fx.Effect], rigid: ix.IXParameters) -> tuple[
     p = rigid.to_vector()
     fx.check_unique(effects)
     for e in effects:
+        if e.axis not in ix.AXES:
+            raise ValueError(f"{e.key} is not an effect of the IX (axes {', '.join(ix.AXES)})")
         row = E[e.index]
         if isinstance(e, fx.ViscousFriction):
             row[K.VISC] = e.d

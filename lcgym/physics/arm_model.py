@@ -27,6 +27,7 @@ stay nominal.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import ClassVar
@@ -41,25 +42,42 @@ from .system import ARM, RigidBodySystem
 
 @dataclass
 class ArmModel(PhysicalModel):
-    """FlexArm motor-side model; ``fit`` then ``predict`` / ``reference_offset``. Constructor
-    arguments are stored as given; ``fit`` sets ``params_`` (``ArmMotorParameters``) and
-    ``fit_info_``; before ``fit`` the given (default nominal) parameters are used."""
+    """FlexArm motor-side model (+ effects); ``fit`` then ``predict`` / ``reference_offset``.
+    Constructor arguments are stored as given; ``fit`` sets ``params_`` (``ArmMotorParameters``),
+    ``effects_`` and ``fit_info_``; before ``fit`` the given (default nominal) parameters are used.
+
+    fit_inertia: fit the inertial parameters (False: keep the given ones, e.g. CAD values);
+    fit_coulomb: fit the Coulomb friction c (False: keep the given c; the diagnosis starts from c = 0
+    and offers Coulomb friction as a candidate effect).
+    """
 
     params: arm_motor.ArmMotorParameters = field(default_factory=arm_motor.ArmMotorParameters)
     fs: float = 1000.0
     advance: float = 0.5
     decimate: int = 10
+    fit_inertia: bool = True
+    fit_coulomb: bool = True
     system: ClassVar[RigidBodySystem] = ARM
     built_in: ClassVar[tuple[str, ...]] = ("rigid_body", "motor_inertia", "viscous_friction", "coulomb_friction")
 
-    def __post_init__(self):
-        super().__post_init__()
-        if self.effects:
-            raise ValueError("ArmModel takes no effects (the effect library is the IX's)")
+    @classmethod
+    def for_diagnosis(cls, fs: float) -> ArmModel:
+        """The engineer's model: CAD inertial parameters, fitted motor inertia and viscous friction,
+        no Coulomb friction; fitted to the motion the motor encoders measured."""
+        nominal = arm_motor.ArmMotorParameters()
+        return cls(params=dataclasses.replace(nominal, c=(0.0,) * arm_motor.N), fs=fs, positions="measured",
+                   fit_inertia=False, fit_coulomb=False)
+
+    def parts(self) -> tuple[str, ...]:
+        return (("rigid_body" if self.fit_inertia else "rigid_body (inertial parameters as given)"),
+                "motor_inertia", "viscous_friction", *(("coulomb_friction",) if self.fit_coulomb else ()))
 
     def torque(self, q, qd, qdd) -> np.ndarray:
         """Motor torques [N m] (T, 6) for load-side kinematics (rad, rad/s, rad/s^2)."""
-        return arm_motor.inverse_dynamics(self.fitted_params.to_vector(), q, qd, qdd)
+        tau = arm_motor.inverse_dynamics(self.fitted_params.to_vector(), q, qd, qdd)
+        for e in self.fitted_effects:
+            tau += e.torque(q, qd, qdd)
+        return tau
 
     def reference_offset(self, reference) -> np.ndarray:
         """Joint torsion tau_l / K_J [rad, load side] (T, 6) along a reference (module docstring)."""
@@ -70,20 +88,39 @@ class ArmModel(PhysicalModel):
             qd / arm_motor.EPS)
         return tau_l / np.asarray(d.KJ)
 
+    def _free(self) -> np.ndarray:
+        """Boolean mask (78,) of the parameters the fit adjusts."""
+        free = np.ones(arm_motor.N_THETA, dtype=bool)
+        free[: arm_motor.N_PI] = self.fit_inertia
+        free[arm_motor.N_PI + 2 * arm_motor.N :] = self.fit_coulomb
+        return free
+
+    def free_design(self, kin, params=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        theta = (params or self.fitted_params).to_vector()
+        free = self._free()
+        X = arm_motor.regressor(None, *kin)
+        return X[:, :, free], X[:, :, ~free] @ theta[~free], theta[free]
+
     def fit(self, trials: Sequence) -> ArmModel:
-        """Least-squares fit on measured trials (``ref``, ``pos`` = motor angle / N, ``u`` [N m])."""
+        """Least-squares fit on measured trials (``ref``, ``pos`` = motor angle / N, ``u`` [N m]) of
+        the free parameters and the effects' coefficients."""
         kin, lengths = self.kinematics(trials)
-        design, target, start = [], [], 0
-        for tr, n in zip(trials, lengths, strict=True):  # one trial at a time: X is 3.7 kB per sample
-            k = slice(start, start + n)
-            start += n
-            design.append(self.reduce(arm_motor.regressor(None, kin[0][k], kin[1][k], kin[2][k]), [n]))
-            target.append(self.reduce(np.asarray(tr.u, dtype=float), [n]))
-        X, u = np.concatenate(design), np.concatenate(target).reshape(-1)
+        free, fixed, theta_free = self.free_design(kin, self.params)  # a fit starts from the given values
+        X = self.reduce(np.concatenate([free, self._effect_columns(kin, np.zeros_like(fixed))], axis=2), lengths)
+        u = self.reduce(np.concatenate([tr.u for tr in trials]) - fixed, lengths).reshape(-1)
+        theta0 = np.concatenate([theta_free, *[e.coefficients() for e in self.effects]])
         # rcond 1e-6: besides the exactly unexcited directions, the stationary joints' columns carry
         # round-off of the inverse kinematics (1e-7 relative) that must not be fitted
-        theta, resid = solve_min_norm(X, u, self.params.to_vector(), rcond=1e-6)
-        self.params_ = arm_motor.ArmMotorParameters.from_vector(theta)
+        theta, resid = solve_min_norm(X, u, theta0, rcond=1e-6)
+        vector = self.params.to_vector()
+        n_free = int(self._free().sum())
+        vector[self._free()] = theta[:n_free]
+        self.params_ = arm_motor.ArmMotorParameters.from_vector(vector)
+        effects, i = [], n_free
+        for e in self.effects:
+            effects.append(e.with_coefficients(theta[i : i + len(e.linear)]))
+            i += len(e.linear)
+        self.effects_ = tuple(effects)
         self.fit_info_ = {"residual_rms": float(np.sqrt(np.mean(resid**2))), "n_samples": int(sum(lengths)),
                           "n_used": int(X.shape[0])}
         return self

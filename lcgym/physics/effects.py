@@ -1,6 +1,7 @@
 """The effect library: physical effects beyond the rigid-body model, by canonical name.
 
-Each effect acts on one axis (``axis``) and is written once:
+Each effect acts on one axis (``axis``) of the systems it names (``systems``: the IX's propeller
+and roll, the FlexArm's joints j1-j6) and is written once:
 
 * a *formula function* (module level, below) that computes its basis functions with numpy
   ufuncs on scalars or arrays, so that the compiled plant (numba, scalars) and the physical
@@ -13,14 +14,16 @@ Each effect acts on one axis (``axis``) and is written once:
 
 Sign convention: ``torque`` is the input [V] the axis needs to overcome the effect, i.e. it is
 added to the right-hand side of tau = M qdd + H + D qd (eq. 2 of paper 000). All angles are in
-rad, velocities in rad/s, torques in V (IX, 1 V = 100 N m).
+rad, velocities in rad/s, torques in the system's input unit (IX: V, 1 V = 100 N m; FlexArm: N m
+of the motor, for load-side angles).
 
 Effects marked ``plant_only`` have internal state or change the order of the system
 (stiction, drivetrain flexibility): they exist in plants but a static inverse model has no
 regressor for them.
 
 Names follow `spec/effects.md`; ``cable_drape`` (the weight of a hanging cable, a sinusoid in
-the axis angle) is an addition of lcgym to that vocabulary.
+the axis angle) and ``payload`` (an unknown rigid body at the FlexArm's flange) are additions of
+lcgym to that vocabulary.
 """
 
 from __future__ import annotations
@@ -33,8 +36,17 @@ from typing import ClassVar
 import numpy as np
 from numba.extending import register_jitable
 
+from ..data import SYSTEM_AXES
+
 DEG = math.pi / 180.0
-AXIS_INDEX = {"propeller": 0, "roll": 1}
+
+
+def axis_index(axis: str) -> int:
+    """Position of an axis among its system's axes (axis names are unique across systems)."""
+    for axes in SYSTEM_AXES.values():
+        if axis in axes:
+            return axes.index(axis)
+    raise ValueError(f"unknown axis {axis!r}")
 
 # ---------------------------------------------------------------------------------------------
 # Formula functions: numpy ufuncs only, valid on floats (numba) and arrays (numpy).
@@ -143,10 +155,13 @@ class Effect:
     nonlinear: ClassVar[tuple[str, ...]] = ()  # nonlinear parameter attribute names
     plant_only: ClassVar[bool] = False
     needs_base_torque: ClassVar[bool] = False
+    systems: ClassVar[tuple[str, ...]] = ("ix",)  # where the effect's formula applies
 
     def __post_init__(self):
-        if self.axis not in AXIS_INDEX:
-            raise ValueError(f"{self.name}: unknown axis {self.axis!r}; choose one of {sorted(AXIS_INDEX)}")
+        allowed = [a for s in self.systems for a in SYSTEM_AXES[s]]
+        if self.axis not in allowed:
+            raise ValueError(f"{self.name}: unknown axis {self.axis!r} (the effect applies to {', '.join(self.systems)}); "
+                             f"choose one of {allowed}")
         for n in self.linear + self.nonlinear:
             v = getattr(self, n)
             if not np.isfinite(v):
@@ -159,7 +174,7 @@ class Effect:
 
     @property
     def index(self) -> int:
-        return AXIS_INDEX[self.axis]
+        return axis_index(self.axis)
 
     def coefficients(self) -> np.ndarray:
         return np.array([getattr(self, n) for n in self.linear], dtype=float)
@@ -171,14 +186,14 @@ class Effect:
         return dataclasses.replace(self, **dict(zip(self.linear, map(float, values), strict=True)))
 
     def columns(self, q, qd, qdd, base=None) -> np.ndarray:
-        """Regressor columns (T, len(linear)) of this effect's torque on its own axis [V per unit]."""
+        """Regressor columns (T, len(linear)) of this effect's torque on its own axis [input unit per unit]."""
         if self.plant_only:
             raise TypeError(f"{self.key} has internal dynamics and no static regressor (plant only)")
         cols = self._columns(np.asarray(q, float), np.asarray(qd, float), np.asarray(qdd, float), base)
         return np.stack(np.broadcast_arrays(*cols), axis=-1)
 
     def torque(self, q, qd, qdd, base=None) -> np.ndarray:
-        """Torque (T, 2) [V] this effect adds to the required input (zero on the other axis)."""
+        """Torque (T, n_axes) [input unit] this effect adds to the required input (zero on the other axes)."""
         out = np.zeros(np.shape(q), dtype=float)
         out[..., self.index] = self.columns(q, qd, qdd, base) @ self.coefficients()
         return out
@@ -195,11 +210,12 @@ class Effect:
 
 @dataclass(frozen=True)
 class ViscousFriction(Effect):
-    """Viscous friction d * qd. d [V s/rad], linear. Already part of the rigid IX model (D, eq. 3)."""
+    """Viscous friction d * qd. d [input unit s/rad], linear. Already part of the IX and arm models (IX: D, eq. 3)."""
 
     d: float = 0.0
     name: ClassVar[str] = "viscous_friction"
     linear: ClassVar[tuple[str, ...]] = ("d",)
+    systems: ClassVar[tuple[str, ...]] = ("ix", "flexarm")
 
     def _columns(self, q, qd, qdd, base):
         return (self._v(qd),)
@@ -207,13 +223,14 @@ class ViscousFriction(Effect):
 
 @dataclass(frozen=True)
 class CoulombFriction(Effect):
-    """Coulomb friction Fc * tanh(qd / eps). Fc [V] linear; eps [rad/s] nonlinear (smoothing)."""
+    """Coulomb friction Fc * tanh(qd / eps). Fc [V or N m] linear; eps [rad/s] nonlinear (smoothing)."""
 
     Fc: float = 0.0
     eps: float = 1e-3
     name: ClassVar[str] = "coulomb_friction"
     linear: ClassVar[tuple[str, ...]] = ("Fc",)
     nonlinear: ClassVar[tuple[str, ...]] = ("eps",)
+    systems: ClassVar[tuple[str, ...]] = ("ix", "flexarm")
 
     def _columns(self, q, qd, qdd, base):
         return (smooth_sign(self._v(qd), self.eps),)
@@ -223,7 +240,7 @@ class CoulombFriction(Effect):
 class StribeckFriction(Effect):
     """Stribeck increase at low speed: dF exp(-(qd/vs)^2) tanh(qd/eps).
 
-    dF = Fs - Fc [V] linear (static minus Coulomb level); vs [rad/s], eps [rad/s] nonlinear.
+    dF = Fs - Fc [V or N m] linear (static minus Coulomb level); vs [rad/s], eps [rad/s] nonlinear.
     In a plant it adds to the friction level of the same axis (with or without stiction).
     """
 
@@ -233,6 +250,7 @@ class StribeckFriction(Effect):
     name: ClassVar[str] = "stribeck_friction"
     linear: ClassVar[tuple[str, ...]] = ("dF",)
     nonlinear: ClassVar[tuple[str, ...]] = ("vs", "eps")
+    systems: ClassVar[tuple[str, ...]] = ("ix", "flexarm")
 
     def _columns(self, q, qd, qdd, base):
         v = self._v(qd)
@@ -469,12 +487,43 @@ class TabulatedForce(Effect):
         return np.array([table_lookup(float(v), self.lo, self.hi, values) for v in np.ravel(x)]).reshape(np.shape(x))
 
 
+@dataclass(frozen=True)
+class Payload(Effect):
+    """FlexArm: an unknown rigid body fixed to the flange, seen in one joint's motor torque.
+
+    Its 10 standard inertial parameters in frame 6 (``physics.arm``: m [kg], m c [kg m], inertia
+    about the frame's origin [kg m^2]) add to link 6's; the torque is linear in them: the joint's
+    row of link 6's regressor columns (``physics.arm_motor.link_columns``, motor side).
+    Fitted per joint, each joint sees the payload through its own row (the shared 10 parameters
+    are what the benchmark's physical model identifies with all inertial parameters free).
+    """
+
+    m: float = 0.0
+    mx: float = 0.0
+    my: float = 0.0
+    mz: float = 0.0
+    Ixx: float = 0.0
+    Ixy: float = 0.0
+    Ixz: float = 0.0
+    Iyy: float = 0.0
+    Iyz: float = 0.0
+    Izz: float = 0.0
+    name: ClassVar[str] = "payload"
+    linear: ClassVar[tuple[str, ...]] = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz")
+    systems: ClassVar[tuple[str, ...]] = ("flexarm",)
+
+    def _columns(self, q, qd, qdd, base):
+        from .arm_motor import link_columns
+
+        return tuple(link_columns(5, q, qd, qdd)[:, self.index, :].T)
+
+
 EFFECTS: dict[str, type[Effect]] = {
     cls.name: cls
     for cls in (
         ViscousFriction, CoulombFriction, StribeckFriction, PositionDependentFriction, Stiction,
         CableSpring, CableInertia, TorqueRipple, GearHarmonic, CableDrape, DrivetrainFlexibility,
-        TabulatedForce,
+        TabulatedForce, Payload,
     )
 }
 

@@ -79,6 +79,17 @@ class PhysicalModel:
         for e in self.effects:
             if e.plant_only:
                 raise ValueError(f"{e.key} has internal dynamics: it exists in plants only, not in a static model")
+            if e.axis not in self.system.axes:
+                raise ValueError(f"{e.key} is not an effect of the {self.system.name} model (axes {', '.join(self.system.axes)})")
+
+    @classmethod
+    def for_diagnosis(cls, fs: float) -> PhysicalModel:
+        """The nominal model ``diagnose`` starts from: this one, fitted to the measured motion."""
+        return cls(fs=fs, positions="measured")
+
+    def parts(self) -> tuple[str, ...]:
+        """What this model has without its effects (the diagnosis does not offer these again)."""
+        return self.built_in
 
     # ------------------------------------------------------------------ evaluation
     @property
@@ -114,12 +125,21 @@ class PhysicalModel:
         return dataclasses.replace(self, params=self.fitted_params, effects=(*self.fitted_effects, effect))
 
     # ------------------------------------------------------------------ fitting
+    def free_design(self, kin, params=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """What a linear fit of the model adjusts, at ``params`` (default the fitted parameters): the
+        columns of the free linear parameters (T, A, k), the torque of the parameters held fixed
+        (T, A), and the free parameters' values (k,). The IX: its whole rigid regressor at zeta_n."""
+        p = (params or self.fitted_params).to_vector()
+        n = self.system.n_linear
+        X = self.system.regressor(p[n:], *kin)
+        return X, np.zeros(X.shape[:2]), p[:n]
+
     def _effect_columns(self, kin, base):
-        """Regressor columns (T, 2, n_effect_coefficients) of the effects (independent of zeta_n)."""
+        """Regressor columns (T, A, n_effect_coefficients) of the effects (independent of zeta_n)."""
         q, qd, qdd = kin
-        cols = [np.zeros((q.shape[0], 2, 0))]
+        cols = [np.zeros((q.shape[0], q.shape[1], 0))]
         for e in self.effects:
-            c = np.zeros((q.shape[0], 2, len(e.linear)))
+            c = np.zeros((q.shape[0], q.shape[1], len(e.linear)))
             c[:, e.index, :] = e.columns(q, qd, qdd, base=base[:, e.index])
             cols.append(c)
         return np.concatenate(cols, axis=2)
