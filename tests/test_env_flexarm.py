@@ -52,3 +52,20 @@ def test_bad_actions_and_clipping(refs):
     assert info["clipped_actions"] == 1
     with pytest.raises(ValueError, match="base_feedforward"):
         FlexArmEnv(references=refs, base_feedforward="physical")
+
+
+def test_sync_vector_env_steps_each_copy_like_a_single_env(refs):
+    """``gym.make_vec`` (sync) runs independent copies; each matches a single env step for step."""
+    vec = gym.make_vec("lcgym/FlexArm-v0", num_envs=2, vectorization_mode="sync", references=refs)
+    single = FlexArmEnv(references=refs)
+    obs_v, _ = vec.reset(seed=0, options={"reference": 0})
+    obs_s, _ = single.reset(seed=0, options={"reference": 0})
+    rng = np.random.default_rng(0)
+    for _ in range(30):
+        a = rng.uniform(-1, 1, (2, 6)).astype(np.float32)
+        obs_v, r_v, *_ = vec.step(a)
+        obs_s, r_s, *_ = single.step(a[1])
+        np.testing.assert_array_equal(obs_v[1], obs_s)
+        assert r_v[1] == r_s
+    assert not np.array_equal(obs_v[0], obs_v[1])  # the copies took different actions
+    vec.close()
