@@ -53,7 +53,8 @@ class Diagnosis:
                "residual": self.residual, "regions": self.regions, "candidates": self.candidates,
                "significance": {"min_explained": self.min_explained, "min_rms": self.min_rms, "unit": self.unit,
                              "order": "greedy forward selection (selected: true), then the other passing "
-                                      "candidates by explained; explained and RMS_after: the effect alone, held-out"}}
+                                      "candidates by explained; explained and RMS_after: the effect alone, held-out; "
+                                      "explained_at_selection: share of the residual left at its greedy step"}}
         if self.after is not None:
             out["after"] = self.after
         if self.replay is not None:
@@ -85,7 +86,7 @@ class Diagnosis:
             lines.append(f"  {NOTHING_FOUND} (none removes {100 * self.min_explained:.0f}% with at least "
                          f"{self.min_rms:g} {u} RMS)")
         for k, c in enumerate(self.candidates, 1):
-            how = (f"selected, {100 * c['explained_at_selection']:.0f}% more at its turn" if c["selected"]
+            how = (f"selected: {100 * c['explained_at_selection']:.0f}% of what was left at its turn" if c["selected"]
                    else "not needed once the selected ones are in")
             params = ", ".join(f"{n}={_fmt(n, v)}" for n, v in c["parameters"].items())
             lines.append(f"  {k}. {c['effect']}@{c['axis']} [{c['family']}]: {100 * c['explained']:.0f}%, "
