@@ -7,6 +7,7 @@ import subprocess
 import sys
 import textwrap
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -51,7 +52,9 @@ def test_flexarm_cells_score_load_side_and_tcp_errors(tmp_path):
     """On the arm: load-side tracking error and input residual of joints 2, 3, 5, and the TCP error;
     the fitted physical model (with its joint-torsion reference offset) beats feedback on all."""
     out = tmp_path / "r.csv"
-    summary = run_benchmark(BenchConfig(methods=BASE, **{**TINY, "systems": ("flexarm",)}), out, progress=False)
+    config = BenchConfig(methods=(*BASE, "basic"), **{**TINY, "systems": ("flexarm", "ix")})
+    assert ("ix", "basic", 0) not in config.cells()  # basic is the arm's nominal structure only
+    summary = run_benchmark(replace(config, systems=("flexarm",)), out, progress=False)
     df = read_results(out)
     assert summary["cells_failed"] == 0 and (df["status"] == "ok").all()
     val = df[df.reference_set == "validation"]
@@ -60,6 +63,9 @@ def test_flexarm_cells_score_load_side_and_tcp_errors(tmp_path):
         *(("input_residual", j, "N m") for j in ("j2", "j3", "j5")), ("tcp_position_error", "tcp", "mm")}
     rms = val.set_index(["signal", "axis", "method"])["RMS"].unstack()
     assert (rms["physical"] < rms["feedback"]).all(), rms
+    assert rms.loc[("tcp_position_error", "tcp"), "physical"] < rms.loc[("tcp_position_error", "tcp"), "basic"]
+    with pytest.raises(ValueError, match="runs on flexarm only"):
+        BenchConfig(methods=("basic",), **TINY)
     trace = pd.read_parquet(out.parent / "r.csv.traces" / "flexarm_physical_0.parquet")
     assert list(trace.columns) == ["t", "ref_j2", "error_j2", "ref_j3", "error_j3", "ref_j5", "error_j5"]
 

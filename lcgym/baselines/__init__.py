@@ -1,15 +1,18 @@
 """Baseline feedforward controllers and the registry of leaderboard methods.
 
 Every method follows the controller protocol of ``baselines/protocol.py``. ``CONTROLLERS`` maps
-method ids to classes; ``load_method`` also accepts a user's ``module:Class``.
+method ids to classes; ``load_method`` also accepts a user's ``module:Class``. A class with a
+``systems`` tuple runs only on those systems (``basic``: the FlexArm's nominal structure).
 """
 
+from .basic import BasicArmFeedforward
 from .feedback import FeedbackOnly
 from .pgnn import PGNNFeedforward, PGNNLSFeedforward
 from .physical import PhysicalFeedforward
 from .protocol import Controller, Cost, load_method
 
-CONTROLLERS = {c.name: c for c in (FeedbackOnly, PhysicalFeedforward, PGNNFeedforward, PGNNLSFeedforward)}
+CONTROLLERS = {c.name: c for c in (FeedbackOnly, PhysicalFeedforward, PGNNFeedforward, PGNNLSFeedforward,
+                                    BasicArmFeedforward)}
 
-__all__ = ["CONTROLLERS", "Controller", "Cost", "FeedbackOnly", "PGNNFeedforward", "PGNNLSFeedforward",
+__all__ = ["BasicArmFeedforward", "CONTROLLERS", "Controller", "Cost", "FeedbackOnly", "PGNNFeedforward", "PGNNLSFeedforward",
            "PhysicalFeedforward", "load_method"]

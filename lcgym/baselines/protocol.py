@@ -9,7 +9,10 @@ A feedforward controller has
   calls it before ``feedforward`` on every evaluation reference when ``uses_plant`` is true;
 * ``feedforward(reference) -> (T, n_axes)``: the signal to apply [V for the IX];
 * ``cost_``: a ``Cost`` with the plant trials and env steps it used beyond the shared training
-  data (the runner adds wall time).
+  data (the runner adds wall time);
+* optionally ``reference_offset(reference) -> (T, n_axes)`` [rad] or None: added to the reference
+  the feedback tracks, on systems with that channel (the FlexArm's motor reference); and
+  ``systems``: the systems it runs on (default all).
 
 Subclassing ``Controller`` gives the no-op defaults; duck typing works too. A user's class is
 named on the command line as ``module:Class`` (see ``load_method``).

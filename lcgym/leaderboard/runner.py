@@ -64,7 +64,9 @@ class BenchConfig:
         if unknown:
             raise ValueError(f"unknown system(s) {unknown}; available: {', '.join(BENCH_SYSTEMS)}")
         for m in self.methods:
-            load_method(m, CONTROLLERS)  # fails early with a clear message
+            where = getattr(load_method(m, CONTROLLERS), "systems", None)  # fails early with a clear message
+            if where is not None and not set(where) & set(self.systems):
+                raise ValueError(f"method {m!r} runs on {', '.join(where)} only, not on {', '.join(self.systems)}")
         if any(s < 0 for s in self.seeds):
             raise ValueError(f"seeds must be >= 0, got {list(self.seeds)}")
         if not self.systems or not self.methods or not self.seeds:
@@ -90,7 +92,10 @@ class BenchConfig:
         return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:12]
 
     def cells(self) -> list[tuple[str, str, int]]:
-        return [(s, m, k) for s in self.systems for m in self.methods for k in self.seeds]
+        """(system, method, seed) of every cell; a method with ``systems`` only on those."""
+        runs_on = {m: getattr(load_method(m, CONTROLLERS), "systems", None) for m in self.methods}
+        return [(s, m, k) for s in self.systems for m in self.methods for k in self.seeds
+                if runs_on[m] is None or s in runs_on[m]]
 
 
 @cache
