@@ -132,3 +132,13 @@ def test_arm_trials_round_trip_through_the_measurement_format(tmp_path, feedback
         for k, v in trial.extra.items():
             np.testing.assert_allclose(back.extra[k], v, **tol)
         assert system_of([back]) == "flexarm" and back.meta["reference"] == trial.meta["reference"]
+
+
+def test_regressor_cache_lives_only_inside_its_block():
+    q, qd, qdd = _kinematics(5)
+    assert arm_motor.regressor(None, q, qd, qdd) is not arm_motor.regressor(None, q, qd, qdd)
+    with arm_motor.cached_regressors():
+        X = arm_motor.regressor(None, q, qd, qdd)
+        assert arm_motor.regressor(None, q.copy(), qd, qdd) is X and not X.flags.writeable
+        assert arm_motor.regressor(None, q + 1e-9, qd, qdd) is not X  # keyed by the values
+    assert arm_motor._CACHE is None

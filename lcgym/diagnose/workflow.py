@@ -26,6 +26,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from ..leaderboard.metrics import norms as metric_norms
+from ..physics import arm_motor
 from ..physics.effects import Effect, make_effect
 from ..physics.kinematics import reference_kinematics
 from ..physics.model import PhysicalModel
@@ -55,6 +56,7 @@ def _check_trials(trials, system) -> None:
             raise ValueError(f"diagnose: trial {k} is sampled at {tr.fs:g} Hz, trial 0 at {trials[0].fs:g} Hz")
 
 
+@arm_motor.cached_regressors()  # the arm's model, its effects and its refits share their regressors
 def diagnose(trials: Sequence, system: str = "ix", add: Sequence[str | Effect] = (), replay: bool = False,
              candidates: Sequence[Candidate] | None = None, model: PhysicalModel | None = None,
              min_explained: float = 0.1, min_rms: float | None = None, block_seconds: float = 4.0,

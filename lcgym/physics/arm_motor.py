@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import hashlib
 from collections import OrderedDict
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numba
@@ -94,10 +95,13 @@ def regressor(zeta_n, q, qd, qdd) -> np.ndarray:
     """X (T, 6, 78) with u = X theta for kinematics (T, 6) [rad, rad/s, rad/s^2]; ``zeta_n`` is
     unused (the arm has no nonlinear parameter; kept for the ``RigidBodySystem`` signature).
 
-    The last ``CACHE_SIZE`` results are kept, keyed by the kinematics' bytes (read-only arrays):
-    a diagnosis evaluates the model, its effects and its refits on the same kinematics many times,
-    and one evaluation costs about 40 us per sample (60 RNEA passes)."""
+    Inside ``with cached_regressors():`` the last ``CACHE_SIZE`` results are kept, keyed by the
+    kinematics' bytes (read-only arrays): a diagnosis evaluates the model, its effects and its
+    refits on the same kinematics many times, and one evaluation costs about 40 us per sample (60
+    RNEA passes). Outside, nothing is kept (a long-lived process would hold hundreds of MB)."""
     q, qd, qdd = (np.ascontiguousarray(np.atleast_2d(np.asarray(x, dtype=float))) for x in (q, qd, qdd))
+    if _CACHE is None:
+        return _regressor(DH_TABLE, GEAR, q, qd, qdd, arm.GRAVITY, EPS)
     h = hashlib.blake2b(digest_size=16)
     for x in (q, qd, qdd):
         h.update(x.tobytes())
@@ -114,7 +118,19 @@ def regressor(zeta_n, q, qd, qdd) -> np.ndarray:
 
 
 CACHE_SIZE = 3
-_CACHE: OrderedDict = OrderedDict()
+_CACHE: OrderedDict | None = None
+
+
+@contextmanager
+def cached_regressors():
+    """Keep the last ``CACHE_SIZE`` regressors while the block runs (see ``regressor``)."""
+    global _CACHE
+    outer = _CACHE
+    _CACHE = OrderedDict() if outer is None else outer
+    try:
+        yield
+    finally:
+        _CACHE = outer
 
 
 @numba.njit(cache=True)
@@ -176,7 +192,7 @@ def _like(p, a):
     if hasattr(p, "detach"):
         import torch
 
-        return torch.as_tensor(a, dtype=p.dtype)
+        return torch.tensor(a, dtype=p.dtype)  # a copy: the cached regressor is read-only
     return np.asarray(a, dtype=float)
 
 
