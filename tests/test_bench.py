@@ -58,7 +58,7 @@ def test_flexarm_cells_score_load_side_and_tcp_errors(tmp_path):
     df = read_results(out)
     assert summary["cells_failed"] == 0 and (df["status"] == "ok").all()
     val = df[df.reference_set == "validation"]
-    assert set(zip(val.signal, val.axis, val.unit)) == {
+    assert set(zip(val.signal, val.axis, val.unit, strict=True)) == {
         *(("tracking_error", j, "deg") for j in ("j2", "j3", "j5")),
         *(("input_residual", j, "N m") for j in ("j2", "j3", "j5")), ("tcp_position_error", "tcp", "mm")}
     rms = val.set_index(["signal", "axis", "method"])["RMS"].unstack()
@@ -183,7 +183,8 @@ def test_killed_bench_leaves_valid_csv_and_resume_completes(tmp_path, sig):
 
 def test_concurrent_writers_lose_no_row(tmp_path):
     out = tmp_path / "r.csv"
-    procs = [cli("bench", "--quick", "--systems", "ix", "--methods", "feedback", "--seeds", str(s), "--out", str(out)) for s in range(4)]
+    procs = [cli("bench", "--quick", "--systems", "ix", "--methods", "feedback", "--seeds", str(s), "--out", str(out))
+             for s in range(4)]
     for p in procs:
         _, stderr = p.communicate(timeout=300)
         assert p.returncode == 0, stderr
