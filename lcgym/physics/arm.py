@@ -378,6 +378,13 @@ def inverse_dynamics(params: ArmParameters, q, qd, qdd, gravity: float = GRAVITY
     return _rnea_batch(params.dh.table(), params.vector(), *args, float(gravity))
 
 
+def load_torque(params: ArmParameters, drive: DriveParameters, q, qd, qdd, eps: float) -> np.ndarray:
+    """The joint torque the load needs (T, 6) [N m]: rigid body + load viscous and Coulomb friction,
+    D_l qd + F_lc sgn(qd) with sgn smoothed as tanh(qd / eps) (paper 002, eq. 14)."""
+    qd = np.atleast_2d(np.asarray(qd, dtype=float))
+    return inverse_dynamics(params, q, qd, qdd) + np.asarray(drive.Dl) * qd + np.asarray(drive.Flc) * np.tanh(qd / eps)
+
+
 def regressor_batch(params: ArmParameters, q, qd, qdd, gravity: float = GRAVITY) -> np.ndarray:
     """Y (T, 6, 60) with tau = Y @ pi, for kinematics (T, 6)."""
     args = [np.ascontiguousarray(np.atleast_2d(x), dtype=float) for x in (q, qd, qdd)]

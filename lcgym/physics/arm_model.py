@@ -83,10 +83,7 @@ class ArmModel(PhysicalModel):
         """Joint torsion tau_l / K_J [rad, load side] (T, 6) along a reference (module docstring)."""
         q, qd, qdd = reference_kinematics(reference_positions(reference), self.fs, self.advance)
         d = arm.DriveParameters()
-        p = self.fitted_params
-        tau_l = arm.inverse_dynamics(p.arm(), q, qd, qdd) + np.asarray(d.Dl) * qd + np.asarray(d.Flc) * np.tanh(
-            qd / arm_motor.EPS)
-        return tau_l / np.asarray(d.KJ)
+        return arm.load_torque(self.fitted_params.arm(), d, q, qd, qdd, arm_motor.EPS) / np.asarray(d.KJ)
 
     def _free(self) -> np.ndarray:
         """Boolean mask (78,) of the parameters the fit adjusts."""

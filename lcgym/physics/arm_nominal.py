@@ -56,7 +56,7 @@ class BasicFeedforward:
         t = np.arange(q.shape[0]) / fs
         Mn = self.Mn
         sgn = lambda v: np.tanh(v / self.eps)  # noqa: E731
-        tau_lr = arm.inverse_dynamics(self.arm_params, q, qd, qdd) + Dl * qd + Flc * sgn(qd)  # eq. (14)
+        tau_lr = arm.load_torque(self.arm_params, d, q, qd, qdd, self.eps)  # eq. (14)
         linear_load = Mn * qdd + Dl * qd
         delta = np.column_stack([_lsim(([1.0], [DJ[i], KJ[i]]), linear_load[:, i], t) for i in range(6)])
         q_mr = N * (q + delta)  # F1, eq. (9)
