@@ -82,22 +82,27 @@ class BasicFeedforward:
     def load_acceleration(self, mu: np.ndarray, fs: float, q0: np.ndarray) -> np.ndarray:
         """P_lu mu: the nominal linear model's load acceleration (T, 6) [rad/s^2] for inner-plant
         torques mu (T, 6) [N m], starting at rest at q0 (the spring unloaded)."""
-        d = self.drive
         t = np.arange(mu.shape[0]) / fs
         out = np.empty_like(mu, dtype=float)
         for i in range(6):
-            N, Jm, Dm, KJ, DJ, Dl = d.N[i], d.Jm[i], d.Dm[i], d.KJ[i], d.DJ[i], d.Dl[i]
-            Mn = self.Mn[i]
-            # states [q_l, qd_l, q_m, qd_m]
-            A = np.array([[0, 1, 0, 0],
-                          [-KJ / Mn, -(DJ + Dl) / Mn, KJ / (N * Mn), DJ / (N * Mn)],
-                          [0, 0, 0, 1],
-                          [KJ / (N * Jm), DJ / (N * Jm), -KJ / (N * N * Jm), -(Dm + DJ / (N * N)) / Jm]])
-            B = np.array([[0.0], [0.0], [0.0], [1.0 / Jm]])
-            C = A[1:2]  # qdd_l row
+            A, B, C = self.load_model(i)
+            N = self.drive.N[i]
             _, y, _ = signal.lsim((A, B, C, np.zeros((1, 1))), mu[:, i], t, X0=[q0[i], 0.0, N * q0[i], 0.0])
             out[:, i] = y
         return out
+
+    def load_model(self, i: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(A, B, C) of joint i's nominal linear model P_lu (eqs. 3-4): states [q_l, qd_l, q_m, qd_m],
+        input the motor torque [N m], output the load acceleration qdd_l [rad/s^2]."""
+        d = self.drive
+        N, Jm, Dm, KJ, DJ, Dl = d.N[i], d.Jm[i], d.Dm[i], d.KJ[i], d.DJ[i], d.Dl[i]
+        Mn = self.Mn[i]
+        A = np.array([[0, 1, 0, 0],
+                      [-KJ / Mn, -(DJ + Dl) / Mn, KJ / (N * Mn), DJ / (N * Mn)],
+                      [0, 0, 0, 1],
+                      [KJ / (N * Jm), DJ / (N * Jm), -KJ / (N * N * Jm), -(Dm + DJ / (N * N)) / Jm]])
+        B = np.array([[0.0], [0.0], [0.0], [1.0 / Jm]])
+        return A, B, A[1:2].copy()  # C: the qdd_l row
 
 
 def _lsim(system, u, t, x0_output: float = 0.0) -> np.ndarray:

@@ -1,0 +1,228 @@
+"""Iterative learning control: learn the feedforward of one repeated reference by running it again.
+
+The update of trial j to j + 1, per axis, is plant-inversion ILC with a robustness filter:
+
+    f_{j+1} = Q (f_j + L e_j)
+
+computed on the whole trial in the frequency domain (FFT over the trial, zero-padded to twice its
+length so that the circular wrap of the non-causal filters falls in the padding):
+
+* IX (paper 000's machine): e = reference - measured angle [rad]; L = (P S)^-1, the inverse of the
+  process sensitivity of the nominal closed loop of each axis (``ix_process_sensitivity``): the
+  rigid axis P(s) = 1 / (J s^2 + D s) [rad/V] with J the diagonal of the nominal mass matrix at the
+  reference's mean pose and D the nominal viscous coefficient, discretized with a zero-order hold
+  and the plant's one-sample computation delay, and the plant's own PD + low-pass feedback C(z)
+  (``envs.ix.FeedbackGains``): e = S r - P S f, so e_{j+1} = (1 - Q) e_j-ish and a correction of
+  L e_j cancels the error where the model is right.
+* FlexArm (paper 002, eq. 16, the "LCS" of section 5.3): the nonlinear torque tau_nl is updated
+  with e = e_pl, the model-following error estimated from the accelerometer
+  (``envs.flexarm.run_basic``), and L = P_lu^-1, the inverse of the nominal linear model from motor
+  torque to load acceleration (``physics.arm_nominal.BasicFeedforward.load_acceleration``'s model).
+  One iteration by default, as in the paper.
+
+Q is zero phase: the magnitude |B(w)|^2 of a Butterworth low-pass of order ``q_order`` with corner
+``q_hz`` (the same filter as ``filtfilt`` would apply twice). ``q_hz`` trades the bandwidth of
+what is learned against the model error at high frequency: the IX's drivetrain modes (15-34 Hz)
+are not in its nominal model; the paper sets 20 Hz for the arm.
+
+Every trial's error norm is recorded (``history_``); when it grows three trials in a row the
+learning diverges and ``ILCDiverged`` is raised with the history instead of returning garbage.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import signal
+
+from ..envs.ix import SimulationDiverged
+from ..physics import ix
+from .protocol import Controller, Cost
+
+
+class ILCDiverged(RuntimeError):
+    """The ILC error grew three trials in a row; the message holds the error history."""
+
+
+@dataclass(frozen=True)
+class ILCConfig:
+    """trials: learning trials per reference (the IX; the arm's default is one LCS iteration,
+    ``arm_trials``); q_hz [Hz], q_order: the zero-phase Q filter (the arm: ``arm_q_hz``, the
+    paper's 20 Hz); gain: scales L (1: full inversion, eq. 16's ``arm_gain``). The IX's 5 Hz and
+    0.7 are measured choices: ``studies/ilc_ix.py``."""
+
+    trials: int = 10
+    arm_trials: int = 1
+    q_hz: float = 5.0
+    arm_q_hz: float = 20.0
+    q_order: int = 2
+    gain: float = 0.7
+    arm_gain: float = 1.0
+
+
+def q_filter(n: int, fs: float, q_hz: float, order: int) -> np.ndarray:
+    """Zero-phase Q on the rfft grid of n samples: |Butterworth(order, q_hz)|^2."""
+    w = np.fft.rfftfreq(n, 1.0 / fs)
+    return 1.0 / (1.0 + (w / q_hz) ** (2 * order))
+
+
+def frequency_update(f: np.ndarray, e: np.ndarray, inverse: np.ndarray, q: np.ndarray, gain: float) -> np.ndarray:
+    """Q (f + gain L e) per column of (T, A) signals; ``inverse`` (n_freq, A) the response of L and
+    ``q`` (n_freq,) the one of Q on the rfft grid of 2 T samples (zero padding against wrap-around)."""
+    T = f.shape[0]
+    F = np.fft.rfft(f, n=2 * T, axis=0)
+    E = np.fft.rfft(e, n=2 * T, axis=0)
+    return np.fft.irfft(q[:, None] * (F + gain * inverse * E), n=2 * T, axis=0)[:T]
+
+
+def ix_process_sensitivity(n: int, fs: float, positions: np.ndarray, gains=None,
+                           params: ix.IXParameters | None = None) -> np.ndarray:
+    """P S (e^{i w Ts}) (n_freq, 2) [rad/V] of the nominal IX closed loop per axis on the rfft grid
+    of n samples (module docstring)."""
+    from ..envs.ix import FeedbackGains
+
+    gains = gains or FeedbackGains()
+    p = (params or ix.IXParameters()).to_vector()
+    q_mean = np.asarray(positions, dtype=float).mean(axis=0)
+    J = np.diag(ix.mass_matrix(p, q_mean[None, :])[0])
+    D = p[[ix.D2, ix.D3]]
+    ts = 1.0 / fs
+    z = np.exp(1j * 2 * math.pi * np.fft.rfftfreq(n, ts) * ts)
+    out = np.empty((z.size, 2), dtype=complex)
+    for a in range(2):
+        num, den, _ = signal.cont2discrete(([1.0], [J[a], D[a], 0.0]), ts, method="zoh")
+        num = np.trim_zeros(np.ravel(num), "f")
+        # P_d(z) = z^-1 num(z) / den(z): the ZOH plant and the one-sample computation delay
+        pn, pd = np.polyval(num, z), z * np.polyval(den, z)
+        alpha = math.exp(-2 * math.pi * gains.f_lp[a] / fs)
+        c = (1 - alpha) * (gains.kp[a] + gains.kd[a] * (1 - 1 / z) / ts) / (1 - alpha / z)
+        out[:, a] = pn / (pd + pn * c)  # P / (1 + P C), finite at z = 1 (P has a pole there)
+    return out
+
+
+def arm_load_response(n: int, fs: float) -> np.ndarray:
+    """P_lu (e^{i w Ts}) (n_freq, 6) [rad/s^2 per N m]: the nominal linear model from motor torque to
+    load acceleration per joint (``BasicFeedforward.load_model``), discretized with a zero-order hold."""
+    from ..physics.arm_nominal import BasicFeedforward
+
+    nominal = BasicFeedforward()
+    ts = 1.0 / fs
+    z = np.exp(1j * 2 * math.pi * np.fft.rfftfreq(n, ts) * ts)
+    out = np.empty((z.size, 6), dtype=complex)
+    for i in range(6):
+        A, B, C = nominal.load_model(i)
+        Ad, Bd, Cd, Dd, _ = signal.cont2discrete((A, B, C, np.zeros((1, 1))), ts, method="zoh")
+        eye = np.eye(A.shape[0])
+        out[:, i] = [(Cd @ np.linalg.solve(zk * eye - Ad, Bd))[0, 0] + Dd[0, 0] for zk in z]
+    return out
+
+
+def _rms(e: np.ndarray) -> np.ndarray:
+    """RMS per column (T, A) -> (A,)."""
+    return np.sqrt(np.mean(np.square(e), axis=0))
+
+
+GROWTH = 1.01  # a trial counts as worse when its error RMS exceeds the previous one's by 1 %
+
+
+def _check_divergence(history: list[np.ndarray], name: str) -> None:
+    """Raise ``ILCDiverged`` when the error (RMS over all axes) grew three trials in a row, by more
+    than the measurement noise's jitter at the converged level (``GROWTH``)."""
+    total = [float(np.sqrt(np.mean(np.square(h)))) for h in history]
+    if len(total) >= 4 and all(total[-k] > GROWTH * total[-k - 1] for k in (1, 2, 3)):
+        raise ILCDiverged(f"ILC on {name} diverges: the error grew three trials in a row; "
+                          f"RMS per trial {[f'{h:.3g}' for h in total]}")
+
+
+class IterativeLearningControl(Controller):
+    """Method ``ilc``: learns on each evaluation reference itself (``learn``), starting from the
+    system's physical model fitted on the training trials (IX) or from Basic (FlexArm, tau_nl
+    update of eq. 16). ``history_[name]``: (trials, n_axes) error RMS per trial and axis, trial 0
+    the start (IX: tracking error as measured [rad]; arm: e_pl from the accelerometer [rad/s^2]);
+    ``true_history_[name]``: the same for the simulation's true load-side error where the trials
+    carry it (IX: ``load_<axis>``; arm: ``e_pl_true_<joint>``)."""
+
+    name = "ilc"
+    uses_plant = True
+
+    def __init__(self, config: ILCConfig | None = None):
+        self.config = config
+
+    @property
+    def config_(self) -> ILCConfig:
+        return self.config or ILCConfig()
+
+    def fit(self, trials) -> IterativeLearningControl:
+        from .physical import PhysicalFeedforward
+
+        self.system_ = trials[0].meta.get("system", "ix")
+        self.start_ = PhysicalFeedforward().fit(trials) if self.system_ == "ix" else None
+        self.learned_, self.history_, self.true_history_ = {}, {}, {}
+        self.cost_ = Cost()
+        return self
+
+    def learn(self, plant, reference) -> IterativeLearningControl:
+        if not hasattr(self, "learned_"):
+            raise RuntimeError("ILC: call fit(trials) before learn()")
+        learn = self._learn_arm if self.system_ == "flexarm" else self._learn_ix
+        learned, history, true_history, used = learn(plant, reference)
+        self.learned_[reference.name] = learned
+        self.history_[reference.name], self.true_history_[reference.name] = np.array(history), np.array(true_history)
+        self.cost_.plant_trials += used
+        return self
+
+    def _learn_ix(self, plant, reference):
+        cfg = self.config_
+        f = np.asarray(self.start_.feedforward(reference), dtype=float)
+        T = f.shape[0]
+        inverse = 1.0 / ix_process_sensitivity(2 * T, plant.fs, reference.positions, plant.gains)
+        q = q_filter(2 * T, plant.fs, cfg.q_hz, cfg.q_order)
+        history, true_history = [], []
+        for j in range(cfg.trials + 1):  # the last trial measures the learned feedforward
+            try:
+                trial = plant.run(reference, f)
+            except SimulationDiverged as exc:
+                raise ILCDiverged(f"ILC on {reference.name}: trial {j}'s feedforward drove the plant out of its safe "
+                                  f"range ({exc})") from None
+            history.append(_rms(trial.error))
+            true_history.append(_rms(trial.ref - np.column_stack([trial.extra[f"load_{a}"] for a in trial.axes])))
+            _check_divergence(history, reference.name)
+            if j < cfg.trials:
+                f = frequency_update(f, trial.error, inverse, q, cfg.gain)
+        return {"feedforward": f}, history, true_history, cfg.trials + 1
+
+    def _learn_arm(self, plant, reference):
+        from ..envs.flexarm import run_basic
+        from ..physics.arm_nominal import BasicFeedforward
+
+        cfg = self.config_
+        basic = BasicFeedforward().compute(reference.positions, reference.fs)
+        T = reference.n_samples
+        inverse = 1.0 / arm_load_response(2 * T, plant.fs)
+        q = q_filter(2 * T, plant.fs, cfg.arm_q_hz, cfg.q_order)
+        update = np.zeros((T, 6))
+        history, true_history = [], []
+        for _ in range(cfg.arm_trials):
+            trial = run_basic(plant, reference, update)
+            e_pl = np.column_stack([trial.extra[f"e_pl_{a}"] for a in trial.axes])
+            history.append(_rms(e_pl))
+            true_history.append(_rms(np.column_stack([trial.extra[f"e_pl_true_{a}"] for a in trial.axes])))
+            _check_divergence(history, reference.name)
+            # eq. (16): tau_nl,k+1 = Q_u [tau_nl,k + P_lu^-1 e_pl,k]; tau_nl,0 is Basic's
+            tau_nl = basic["tau_nl"] + update
+            update = frequency_update(tau_nl, e_pl, inverse, q, cfg.arm_gain) - basic["tau_nl"]
+        offset = basic["motor_offset"] / np.asarray(BasicFeedforward().drive.N)
+        return {"feedforward": basic["tau_ff"] + update, "offset": offset}, history, true_history, cfg.arm_trials
+
+    def _learned(self, reference) -> dict:
+        if reference.name not in getattr(self, "learned_", {}):
+            raise RuntimeError(f"ILC: no feedforward learned for {reference.name}; call learn(plant, reference) first")
+        return self.learned_[reference.name]
+
+    def feedforward(self, reference) -> np.ndarray:
+        return self._learned(reference)["feedforward"]
+
+    def reference_offset(self, reference) -> np.ndarray | None:
+        return self._learned(reference).get("offset")
