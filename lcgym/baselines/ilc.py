@@ -50,15 +50,17 @@ class ILCDiverged(RuntimeError):
 class ILCConfig:
     """trials: learning trials per reference (the IX; the arm's default is one LCS iteration,
     ``arm_trials``); q_hz [Hz], q_order: the zero-phase Q filter (the arm: ``arm_q_hz``, the
-    paper's 20 Hz); gain: scales L (1: full inversion, eq. 16's ``arm_gain``). The IX's 5 Hz and
-    0.7 are measured choices: ``studies/ilc_ix.py``."""
+    paper's 20 Hz); gain: scales L (1: full inversion, as eq. 16). The IX's 5 Hz, order 4, is a
+    measured choice (``studies/ilc_ix.py``): at 12 Hz the learning diverges on some references
+    (the drivetrain modes at 15-34 Hz are not in L's model), and a gain below 1 leaves a larger
+    error where Q < 1."""
 
     trials: int = 10
     arm_trials: int = 1
     q_hz: float = 5.0
     arm_q_hz: float = 20.0
-    q_order: int = 2
-    gain: float = 0.7
+    q_order: int = 4
+    gain: float = 1.0
     arm_gain: float = 1.0
 
 
@@ -124,14 +126,19 @@ def _rms(e: np.ndarray) -> np.ndarray:
     return np.sqrt(np.mean(np.square(e), axis=0))
 
 
+FADE_IN = 0.25  # s: the IX update's fade-in at the start of a trial (``_learn_ix``)
 GROWTH = 1.01  # a trial counts as worse when its error RMS exceeds the previous one's by 1 %
+NOISE_BAND = 1.5  # ... and the run diverges only once it is also this far above its best trial
 
 
 def _check_divergence(history: list[np.ndarray], name: str) -> None:
-    """Raise ``ILCDiverged`` when the error (RMS over all axes) grew three trials in a row, by more
-    than the measurement noise's jitter at the converged level (``GROWTH``)."""
+    """Raise ``ILCDiverged`` when the error (RMS over all axes) grew three trials in a row and now
+    exceeds the best trial by ``NOISE_BAND``. Converged on the IX, the error wanders up to 1.4x its
+    best from trial to trial: the propeller's encoder quantization (0.019 deg RMS) is learned as
+    noise; three small rises in a row happen there and are not a divergence."""
     total = [float(np.sqrt(np.mean(np.square(h)))) for h in history]
-    if len(total) >= 4 and all(total[-k] > GROWTH * total[-k - 1] for k in (1, 2, 3)):
+    if (len(total) >= 4 and all(total[-k] > GROWTH * total[-k - 1] for k in (1, 2, 3))
+            and total[-1] > NOISE_BAND * min(total)):
         raise ILCDiverged(f"ILC on {name} diverges: the error grew three trials in a row; "
                           f"RMS per trial {[f'{h:.3g}' for h in total]}")
 
@@ -175,8 +182,12 @@ class IterativeLearningControl(Controller):
 
     def _learn_ix(self, plant, reference):
         cfg = self.config_
-        f = np.asarray(self.start_.feedforward(reference), dtype=float)
-        T = f.shape[0]
+        f0 = np.asarray(self.start_.feedforward(reference), dtype=float)
+        f, T = f0, f0.shape[0]
+        # the plant holds the first sample's feedforward through its pre-roll: a learned change there
+        # would move the initial state, which L's linear model does not describe (the error at the
+        # start then alternates from trial to trial); the update fades in over FADE_IN seconds
+        fade = np.clip(np.arange(T) / (FADE_IN * plant.fs), 0.0, 1.0)[:, None]
         inverse = 1.0 / ix_process_sensitivity(2 * T, plant.fs, reference.positions, plant.gains)
         q = q_filter(2 * T, plant.fs, cfg.q_hz, cfg.q_order)
         history, true_history = [], []
@@ -190,7 +201,7 @@ class IterativeLearningControl(Controller):
             true_history.append(_rms(trial.ref - np.column_stack([trial.extra[f"load_{a}"] for a in trial.axes])))
             _check_divergence(history, reference.name)
             if j < cfg.trials:
-                f = frequency_update(f, trial.error, inverse, q, cfg.gain)
+                f = f0 + fade * (frequency_update(f, trial.error, inverse, q, cfg.gain) - f0)
         return {"feedforward": f}, history, true_history, cfg.trials + 1
 
     def _learn_arm(self, plant, reference):
