@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from lcgym.baselines.ilc import (ILCConfig, ILCDiverged, IterativeLearningControl, arm_load_response,
-                                 frequency_update, ix_process_sensitivity, q_filter)
+from lcgym.baselines.ilc import (ILCConfig, ILCDiverged, ILCTransfer, IterativeLearningControl, arm_load_response,
+                                 deadzone, frequency_update, ix_process_sensitivity, q_filter)
 from lcgym.envs.arm_references import arm_reference_set, tcp_positions
 from lcgym.envs.flexarm import FlexArmPlant, run_basic
 from lcgym.envs.ix import FeedbackGains, IXPlant
@@ -87,17 +87,16 @@ def test_ix_learns_within_ten_trials(ix_setup):
 
 
 def test_ix_thirty_trials_stay_converged(ix_setup):
-    """The default Q and gain over 30 trials: no divergence, and per axis no trial after the third
-    rises above 1.5x the best trial before it (the propeller's error sits at its encoder's
-    quantization floor and jitters there; measured over 12 references: at most 1.47x propeller,
-    1.34x roll, ``studies/ilc_ix.py``)."""
+    """The default Q, gain and deadzone over 30 trials: no divergence, and per axis no trial after
+    the third rises above 1.3x the best trial before it (measured over the benchmark's 12
+    validation references: at most 1.05x propeller, 1.21x roll, ``studies/ilc_ix.py``)."""
     plant, train, ref = ix_setup
     ilc = IterativeLearningControl(ILCConfig(trials=30)).fit(train)
     ilc.learn(plant, ref)
     h = ilc.history_[ref.name]  # (31, 2)
     assert np.all(h[3] < 0.5 * h[0])
     best_before = np.minimum.accumulate(h, axis=0)[2:-1]
-    assert np.all(h[3:] < 1.5 * best_before), np.degrees(h)
+    assert np.all(h[3:] < 1.3 * best_before), np.degrees(h)
 
 
 def test_ix_divergence_is_an_error_not_garbage(ix_setup):
@@ -140,3 +139,25 @@ def test_arm_one_lcs_iteration():
         out[label] = (np.sqrt(np.mean(e**2, axis=0)), np.sqrt(np.mean(np.sum(tcp**2, axis=1))))
     assert np.all(out["lcs"][0] < 0.6 * out["basic"][0]), out
     assert out["lcs"][1] < out["basic"][1], out
+
+
+def test_deadzone_drops_what_the_encoder_cannot_resolve():
+    e = np.array([[-0.3, 0.05], [0.1, -0.01], [0.5, 0.0]])
+    np.testing.assert_allclose(deadzone(e, np.array([0.2, 0.02])), [[-0.1, 0.03], [0.0, 0.0], [0.3, 0.0]])
+
+
+def test_ilc_transfer_carries_the_correction_to_other_references(ix_setup):
+    """Learned once on the first training reference; on that reference it is ILC's result, on another
+    the correction is added as a time signal (cut or held to length) to the physical feedforward."""
+    plant, train, ref = ix_setup
+    transfer = ILCTransfer(ILCConfig(trials=3)).fit(train)
+    transfer.learn(plant, ref)
+    transfer.learn(plant, ref)  # learns once
+    assert transfer.cost_.plant_trials == 4
+    source = transfer.source_
+    ilc = IterativeLearningControl(ILCConfig(trials=3)).fit(train).learn(plant, source)
+    np.testing.assert_allclose(transfer.feedforward(source), ilc.feedforward(source))
+    f = transfer.feedforward(ref)
+    assert f.shape == ref.positions.shape and transfer.reference_offset(ref) is None
+    T = min(ref.n_samples, source.n_samples)
+    np.testing.assert_allclose(f[:T] - transfer.start_.feedforward(ref)[:T], transfer.correction_[:T])

@@ -7,14 +7,15 @@ method ids to classes; ``load_method`` also accepts a user's ``module:Class``. A
 
 from .basic import BasicArmFeedforward
 from .feedback import FeedbackOnly
-from .ilc import IterativeLearningControl
+from .ilc import ILCTransfer, IterativeLearningControl
 from .pgnn import PGNNFeedforward, PGNNLSFeedforward
 from .physical import PhysicalFeedforward
 from .protocol import Controller, Cost, load_method
 
 CONTROLLERS = {c.name: c for c in (FeedbackOnly, PhysicalFeedforward, PGNNFeedforward, PGNNLSFeedforward,
-                                    BasicArmFeedforward, IterativeLearningControl)}
+                                    BasicArmFeedforward, IterativeLearningControl, ILCTransfer)}
 
-__all__ = ["BasicArmFeedforward", "CONTROLLERS", "Controller", "Cost", "FeedbackOnly", "IterativeLearningControl",
+__all__ = ["BasicArmFeedforward", "CONTROLLERS", "Controller", "Cost", "FeedbackOnly", "ILCTransfer",
+           "IterativeLearningControl",
            "PGNNFeedforward", "PGNNLSFeedforward",
            "PhysicalFeedforward", "load_method"]
