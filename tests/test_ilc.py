@@ -5,8 +5,17 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from lcgym.baselines.ilc import (ILCConfig, ILCDiverged, ILCTransfer, IterativeLearningControl, arm_load_response,
-                                 deadzone, frequency_update, ix_process_sensitivity, q_filter)
+from lcgym.baselines.ilc import (
+    ILCConfig,
+    ILCDiverged,
+    ILCTransfer,
+    IterativeLearningControl,
+    arm_load_response,
+    deadzone,
+    frequency_update,
+    ix_process_sensitivity,
+    q_filter,
+)
 from lcgym.envs.arm_references import arm_reference_set, tcp_positions
 from lcgym.envs.flexarm import FlexArmPlant, run_basic
 from lcgym.envs.ix import FeedbackGains, IXPlant
