@@ -12,12 +12,13 @@ length so that the circular wrap of the non-causal filters falls in the padding)
   rigid axis P(s) = 1 / (J s^2 + D s) [rad/V] with J the diagonal of the nominal mass matrix at the
   reference's mean pose and D the nominal viscous coefficient, discretized with a zero-order hold
   and the plant's one-sample computation delay, and the plant's own PD + low-pass feedback C(z)
-  (``envs.ix.FeedbackGains``): e = S r - P S f, so e_{j+1} = (1 - Q) e_j-ish and a correction of
-  L e_j cancels the error where the model is right.
+  (``envs.ix.FeedbackGains``). The trial's error is e_j = S r - P S f_j (plus what the model
+  lacks), so with Q = 1 and an exact model e_{j+1} = e_j - P S L e_j = 0; Q < 1 restricts the
+  learning to the frequencies where the model holds.
 * FlexArm (paper 002, eq. 16, the "LCS" of section 5.3): the nonlinear torque tau_nl is updated
   with e = e_pl, the model-following error estimated from the accelerometer
   (``envs.flexarm.run_basic``), and L = P_lu^-1, the inverse of the nominal linear model from motor
-  torque to load acceleration (``physics.arm_nominal.BasicFeedforward.load_acceleration``'s model).
+  torque to load acceleration (``physics.arm_nominal.BasicFeedforward.load_model``).
   One iteration by default, as in the paper.
 
 Q is zero phase: the magnitude |B(w)|^2 of a Butterworth low-pass of order ``q_order`` with corner
