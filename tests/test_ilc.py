@@ -138,7 +138,8 @@ def test_arm_one_lcs_iteration():
     ilc.learn(plant, ref)
     assert ilc.cost_.plant_trials == 1
     basic = BasicFeedforward().compute(ref.positions, ref.fs)
-    np.testing.assert_allclose(ilc.reference_offset(ref), basic["motor_offset"] / np.asarray(BasicFeedforward().drive.N))
+    N = np.asarray(BasicFeedforward().drive.N)
+    np.testing.assert_allclose(ilc.reference_offset(ref), basic["motor_offset"] / N)  # Basic's motor offset, load side
     moving = np.any(np.abs(ref.velocities) > 1e-6, axis=1)
     out = {}
     for label, update in (("basic", None), ("lcs", ilc.feedforward(ref) - basic["tau_ff"])):

@@ -33,5 +33,4 @@ class BasicArmFeedforward(Controller):
 
     def reference_offset(self, reference) -> np.ndarray:
         """The motor reference offset of F1 and r_q,0, as load-side angle (T, 6) [rad]."""
-        nominal = self.nominal or BasicFeedforward()
-        return self._parts(reference)["motor_offset"] / np.asarray(nominal.drive.N)
+        return self._parts(reference)["reference_offset"]

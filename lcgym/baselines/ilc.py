@@ -242,8 +242,8 @@ class IterativeLearningControl(Controller):
             # eq. (16): tau_nl,k+1 = Q_u [tau_nl,k + P_lu^-1 e_pl,k]; tau_nl,0 is Basic's
             tau_nl = basic["tau_nl"] + update
             update = frequency_update(tau_nl, e_pl, inverse, q, cfg.arm_gain) - basic["tau_nl"]
-        offset = basic["motor_offset"] / np.asarray(BasicFeedforward().drive.N)
-        return {"feedforward": basic["tau_ff"] + update, "offset": offset}, history, true_history, cfg.arm_trials
+        return {"feedforward": basic["tau_ff"] + update, "offset": basic["reference_offset"]}, history, true_history, \
+            cfg.arm_trials
 
     def _learned(self, reference) -> dict:
         if reference.name not in getattr(self, "learned_", {}):
@@ -301,5 +301,4 @@ class ILCTransfer(IterativeLearningControl):
             return None
         from ..physics.arm_nominal import BasicFeedforward
 
-        nominal = BasicFeedforward()
-        return nominal.compute(reference.positions, reference.fs)["motor_offset"] / np.asarray(nominal.drive.N)
+        return BasicFeedforward().compute(reference.positions, reference.fs)["reference_offset"]

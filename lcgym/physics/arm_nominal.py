@@ -65,8 +65,8 @@ class BasicFeedforward:
         _, qbd, qbdd = reference_kinematics(qbar, fs)
         tau_ln = np.column_stack([self._motor_torque(i, qbar[:, i], qbd[:, i], qbdd[:, i], t) for i in range(6)])  # F2
         tau_ff = Jm * qbdd + Dm * qbd + Fmc * sgn(qbd) + tau_lr / N  # eqs. (13), (15)
-        return {"motor_offset": qbar - N * q, "tau_ff": tau_ff, "tau_ln": tau_ln, "tau_nl": tau_ff - tau_ln,
-                "r_q": r_q, "tau_lr": tau_lr}
+        return {"motor_offset": qbar - N * q, "reference_offset": (qbar - N * q) / N, "tau_ff": tau_ff, "tau_ln": tau_ln,
+                "tau_nl": tau_ff - tau_ln, "r_q": r_q, "tau_lr": tau_lr}
 
     def _motor_torque(self, i, y, yd, ydd, t):
         """P_mu^-1 y of joint i: the load answers the motor motion y through the joint spring."""
