@@ -48,6 +48,18 @@ def test_tiny_benchmark_rows_and_schema(tmp_path):
     assert len(trace) > 100 and np.isfinite(trace.to_numpy()).all()
 
 
+def test_rbf_expert_cells_run_on_both_systems(tmp_path):
+    """Paper 002's NN prediction as a leaderboard method: its training runs (one per training
+    reference, with the starting feedforward) count as plant trials."""
+    out = tmp_path / "r.csv"
+    summary = run_benchmark(BenchConfig(methods=("rbf-expert",), **{**TINY, "systems": ("ix", "flexarm")}), out,
+                            progress=False)
+    df = read_results(out)
+    assert summary["cells_failed"] == 0 and (df["status"] == "ok").all(), df["error"].unique()
+    assert set(df["system"]) == {"ix", "flexarm"} and (df["plant_trials"] == 2).all()
+    assert np.isfinite(df["RMS"]).all()
+
+
 def test_flexarm_cells_score_load_side_and_tcp_errors(tmp_path):
     """On the arm: load-side tracking error and input residual of joints 2, 3, 5, and the TCP error;
     the fitted physical model (with its joint-torsion reference offset) beats feedback on all."""

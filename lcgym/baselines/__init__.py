@@ -11,11 +11,13 @@ from .ilc import ILCTransfer, IterativeLearningControl
 from .pgnn import PGNNFeedforward, PGNNLSFeedforward
 from .physical import PhysicalFeedforward
 from .protocol import Controller, Cost, load_method
+from .rbf_expert import RBFExpertFeedforward
 
 CONTROLLERS = {c.name: c for c in (FeedbackOnly, PhysicalFeedforward, PGNNFeedforward, PGNNLSFeedforward,
-                                    BasicArmFeedforward, IterativeLearningControl, ILCTransfer)}
+                                    BasicArmFeedforward, IterativeLearningControl, ILCTransfer,
+                                    RBFExpertFeedforward)}
 
 __all__ = ["BasicArmFeedforward", "CONTROLLERS", "Controller", "Cost", "FeedbackOnly", "ILCTransfer",
            "IterativeLearningControl",
            "PGNNFeedforward", "PGNNLSFeedforward",
-           "PhysicalFeedforward", "load_method"]
+           "PhysicalFeedforward", "RBFExpertFeedforward", "load_method"]

@@ -132,6 +132,22 @@ def arm_load_response(n: int, fs: float) -> np.ndarray:
     return out
 
 
+def ix_learning_filters(plant, reference, config: ILCConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """L = (P S)^-1 and Q on the rfft grid of 2 T samples, and the fade-in (T, 1) of the update, for
+    learning on the IX reference ``reference`` (module docstring)."""
+    T = reference.n_samples
+    inverse = 1.0 / ix_process_sensitivity(2 * T, plant.fs, reference.positions, plant.gains)
+    fade = np.clip(np.arange(T) / (FADE_IN * plant.fs), 0.0, 1.0)[:, None]
+    return inverse, q_filter(2 * T, plant.fs, config.q_hz, config.q_order), fade
+
+
+def arm_tau_nl_update(tau_nl: np.ndarray, e_pl: np.ndarray, fs: float, config: ILCConfig) -> np.ndarray:
+    """Eq. (16) (and eq. (17) with a predicted e_pl): Q_u [tau_nl + P_lu^-1 e_pl] (T, 6) [N m]."""
+    T = tau_nl.shape[0]
+    inverse = 1.0 / arm_load_response(2 * T, fs)
+    return frequency_update(tau_nl, e_pl, inverse, q_filter(2 * T, fs, config.arm_q_hz, config.q_order), config.arm_gain)
+
+
 def deadzone(e: np.ndarray, width) -> np.ndarray:
     """e with ``width`` taken off its magnitude (zero inside +-width), per column: an encoder reads
     the error only to within half a count, and learning the quantization as if it were error
@@ -200,13 +216,11 @@ class IterativeLearningControl(Controller):
     def _learn_ix(self, plant, reference):
         cfg = self.config_
         f0 = np.asarray(self.start_.feedforward(reference), dtype=float)
-        f, T = f0, f0.shape[0]
+        f = f0
         # the plant holds the first sample's feedforward through its pre-roll: a learned change there
         # would move the initial state, which L's linear model does not describe (the error at the
         # start then alternates from trial to trial); the update fades in over FADE_IN seconds
-        fade = np.clip(np.arange(T) / (FADE_IN * plant.fs), 0.0, 1.0)[:, None]
-        inverse = 1.0 / ix_process_sensitivity(2 * T, plant.fs, reference.positions, plant.gains)
-        q = q_filter(2 * T, plant.fs, cfg.q_hz, cfg.q_order)
+        inverse, q, fade = ix_learning_filters(plant, reference, cfg)
         history, true_history = [], []
         for j in range(cfg.trials + 1):  # the last trial measures the learned feedforward
             try:
@@ -228,10 +242,7 @@ class IterativeLearningControl(Controller):
 
         cfg = self.config_
         basic = BasicFeedforward().compute(reference.positions, reference.fs)
-        T = reference.n_samples
-        inverse = 1.0 / arm_load_response(2 * T, plant.fs)
-        q = q_filter(2 * T, plant.fs, cfg.arm_q_hz, cfg.q_order)
-        update = np.zeros((T, 6))
+        update = np.zeros((reference.n_samples, 6))
         history, true_history = [], []
         for _ in range(cfg.arm_trials):
             trial = run_basic(plant, reference, update)
@@ -240,8 +251,7 @@ class IterativeLearningControl(Controller):
             true_history.append(_rms(np.column_stack([trial.extra[f"e_pl_true_{a}"] for a in trial.axes])))
             _check_divergence(history, reference.name)
             # eq. (16): tau_nl,k+1 = Q_u [tau_nl,k + P_lu^-1 e_pl,k]; tau_nl,0 is Basic's
-            tau_nl = basic["tau_nl"] + update
-            update = frequency_update(tau_nl, e_pl, inverse, q, cfg.arm_gain) - basic["tau_nl"]
+            update = arm_tau_nl_update(basic["tau_nl"] + update, e_pl, plant.fs, cfg) - basic["tau_nl"]
         return {"feedforward": basic["tau_ff"] + update, "offset": basic["reference_offset"]}, history, true_history, \
             cfg.arm_trials
 

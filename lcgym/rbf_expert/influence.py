@@ -1,0 +1,84 @@
+"""Motion influence (paper 002, section 3.1, eqs. 22-25 and Table 1).
+
+The model-following error of joint i depends on the motion of the other joints too (the coupling
+d(q) of the arm). The predictor of joint i therefore sees the *motion influence*
+
+    Q(j) = Phi q_lr(j),   Qd(j) = Phi qd_lr(j),   Qdd(j) = Phi qdd_lr(j)        (22)-(24)
+
+a linear combination of all joints' references, with Phi's diagonal 1 and its off-diagonal entries
+from Table 1:
+
+* phi_ij = 0 when the axes of joints i and j are perpendicular (or, here, not aligned within
+  ``ALIGNED_DEG``);
+* for aligned axes, phi_ij = +1 when the axes point the same way and inverse kinematics turns the
+  two joints the same way for the task motion, -1 when exactly one of the two differs, +1 when both
+  do. ("The same way" is read from the references: the sign of the correlation of the two joints'
+  velocities. A joint that does not move in the references is taken as turning the same way.)
+
+The axes are those of the arm at one pose (the paper uses its home pose, Fig. 4). For paper 002's
+robot and task (tool fixed, TCP along X) these rules give eq. (25), ``PAPER_PHI``; the FlexArm's
+lines give the same entries among the moving joints 2, 3, 5 (``tests/test_rbf_expert.py``).
+For the IX the two axes (propeller, roll) are perpendicular: Phi is the 2x2 identity.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..physics import arm
+
+ALIGNED_DEG = 20.0  # axes within this angle (or of its opposite) count as aligned
+
+PAPER_PHI = np.array([  # eq. (25)
+    [1, 0, 0, 1, 0, 1],
+    [0, 1, -1, 0, 1, 0],
+    [0, -1, 1, 0, -1, 0],
+    [1, 0, 0, 1, 0, 1],
+    [0, 1, -1, 0, 1, 0],
+    [1, 0, 0, 1, 0, 1],
+], dtype=float)
+
+
+def joint_axes(q: np.ndarray, dh: arm.DH | None = None) -> np.ndarray:
+    """Unit rotation axis of each joint in the base frame (6, 3) at pose q (6,) [rad]: joint i
+    turns about z of DH frame i - 1 (the base's z for joint 1)."""
+    R, _ = arm.forward_kinematics((dh or arm.DH()).table(), np.asarray(q, dtype=float))
+    return np.vstack([[0.0, 0.0, 1.0], R[:-1, :, 2]])
+
+
+def rotation_directions(velocities: Sequence[np.ndarray], moving_tol: float = 1e-6) -> np.ndarray:
+    """(n, n) +-1: whether joints i and j turn the same way in the given motions (sign of the
+    correlation of their velocities, (T, n) [rad/s] each); +1 where either joint does not move."""
+    v = np.concatenate([np.asarray(x, dtype=float) for x in velocities])
+    moving = np.abs(v).max(axis=0) > moving_tol
+    s = np.sign(v.T @ v)
+    s[~moving, :] = 1.0
+    s[:, ~moving] = 1.0
+    s[s == 0] = 1.0
+    return s
+
+
+def influence_matrix(axes: np.ndarray, directions: np.ndarray, aligned_deg: float = ALIGNED_DEG) -> np.ndarray:
+    """Phi (n, n) by Table 1 from the joint axes (n, 3) and the rotation directions (n, n) +-1."""
+    axes = np.asarray(axes, dtype=float)
+    axes = axes / np.linalg.norm(axes, axis=1, keepdims=True)
+    cos = axes @ axes.T
+    aligned = np.abs(cos) >= math.cos(math.radians(aligned_deg))
+    phi = np.where(aligned, np.sign(cos) * np.asarray(directions, dtype=float), 0.0)
+    np.fill_diagonal(phi, 1.0)
+    return phi
+
+
+def arm_influence(references: Sequence, pose: np.ndarray | None = None, dh: arm.DH | None = None) -> np.ndarray:
+    """Phi of the FlexArm for the task the references describe: axes at ``pose`` (default the home
+    pose, as the paper), directions from the references' joint velocities."""
+    pose = arm.HOME if pose is None else pose
+    return influence_matrix(joint_axes(pose, dh), rotation_directions([r.velocities for r in references]))
+
+
+def motion_influence(phi: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray):
+    """Q, Qd, Qdd (T, n) of eqs. (22)-(24) from the references q, qd, qdd (T, n)."""
+    return q @ phi.T, qd @ phi.T, qdd @ phi.T
