@@ -207,8 +207,24 @@ def main() -> None:
         if sig == "joint":
             print(f"{'':44s} {'':8s} oracle (perfect prediction where the paper predicts): RMS {row['oracle'][1]:.4f}, "
                   f"Table 6 share {shares(row, 1, 'oracle')[0]:6.1f} %, signed {shares(row, 1, 'oracle')[1]:6.1f} %")
+    safety(train, errors, phi, lines)
     if args.plot:
         fig7(train, errors, phi, args.plot)
+
+
+def safety(train, errors, phi, lines) -> None:
+    """The safety rule on lines outside the trained workspace: trained on the slower half of the
+    training lines only, the predictor meets the faster validation lines."""
+    speed = [np.abs(r.velocities).max() for r in train]
+    slow = [k for k, v in enumerate(speed) if v <= np.median(speed)]
+    pred = RBFExpertPredictor(phi, MOVING).fit([train[k] for k in slow], [errors[k] for k in slow])
+    limit = max(speed[k] for k in slow)
+    print(f"safety: trained on the {len(slow)} slower training lines (max joint speed {limit:.2f} rad/s); on the "
+          f"validation lines, share of moving samples outside the training data (joints {', '.join(JOINTS)}):")
+    for r in lines:
+        pred.predict(r)
+        share = np.round([100 * pred.outside_share_[j] for j in MOVING], 1)
+        print(f"  {r.name}: max joint speed {np.abs(r.velocities).max():.2f} rad/s, outside {share} %")
 
 
 if __name__ == "__main__":

@@ -130,7 +130,7 @@ class RBFNetwork:
         if a is None:
             a = self.activations(X, np.flatnonzero(self.supported_))
         c = self._confidence(a)
-        G = np.empty((a.shape[0], a.shape[1] + 1))
+        G = np.empty((a.shape[0], a.shape[1] + 1), order="F")  # a is column-major too: no transposing copy
         np.multiply(a, c[:, None], out=G[:, :-1])
         G[:, -1] = c
         return G, np.append(self.supported_, True)
@@ -150,23 +150,24 @@ class RBFNetwork:
         G, cols = self._design(X, a)
         self.theta_ = np.zeros(cols.size)
         if self.method == "lstsq":
-            self.theta_[cols] = self._least_squares(self.beta0 * G, y)
+            self.theta_[cols] = self._least_squares(G, y)
         else:
             self.theta_[cols], self.history_ = self._momentum(G, y, self.rules or MomentumRules())
         r = y - self.beta0 * G @ self.theta_[cols]
         self.cost_ = 0.5 * float(r @ r)  # V_T of eq. (35)
         return self
 
-    def _least_squares(self, A: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """argmin ||y - A theta||^2 + ridge beta0^2 ||theta||^2: the normal equations by Cholesky
-        when the ridge makes them positive definite, else the minimum-norm solution (SVD)."""
+    def _least_squares(self, G: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """argmin ||y - beta0 G theta||^2 + ridge beta0^2 ||theta||^2: the normal equations
+        (G^T G + ridge I) theta = G^T y / beta0 by Cholesky when the ridge makes them positive
+        definite, else the minimum-norm solution (SVD)."""
         if self.ridge > 0:
             from scipy.linalg import solve
 
-            H = A.T @ A
-            H[np.diag_indices_from(H)] += self.ridge * self.beta0**2
-            return solve(H, A.T @ y, assume_a="pos")
-        return np.linalg.lstsq(A, y, rcond=None)[0]
+            H = G.T @ G
+            H[np.diag_indices_from(H)] += self.ridge
+            return solve(H, G.T @ y / self.beta0, assume_a="pos")
+        return np.linalg.lstsq(G, y / self.beta0, rcond=None)[0]
 
     def predict(self, X: np.ndarray) -> np.ndarray:
         """e_hat (T,) of eq. (31)."""
