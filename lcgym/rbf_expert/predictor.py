@@ -42,10 +42,12 @@ class RBFExpertConfig:
     training samples is not trained (predicts zero).
 
     Defaults differing from the paper's choice, measured on the FlexArm (``studies/rbf_expert_arm.py
-    --tune``, chosen on the validation lines of seed 0, reported on seeds 1 and 2): 2D, not 3D (with
-    8 or 24 training lines the 3D networks reach 58-60 % of LCS's dynamic improvement, the 2D ones
-    87-95 %: the lines fill the position dimension too thinly); 10 levels for eq. (29) (20: 92.5 %)
-    and a 0.5 s "long period" of constant velocity (``expert.ExpertConfig``)."""
+    --tune``: 24 training lines, chosen on the validation lines of seed 0, which the study's report
+    does not use): 2D, not 3D (the 3D networks reach 62 % of LCS's dynamic improvement of the joint
+    error, the 2D ones 95 %: the lines fill the position dimension too thinly); 10 levels for
+    eq. (29) (20 levels: 92 %); a 0.5 s "long period" of constant velocity (``expert.ExpertConfig``);
+    ridge 10 (1: 90 %).
+    """
 
     dims: int = 2
     counts: tuple[int, ...] = (20, 10, 11)
