@@ -12,12 +12,13 @@ from .pgnn import PGNNFeedforward, PGNNLSFeedforward
 from .physical import PhysicalFeedforward
 from .protocol import Controller, Cost, load_method
 from .rbf_expert import RBFExpertFeedforward
+from .rl import RLConfig, RLFeedforward
 
 CONTROLLERS = {c.name: c for c in (FeedbackOnly, PhysicalFeedforward, PGNNFeedforward, PGNNLSFeedforward,
                                     BasicArmFeedforward, IterativeLearningControl, ILCTransfer,
-                                    RBFExpertFeedforward)}
+                                    RBFExpertFeedforward, RLFeedforward)}
 
 __all__ = ["BasicArmFeedforward", "CONTROLLERS", "Controller", "Cost", "FeedbackOnly", "ILCTransfer",
            "IterativeLearningControl",
            "PGNNFeedforward", "PGNNLSFeedforward",
-           "PhysicalFeedforward", "RBFExpertFeedforward", "load_method"]
+           "PhysicalFeedforward", "RBFExpertFeedforward", "RLConfig", "RLFeedforward", "load_method"]

@@ -31,10 +31,13 @@ import numpy as np
 
 @dataclass
 class Cost:
-    """What a method used to learn: closed-loop plant trials and env steps of its own."""
+    """What a method used to learn: closed-loop plant trials and env steps of its own, and the
+    wall time [s] of learning done earlier and reused from a cache (the results add it to the
+    time they measure)."""
 
     plant_trials: int = 0
     env_steps: int = 0
+    cached_seconds: float = 0.0
 
 
 class Controller:

@@ -10,7 +10,9 @@ Action (float32, shape (2,)): feedforward input of (propeller, roll) for the cur
     limit). ``base_feedforward="physical"``: the action is added to the rigid-model feedforward
     (``PhysicalModel`` fitted on feedback-only runs of the training references; residual
     learning), bounds +-1 V (``RESIDUAL_BOUND``; the fitted model already supplies up to about
-    3 V). Out-of-bound actions are clipped and counted (``info["clipped_actions"]``, per episode);
+    3 V). A fitted model itself (anything with ``predict(positions) -> (T, 2)`` [V], e.g. a
+    benchmark cell's ``PhysicalModel``) may be given instead of "physical": residual learning on
+    that model. Out-of-bound actions are clipped and counted (``info["clipped_actions"]``, per episode);
     NaN or inf raise ``ValueError``. The total input is saturated at +-5 V by the plant.
 
 Observation (float32, shape (36,)), all O(1); P = len(PREVIEW) = 5 preview points at 0, 10, 25,
@@ -104,10 +106,13 @@ class IXTask:
     """What the single and the vector env share: the plant, the references (padded to one length)
     with their observation features and base feedforward, and each reference's settled start."""
 
-    def __init__(self, references, base_feedforward: str, plant: IXPlant | None, reference_seed: int,
+    def __init__(self, references, base_feedforward, plant: IXPlant | None, reference_seed: int,
                  n_references: int | None, duration: float):
-        if base_feedforward not in ("none", "physical"):
-            raise ValueError(f"base_feedforward must be 'none' or 'physical', got {base_feedforward!r}")
+        if isinstance(base_feedforward, str) and base_feedforward not in ("none", "physical"):
+            raise ValueError(f"base_feedforward must be 'none', 'physical' or a fitted model, got {base_feedforward!r}")
+        if not isinstance(base_feedforward, str) and not callable(getattr(base_feedforward, "predict", None)):
+            raise ValueError(f"base_feedforward must be 'none', 'physical' or a fitted model with predict(positions), "
+                             f"got {type(base_feedforward).__name__}")
         self.plant = plant if plant is not None else IXPlant()
         fs = self.plant.fs
         if isinstance(references, str):
@@ -127,8 +132,11 @@ class IXTask:
             if np.max(np.abs(x)) > 2 * np.pi:
                 warnings.warn(f"{name}: reference reaches {np.max(np.abs(x)):.3g}, beyond 2 pi: it looks like degrees; "
                               "lcgym reads rad", stacklevel=3)
-        model = physical_model(self.plant, reference_seed) if base_feedforward == "physical" else None
-        self.base_feedforward = base_feedforward
+        if isinstance(base_feedforward, str):
+            model = physical_model(self.plant, reference_seed) if base_feedforward == "physical" else None
+            self.base_feedforward = base_feedforward
+        else:
+            model, self.base_feedforward = base_feedforward, "physical (given model)"
         self.bound = RESIDUAL_BOUND if model is not None else self.plant.gains.u_max
         R, T = len(positions), max(x.shape[0] for x in positions)
         self.lengths = np.array([x.shape[0] for x in positions], dtype=np.int64)
@@ -172,7 +180,7 @@ class IXEnv(gym.Env):
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
 
-    def __init__(self, references="train", base_feedforward: str = "none", reference_seed: int = 0,
+    def __init__(self, references="train", base_feedforward="none", reference_seed: int = 0,
                  n_references: int | None = None, duration: float = 40.0, plant: IXPlant | None = None,
                  render_mode: str | None = None):
         if render_mode not in (None, "rgb_array"):
@@ -299,7 +307,7 @@ class IXVectorEnv(VectorEnv):
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
 
-    def __init__(self, num_envs: int = 1, references="train", base_feedforward: str = "none",
+    def __init__(self, num_envs: int = 1, references="train", base_feedforward="none",
                  reference_seed: int = 0, n_references: int | None = None, duration: float = 40.0,
                  plant: IXPlant | None = None, render_mode: str | None = None,
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP):

@@ -2,15 +2,26 @@
 
 stable-baselines3's ``VecEnv`` resets a finished sub-env within the same step and hands the
 last observation over as ``info["terminal_observation"]``; ``IXVectorEnv`` does the same with
-``autoreset_mode=SAME_STEP``, so this adapter only renames. Build it with ``make_sb3_vec_env``.
+``autoreset_mode=SAME_STEP``, so this adapter mostly renames. It also keeps per-episode sums and
+reports, in the info of the step that ends an episode, ``episode`` (return ``r``, length ``l``,
+wall time ``t`` [s]: what stable-baselines3's ``Monitor`` reports, so its logger shows
+``ep_rew_mean``) and ``tracking_rms``: the episode's RMS tracking error per axis [rad]. Build it
+with ``make_sb3_vec_env``.
+
+``monitored_flexarm``: a ``lcgym/FlexArm-v0`` env that reports the same two keys, for SB3's
+``DummyVecEnv``. ``HideError``: zeroes the tracking error in the observations (a policy that
+sees only the reference: a pure feedforward).
 """
 
 from __future__ import annotations
 
+import time
+
 import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AutoresetMode
-from stable_baselines3.common.vec_env import VecEnv
+from stable_baselines3.common.monitor import Monitor
+from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
 
 class SB3VecAdapter(VecEnv):
@@ -22,11 +33,20 @@ class SB3VecAdapter(VecEnv):
         self.venv = venv
         super().__init__(venv.num_envs, venv.single_observation_space, venv.single_action_space)
         self._actions = None
+        self._clear(np.ones(self.num_envs, dtype=bool))
+        self._t0 = time.perf_counter()
+
+    def _clear(self, mask: np.ndarray) -> None:
+        if not hasattr(self, "_return"):
+            self._return, self._length = np.zeros(self.num_envs), np.zeros(self.num_envs, dtype=np.int64)
+            self._sq_error = np.zeros((self.num_envs, 2))
+        self._return[mask], self._length[mask], self._sq_error[mask] = 0.0, 0, 0.0
 
     def reset(self):
         seed = self._seeds[0] if self._seeds and self._seeds[0] is not None else None
         obs, _ = self.venv.reset(seed=seed)
         self._reset_seeds()
+        self._clear(np.ones(self.num_envs, dtype=bool))
         return obs
 
     def step_async(self, actions):
@@ -35,10 +55,17 @@ class SB3VecAdapter(VecEnv):
     def step_wait(self):
         obs, reward, terminated, truncated, info = self.venv.step(self._actions)
         done = terminated | truncated
+        self._return += reward
+        self._length += 1
+        self._sq_error += np.square(info["error"])
         infos = [{} for _ in range(self.num_envs)]
         for i in np.flatnonzero(done):
             infos[i]["terminal_observation"] = info["final_obs"][i]
             infos[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
+            infos[i]["episode"] = {"r": float(self._return[i]), "l": int(self._length[i]),
+                                   "t": round(time.perf_counter() - self._t0, 6)}
+            infos[i]["tracking_rms"] = np.sqrt(self._sq_error[i] / self._length[i])
+        self._clear(done)
         return obs, reward.astype(np.float32), done, infos
 
     def close(self):
@@ -63,3 +90,50 @@ def make_sb3_vec_env(env_id: str = "lcgym/IX-v0", num_envs: int = 8, **kwargs) -
     venv = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point",
                         autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
     return SB3VecAdapter(venv)
+
+
+class HideError(VecEnvWrapper):
+    """Zeroes the observation's tracking-error ``columns`` (IX: 34:36, FlexArm: 30:36) in every
+    observation of an SB3 vector env, terminal ones included."""
+
+    def __init__(self, venv: VecEnv, columns: slice):
+        super().__init__(venv)
+        self.columns = columns
+
+    def reset(self):
+        obs = self.venv.reset()
+        obs[:, self.columns] = 0.0
+        return obs
+
+    def step_wait(self):
+        obs, reward, done, infos = self.venv.step_wait()
+        obs[:, self.columns] = 0.0
+        for info in infos:
+            if "terminal_observation" in info:
+                info["terminal_observation"][self.columns] = 0.0
+        return obs, reward, done, infos
+
+
+def arm_episode_rms(trial) -> np.ndarray:
+    """RMS load-side tracking error [rad] of the moving joints 2, 3, 5 (what the benchmark
+    scores) over a FlexArm trial."""
+    from .arm_references import MOVING
+
+    load = np.column_stack([trial.extra[f"load_{a}"] for a in trial.axes])
+    return np.sqrt(np.mean(np.square(trial.ref - load)[:, list(MOVING)], axis=0))
+
+
+class _ArmTrackingRMS(gym.Wrapper):
+    def step(self, action):
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        if "trial" in info:
+            info["tracking_rms"] = arm_episode_rms(info["trial"])
+        return obs, reward, terminated, truncated, info
+
+
+def monitored_flexarm(**kwargs) -> Monitor:
+    """``FlexArmEnv(**kwargs)`` whose last step's info has ``episode`` (SB3's ``Monitor``) and
+    ``tracking_rms`` (``arm_episode_rms``)."""
+    from .flexarm_env import FlexArmEnv
+
+    return Monitor(_ArmTrackingRMS(FlexArmEnv(**kwargs)))

@@ -4,9 +4,10 @@ Columns (``COLUMNS``): identification (``run_id``, ``system``, ``method``, ``see
 ``reference_set``, ``axis``, ``signal``), the norms of paper 000 eqs. (34)-(36) (``MA``, ``RMS``,
 ``Inf``) with their ``unit``, the method's cost (``plant_trials``: closed-loop runs it learned
 from, the shared training runs included; ``env_steps``; ``fit_seconds``: wall time of fit and
-learn), ``nn_rms`` (RMS of a neural network's feedforward contribution, where the method has one),
-``status`` (``ok`` or ``failed``) and ``error``, and provenance (``lcgym_version``, ``git_commit``,
-``timestamp`` in UTC, ``config_hash`` of the benchmark's configuration).
+learn, plus that of learning reused from a cache, ``Cost.cached_seconds``), ``nn_rms`` (RMS of
+a neural network's feedforward contribution, where the method has one), ``status`` (``ok`` or
+``failed``) and ``error``, and provenance (``lcgym_version``, ``git_commit``, ``timestamp`` in
+UTC, ``config_hash`` of the benchmark's configuration).
 
 A failed cell is one row with ``status = failed``, its error message and empty metrics.
 

@@ -1,0 +1,423 @@
+"""Method ``rl``: a stable-baselines3 agent that learns the feedforward on the plant.
+
+The agent acts in the system's Gymnasium env (``lcgym/IX-v0``, ``lcgym/FlexArm-v0``) over the
+cell's training references: one action per control sample, the feedback loop inside the env.
+
+* **Residual** (default, ``RLConfig.residual``): the action is added to the physical model's
+  feedforward, bounded (IX: the cell's fitted ``PhysicalModel``, +-1 V; FlexArm: the nominal
+  structure Basic, tau_nl update +-2 N m, with Basic's motor reference offset). ``residual=False``:
+  from scratch, the action is the whole feedforward (IX +-5 V; arm +-u_max, no offset).
+* **Budget**: ``passes`` x the training references' samples env steps (``RLConfig.passes`` per
+  system; ``total_steps`` overrides). Defaults: IX 3 passes (about 5.5e5 steps on the bench's 8
+  training references, about 1 min here), FlexArm 1 pass (about 5e4 steps, about 20 s); the
+  README's "RL baseline" gives what they and 10x more reach (``studies/rl_baseline.py``).
+* **Observation**: the env's, with the tracking error the encoders measure (``observe_error``).
+  The policy then closes an extra loop around the plant, so its feedforward for a reference is
+  what it applies in one deterministic rollout on the plant (``learn``), counted as one plant
+  trial; the benchmark replays it (the plants are deterministic: the replay is that rollout). With
+  ``observe_error=False`` the error is zeroed in every observation: the policy is a function of the
+  reference alone (a pure feedforward), whose rollout needs no plant run and counts none.
+* **Hyperparameters**: ``HYPERPARAMETERS`` below, per algorithm (PPO default; SAC, TD3);
+  ``RLConfig.hyperparameters`` overrides entries. Torch runs on the CPU with the threads the
+  caller set (the benchmark's workers: one).
+* **Cache**: a trained model is saved in stable-baselines3's zip format under
+  ``<cache_dir>/<key>.zip`` (key: hash of the configuration, system, training references, base
+  model, plant and lcgym's source), with its training curve (``.csv``, ``.png``) and a JSON record
+  (env steps, episodes, wall time, the zip's SHA-256). ``learn`` loads a model only from that
+  place, only under its key, only when the record's hash matches. Loading a zip unpickles Python
+  objects: ``RLFeedforward.load_model(path)`` loads another file only when asked, and only files
+  from trusted sources should be given to it.
+
+Cost (``cost_``): env steps of training (also when loaded from the cache: the model cost them)
+plus those of the rollouts that ran the plant; plant trials: training episodes begun plus those
+rollouts; ``cached_seconds``: the training wall time of a model loaded from the cache.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import os
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .protocol import Controller, Cost
+
+ALGORITHMS = ("ppo", "sac", "td3")
+ERROR_COLUMNS = {"ix": slice(34, 36), "flexarm": slice(30, 36)}  # the tracking error in each env's observation
+
+# One documented place for the hyperparameters (stable-baselines3 keyword arguments).
+# PPO: 8 envs x 1024 steps per update (one update per 8192 samples, 16 s of IX motion), 10 epochs;
+# learning rate 1e-3 (SB3's default 3e-4 learned the IX's propeller too slowly: README, "RL
+# baseline"); a small initial exploration noise (std e^-2 of the action's unit: 0.14 V on the IX)
+# because the residual's useful size is a fraction of the bound. SAC and TD3: SB3's defaults with
+# the same network size and a buffer of about a full pass over the IX's training data; not tuned.
+HYPERPARAMETERS: dict[str, dict] = {
+    "ppo": dict(n_steps=1024, batch_size=1024, n_epochs=10, learning_rate=1e-3, gamma=0.99, gae_lambda=0.95,
+                policy_kwargs=dict(net_arch=[64, 64], log_std_init=-2.0)),
+    "sac": dict(learning_rate=3e-4, buffer_size=300_000, batch_size=256, learning_starts=5_000, gamma=0.99,
+                train_freq=1, gradient_steps=1, policy_kwargs=dict(net_arch=[64, 64])),
+    "td3": dict(learning_rate=1e-3, buffer_size=300_000, batch_size=256, learning_starts=5_000, gamma=0.99,
+                train_freq=1, gradient_steps=1, policy_kwargs=dict(net_arch=[64, 64])),
+}
+
+
+def default_cache_dir() -> Path:
+    """``$LCGYM_CACHE/rl``, else ``~/.cache/lcgym/rl``."""
+    return Path(os.environ.get("LCGYM_CACHE", Path.home() / ".cache" / "lcgym")) / "rl"
+
+
+@dataclass(frozen=True)
+class RLConfig:
+    """What the ``rl`` method trains (see the module docstring).
+
+    algorithm: "ppo", "sac" or "td3"; residual: act on top of the physical model (else from
+    scratch); observe_error: the policy sees the tracking error; passes: env steps per training
+    sample, per system; total_steps: a fixed budget instead; num_envs: parallel envs (IX: one
+    compiled batch; FlexArm: ``DummyVecEnv`` copies); hyperparameters: overrides of
+    ``HYPERPARAMETERS[algorithm]``; seed: of the agent and its envs; cache: save trained models
+    and reuse them (``cache_dir``, default ``default_cache_dir()``).
+    """
+
+    algorithm: str = "ppo"
+    residual: bool = True
+    observe_error: bool = True
+    passes: dict[str, float] = field(default_factory=lambda: {"ix": 3.0, "flexarm": 1.0})
+    total_steps: int | None = None
+    num_envs: dict[str, int] = field(default_factory=lambda: {"ix": 8, "flexarm": 4})
+    hyperparameters: dict = field(default_factory=dict)
+    seed: int = 0
+    cache: bool = True
+    cache_dir: str | None = None
+
+    def __post_init__(self):
+        if self.algorithm not in ALGORITHMS:
+            raise ValueError(f"RLConfig.algorithm must be one of {', '.join(ALGORITHMS)}, got {self.algorithm!r}")
+        if self.total_steps is not None and self.total_steps < 1:
+            raise ValueError(f"RLConfig.total_steps must be >= 1, got {self.total_steps}")
+        if any(not p > 0 for p in self.passes.values()):
+            raise ValueError(f"RLConfig.passes must be > 0, got {self.passes}")
+        if any(n < 1 for n in self.num_envs.values()):
+            raise ValueError(f"RLConfig.num_envs must be >= 1, got {self.num_envs}")
+
+    def agent_kwargs(self) -> dict:
+        """The algorithm's keyword arguments: the defaults updated by ``hyperparameters``."""
+        return {**HYPERPARAMETERS[self.algorithm], **self.hyperparameters}
+
+
+def _vec_env(system: str, references, plant, base, config: RLConfig):
+    """The stable-baselines3 vector env of the training references."""
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from ..envs.sb3 import HideError, make_sb3_vec_env, monitored_flexarm
+
+    if system == "ix":
+        venv = make_sb3_vec_env("lcgym/IX-v0", num_envs=config.num_envs["ix"], references=references,
+                                base_feedforward=base, plant=plant)
+    else:
+        venv = DummyVecEnv([lambda: monitored_flexarm(references=references, base_feedforward=base, plant=plant)]
+                           * config.num_envs["flexarm"])
+    return venv if config.observe_error else HideError(venv, ERROR_COLUMNS[system])
+
+
+class RLFeedforward(Controller):
+    """``fit(trials)`` keeps the training references (and fits the IX's physical model);
+    ``learn(plant, reference)`` trains (or loads from the cache) on the first call, then rolls the
+    policy out deterministically on ``reference``; ``feedforward(reference)`` returns that
+    rollout's feedforward. Learned: ``model_`` (the SB3 agent), ``curve_`` (training curve),
+    ``record_`` (steps, episodes, seconds, cache key), ``rollouts_`` (reference name -> the
+    rollout's ``Trial``), ``cost_``."""
+
+    name = "rl"
+    uses_plant = True
+
+    def __init__(self, config: RLConfig | None = None):
+        self.config = config
+
+    # --- fit: what the training data gives -------------------------------------------------
+    def fit(self, trials) -> RLFeedforward:
+        from ..envs.references import Reference
+        from ..physics.kinematics import reference_kinematics
+
+        self.system_ = trials[0].meta.get("system", "ix")
+        cfg = self._config()
+        self.base_ = None
+        if cfg.residual and self.system_ == "ix":
+            from .physical import PhysicalFeedforward
+
+            self.base_ = PhysicalFeedforward().fit(trials).model_
+        self.training_ = []
+        for i, tr in enumerate(trials):
+            _, qd, qdd = reference_kinematics(tr.ref, tr.fs)
+            self.training_.append(Reference(tr.meta.get("reference", f"training-{i}"), tr.fs, tr.ref, qd, qdd,
+                                            axes=tuple(tr.axes)))
+        self.cost_ = Cost()
+        self.rollouts_: dict = {}
+        return self
+
+    def _config(self) -> RLConfig:
+        return self.config or RLConfig()
+
+    def _base(self):
+        """The env's ``base_feedforward`` argument."""
+        if not self._config().residual:
+            return "none"
+        return self.base_ if self.system_ == "ix" else "basic"
+
+    def budget(self) -> int:
+        """Env steps of training: ``total_steps`` or passes x training samples."""
+        cfg = self._config()
+        if cfg.total_steps is not None:
+            return int(cfg.total_steps)
+        return int(round(cfg.passes[self.system_] * sum(r.n_samples for r in self.training_)))
+
+    # --- learn: train once, then one rollout per reference ----------------------------------
+    def learn(self, plant, reference) -> RLFeedforward:
+        if not hasattr(self, "training_"):
+            raise RuntimeError("rl: call fit(trials) before learn()")
+        if not hasattr(self, "model_"):
+            self._train_or_load(plant)
+        self.rollouts_[reference.name] = self._rollout(plant, reference)
+        return self
+
+    def cache_key(self, plant) -> str:
+        """Hash of everything the trained model depends on."""
+        import stable_baselines3
+        import torch
+
+        from ..leaderboard.runner import source_hash
+
+        h = hashlib.sha256()
+        h.update(json.dumps({"config": {k: v for k, v in asdict(self._config()).items() if k not in ("cache", "cache_dir")},
+                             "system": self.system_, "budget": self.budget(), "plant": repr(plant),
+                             "lcgym": source_hash(), "sb3": stable_baselines3.__version__,
+                             "torch": torch.__version__}, sort_keys=True, default=str).encode())
+        for r in self.training_:
+            h.update(np.ascontiguousarray(r.positions, dtype=np.float64).tobytes())
+        if self.base_ is not None:
+            h.update(repr(self.base_.__dict__).encode())
+        return h.hexdigest()[:16]
+
+    def _train_or_load(self, plant) -> None:
+        cfg = self._config()
+        self.plant_ = plant
+        key = self.cache_key(plant)
+        folder = Path(cfg.cache_dir) if cfg.cache_dir else default_cache_dir()
+        record = None
+        if cfg.cache:
+            record = _read_cached(folder, key)
+        if record is not None:
+            self.model_ = self.load_model(folder / f"{key}.zip", _verified=record["sha256"])
+            self.curve_ = pd.read_csv(folder / f"{key}.csv")
+            self.cost_.cached_seconds += record["seconds"]
+        else:
+            record = self._train(plant)
+            record["key"] = key
+            if cfg.cache:
+                _write_cached(folder, key, self.model_, self.curve_, record, self.system_)
+        self.record_ = record
+        self.cost_.env_steps += record["env_steps"]
+        self.cost_.plant_trials += record["episodes"]
+
+    def _train(self, plant) -> dict:
+        from stable_baselines3.common.callbacks import BaseCallback
+
+        cfg = self._config()
+        algorithm = _algorithm_class(cfg.algorithm)
+        venv = _vec_env(self.system_, self.training_, plant, self._base(), cfg)
+        rows: list[dict] = []
+        axes = _scored_axes(self.system_, self.training_[0].axes)
+
+        class TrainingCurve(BaseCallback):
+            """One row per finished episode: env steps so far, return, RMS tracking error [deg]."""
+
+            def _on_step(self) -> bool:
+                for info in self.locals["infos"]:
+                    if "tracking_rms" in info:
+                        rows.append({"env_steps": self.num_timesteps, "return": info["episode"]["r"],
+                                     **{f"rms_{a}_deg": float(np.degrees(v))
+                                        for a, v in zip(axes, info["tracking_rms"], strict=True)}})
+                return True
+
+        model = algorithm("MlpPolicy", venv, seed=cfg.seed, device="cpu", verbose=0, **cfg.agent_kwargs())
+        t0 = time.perf_counter()
+        model.learn(self.budget(), callback=TrainingCurve(), progress_bar=False)
+        seconds = time.perf_counter() - t0
+        venv.close()
+        self.model_ = model
+        self.curve_ = pd.DataFrame(rows, columns=["env_steps", "return", *[f"rms_{a}_deg" for a in axes]])
+        return {"env_steps": int(model.num_timesteps), "episodes": len(rows) + venv.num_envs,
+                "seconds": round(seconds, 3), "algorithm": cfg.algorithm}
+
+    def _rollout(self, plant, reference):
+        """Deterministic rollout on ``reference``: its ``Trial`` (``ff``: the applied feedforward).
+
+        The residual of the first sample is zero: the env settles the plant at the start with the
+        base feedforward, a replay (``plant.run``) with the feedforward's first sample; equal
+        first samples make the replay equal to the rollout (tested)."""
+        cfg = self._config()
+        if self.system_ == "ix":
+            from ..envs.ix_env import IXEnv
+
+            env = IXEnv(references=[reference], base_feedforward=self._base(), plant=plant)
+        else:
+            from ..envs.flexarm_env import FlexArmEnv
+
+            env = FlexArmEnv(references=[reference], base_feedforward=self._base(), plant=plant)
+        hide = ERROR_COLUMNS[self.system_]
+        act = deterministic_actor(self.model_)
+        obs, _ = env.reset(seed=cfg.seed, options={"reference": 0})
+        action = np.zeros(env.action_space.shape)  # at the first sample: the base alone, see below
+        done = False
+        while not done:
+            obs, _, terminated, truncated, info = env.step(action)
+            done = terminated or truncated
+            if not cfg.observe_error:
+                obs[hide] = 0.0
+            action = act(obs)
+        if terminated:
+            raise RuntimeError(f"rl: the plant left its safe range in the rollout on {reference.name}")
+        if cfg.observe_error:
+            self.cost_.plant_trials += 1
+            self.cost_.env_steps += reference.n_samples
+        return info["trial"]
+
+    # --- operation --------------------------------------------------------------------------
+    def feedforward(self, reference) -> np.ndarray:
+        if reference.name not in getattr(self, "rollouts_", {}):
+            raise RuntimeError(f"rl: call learn(plant, reference) for {reference.name} first (it rolls the policy out)")
+        return np.asarray(self.rollouts_[reference.name].ff, dtype=float)
+
+    def reference_offset(self, reference) -> np.ndarray | None:
+        if self.system_ != "flexarm" or not self._config().residual:
+            return None
+        from ..physics.arm_nominal import BasicFeedforward
+
+        return BasicFeedforward().compute(reference.positions, reference.fs)["reference_offset"]
+
+    def load_model(self, path: str | Path, _verified: str | None = None):
+        """Load a stable-baselines3 zip of this configuration's algorithm. It unpickles Python
+        objects: give only files from trusted sources. (``learn`` calls it for its own cache only,
+        after checking the file's SHA-256 against the record it wrote.)"""
+        data = Path(path).read_bytes()
+        if _verified is not None and hashlib.sha256(data).hexdigest() != _verified:
+            raise ValueError(f"rl: cached model {path} does not match its record; delete it to retrain")
+        return _algorithm_class(self._config().algorithm).load(io.BytesIO(data), device="cpu")
+
+    def plot_curve(self, path: str | Path) -> Path:
+        """Save the training curve (episode RMS tracking error per axis vs env steps) as a PNG."""
+        return plot_training_curve(self.curve_, path, title=f"{self._config().algorithm} on {self.system_}")
+
+
+def deterministic_actor(model):
+    """The agent's deterministic action (what ``model.predict(obs, deterministic=True)`` returns)
+    as a numpy function of one observation: the actor's layers copied out of torch, about 10x
+    faster per call than SB3's ``predict`` in a rollout. PPO: the mean, clipped to the bounds;
+    SAC: tanh of the mean, scaled to the bounds; TD3: the actor's tanh output, scaled."""
+    import torch
+    from stable_baselines3 import PPO, SAC, TD3
+
+    policy = model.policy
+    if isinstance(model, PPO):
+        modules, squash = [*policy.mlp_extractor.policy_net, policy.action_net], None
+    elif isinstance(model, SAC):
+        modules, squash = [*policy.actor.latent_pi, policy.actor.mu], np.tanh
+    elif isinstance(model, TD3):
+        modules, squash = list(policy.actor.mu), None  # mu ends with its own Tanh
+    else:
+        raise TypeError(f"deterministic_actor: no numpy actor for {type(model).__name__}")
+    layers = []
+    for m in modules:
+        if isinstance(m, torch.nn.Linear):
+            layers.append((m.weight.detach().numpy().T.astype(np.float64), m.bias.detach().numpy().astype(np.float64)))
+        elif isinstance(m, (torch.nn.Tanh, torch.nn.ReLU)):
+            layers.append(np.tanh if isinstance(m, torch.nn.Tanh) else (lambda x: np.maximum(x, 0.0)))
+        else:
+            raise TypeError(f"deterministic_actor: unexpected layer {m}")
+    low, high = model.action_space.low.astype(np.float64), model.action_space.high.astype(np.float64)
+
+    def act(obs: np.ndarray) -> np.ndarray:
+        x = np.asarray(obs, dtype=np.float64)
+        for layer in layers:
+            x = x @ layer[0] + layer[1] if isinstance(layer, tuple) else layer(x)
+        if isinstance(model, PPO):
+            return np.clip(x, low, high)
+        x = squash(x) if squash is not None else x
+        return low + 0.5 * (x + 1.0) * (high - low)
+
+    return act
+
+
+def _algorithm_class(name: str):
+    from stable_baselines3 import PPO, SAC, TD3
+
+    return {"ppo": PPO, "sac": SAC, "td3": TD3}[name]
+
+
+def _scored_axes(system: str, axes) -> tuple[str, ...]:
+    if system == "flexarm":
+        from ..envs.arm_references import MOVING
+
+        return tuple(axes[i] for i in MOVING)
+    return tuple(axes)
+
+
+def plot_training_curve(curve: pd.DataFrame, path: str | Path, title: str = "") -> Path:
+    """Episode RMS tracking error [deg] per axis against env steps (points: episodes; line: the
+    mean of the last 16 episodes), written atomically."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..data import atomic_write
+
+    cols = [c for c in curve.columns if c.startswith("rms_")]
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for i, c in enumerate(cols):
+        ax.plot(curve["env_steps"], curve[c], ".", ms=3, color=f"C{i}", alpha=0.4)
+        ax.plot(curve["env_steps"], curve[c].rolling(16, min_periods=1).mean(), color=f"C{i}",
+                label=c.removeprefix("rms_").removesuffix("_deg"))
+    ax.set_xlabel("env steps")
+    ax.set_ylabel("episode RMS tracking error [deg]")
+    ax.set_title(title)
+    ax.legend()
+    fig.tight_layout()
+    path = Path(path)
+    atomic_write(path, lambda tmp: fig.savefig(tmp, format="png", dpi=100))
+    plt.close(fig)
+    return path
+
+
+def _read_cached(folder: Path, key: str) -> dict | None:
+    """The record of a cached model, or None when there is none (or it is incomplete)."""
+    record_path = folder / f"{key}.json"
+    if not record_path.is_file() or not (folder / f"{key}.zip").is_file() or not (folder / f"{key}.csv").is_file():
+        return None
+    try:
+        record = json.loads(record_path.read_text())
+    except (OSError, json.JSONDecodeError):
+        return None
+    needed = ("env_steps", "episodes", "seconds", "sha256")
+    return record if isinstance(record, dict) and all(k in record for k in needed) else None
+
+
+def _write_cached(folder: Path, key: str, model, curve: pd.DataFrame, record: dict, system: str) -> None:
+    """Model zip, curve CSV and PNG, then the record (last: a record means a complete entry)."""
+    from ..data import atomic_write
+
+    folder.mkdir(parents=True, exist_ok=True)
+    buffer = io.BytesIO()
+    model.save(buffer)
+    data = buffer.getvalue()
+    atomic_write(folder / f"{key}.zip", lambda tmp: Path(tmp).write_bytes(data))
+    atomic_write(folder / f"{key}.csv", lambda tmp: curve.to_csv(tmp, index=False))
+    if len(curve):
+        plot_training_curve(curve, folder / f"{key}.png", title=f"{record['algorithm']} on {system}")
+    record["sha256"] = hashlib.sha256(data).hexdigest()
+    atomic_write(folder / f"{key}.json", lambda tmp: Path(tmp).write_text(json.dumps(record, indent=1)))

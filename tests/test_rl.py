@@ -1,0 +1,173 @@
+"""Method ``rl``: the numpy actor, rollout = replay, budget and cost, cache (and its safety),
+training curve, the error-blind policy, SB3 adapter extras, and a benchmark cell."""
+
+import json
+
+import numpy as np
+import pytest
+import torch
+from stable_baselines3 import PPO, SAC, TD3
+
+from lcgym.baselines.rl import ERROR_COLUMNS, RLConfig, RLFeedforward, deterministic_actor
+from lcgym.envs.ix import FeedbackGains, IXPlant
+from lcgym.envs.ix_env import IXEnv
+from lcgym.envs.references import reference_set
+from lcgym.envs.sb3 import HideError, make_sb3_vec_env
+from lcgym.leaderboard.runner import BenchConfig, run_cell
+from lcgym.leaderboard.systems import BENCH_SYSTEMS
+from lcgym.physics.model import PhysicalModel
+
+torch.set_num_threads(1)
+
+
+@pytest.fixture(scope="module")
+def ix_data():
+    """A short IX task: 2 training references of 4 s of moves, 1 validation reference."""
+    bench = BENCH_SYSTEMS["ix"]()
+    train = bench.references("train", 0, 2, 4.0)
+    val = bench.references("validation", 0, 1, 4.0)
+    return bench, bench.run(train), val
+
+
+def trained(ix_data, tmp_path, **config):
+    bench, trials, val = ix_data
+    cfg = RLConfig(**{"total_steps": 2048, "cache_dir": str(tmp_path),
+                      "hyperparameters": {"n_steps": 128, "batch_size": 256, "n_epochs": 2}, **config})
+    return RLFeedforward(cfg).fit(trials).learn(bench.plant, val[0])
+
+
+@pytest.mark.parametrize("algorithm", [PPO, SAC, TD3])
+def test_numpy_actor_equals_sb3_predict(algorithm):
+    env = IXEnv(references="validation", base_feedforward="physical", n_references=1, duration=4.0)
+    model = algorithm("MlpPolicy", env, seed=1, device="cpu", policy_kwargs=dict(net_arch=[16, 16]))
+    if algorithm is PPO:  # a mean far from zero, so that clipping to the bounds is exercised too
+        torch.nn.init.normal_(model.policy.action_net.weight, std=3.0)
+    act = deterministic_actor(model)
+    obs = np.random.default_rng(0).normal(scale=3.0, size=(40, env.observation_space.shape[0])).astype(np.float32)
+    expected = model.predict(obs, deterministic=True)[0]
+    got = np.array([act(o) for o in obs])
+    np.testing.assert_allclose(got, expected, atol=1e-5)
+    assert np.any(np.abs(got) > 0.01)  # not a trivially zero policy
+
+
+def test_replay_of_the_rollout_is_the_rollout(ix_data, tmp_path):
+    bench, _, val = ix_data
+    rl = trained(ix_data, tmp_path)
+    rollout = rl.rollouts_[val[0].name]
+    ff = rl.feedforward(val[0])
+    replay = bench.run(val, [ff])[0]
+    np.testing.assert_array_equal(replay.pos, rollout.pos)
+    np.testing.assert_array_equal(replay.u, rollout.u)
+    residual = ff - rl.base_.predict(val[0].positions)
+    assert np.all(residual[0] == 0) and np.all(np.abs(residual) <= 1.0 + 1e-9) and np.any(residual != 0)
+
+
+def test_budget_and_cost(ix_data, tmp_path):
+    bench, trials, val = ix_data
+    rl = trained(ix_data, tmp_path)
+    steps = rl.record_["env_steps"]
+    assert steps >= 2048 and rl.cost_.env_steps == steps + val[0].n_samples  # training + one rollout
+    assert rl.cost_.plant_trials == rl.record_["episodes"] + 1
+    rl.learn(bench.plant, val[0])  # a second reference: one more rollout, no training
+    assert rl.cost_.env_steps == steps + 2 * val[0].n_samples
+    samples = sum(t.ref.shape[0] for t in trials)
+    by_passes = RLFeedforward(RLConfig(passes={"ix": 2.5, "flexarm": 1.0})).fit(trials)
+    assert by_passes.budget() == round(2.5 * samples)
+
+
+def test_cache_reuses_verified_models_only(ix_data, tmp_path):
+    bench, trials, val = ix_data
+    first = trained(ix_data, tmp_path)
+    key = first.record_["key"]
+    assert {p.suffix for p in tmp_path.iterdir() if p.stem == key} >= {".zip", ".csv", ".json"}
+    second = trained(ix_data, tmp_path)
+    assert second.record_ == json.loads((tmp_path / f"{key}.json").read_text())
+    assert second.cost_.env_steps == first.cost_.env_steps and second.cost_.cached_seconds == first.record_["seconds"]
+    np.testing.assert_array_equal(second.feedforward(val[0]), first.feedforward(val[0]))
+    other = trained(ix_data, tmp_path, seed=1)  # another configuration: another key, trained anew
+    assert other.record_["key"] != key and other.cost_.cached_seconds == 0
+    zip_path = tmp_path / f"{key}.zip"
+    zip_path.write_bytes(zip_path.read_bytes()[:-10] + b"0123456789")  # tampered or corrupt
+    with pytest.raises(ValueError, match="does not match its record"):
+        trained(ix_data, tmp_path)
+    no_cache = tmp_path / "off"
+    trained(ix_data, no_cache, cache=False)
+    assert not no_cache.exists()
+
+
+def test_training_curve_rows_and_plot(tmp_path):
+    short = reference_set("train", 0, 1, 0.5)  # episodes of about 1,600 samples
+    bench = BENCH_SYSTEMS["ix"]()
+    trials = bench.run(short)
+    rl = RLFeedforward(RLConfig(total_steps=8192, num_envs={"ix": 2, "flexarm": 1}, cache_dir=str(tmp_path),
+                                hyperparameters={"n_steps": 512, "batch_size": 512, "n_epochs": 1}))
+    rl.fit(trials).learn(bench.plant, short[0])
+    curve = rl.curve_
+    assert list(curve.columns) == ["env_steps", "return", "rms_propeller_deg", "rms_roll_deg"]
+    assert len(curve) >= 8192 // short[0].n_samples - 2
+    assert curve["env_steps"].is_monotonic_increasing
+    assert np.all(curve[["rms_propeller_deg", "rms_roll_deg"]].to_numpy() > 0) and np.all(curve["return"] < 0)
+    png = rl.plot_curve(tmp_path / "curve.png")
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert (tmp_path / f"{rl.record_['key']}.png").is_file()
+
+
+def test_error_blind_policy_is_a_pure_feedforward(ix_data, tmp_path):
+    bench, trials, val = ix_data
+    rl = trained(ix_data, tmp_path, observe_error=False)
+    assert rl.cost_.plant_trials == rl.record_["episodes"]  # the rollout ran no counted plant trial
+    ff = rl.feedforward(val[0])
+    stiff = IXPlant(gains=FeedbackGains(kp=(340.0, 240.0)))
+    rl.learn(stiff, val[0])  # another plant, other errors: the same feedforward
+    np.testing.assert_array_equal(rl.feedforward(val[0]), ff)
+
+
+def test_sb3_adapter_reports_episode_rms_and_hides_error():
+    refs = reference_set("train", 0, 1, 0.5)
+    venv = make_sb3_vec_env("lcgym/IX-v0", num_envs=1, references=refs)
+    env = IXEnv(references=refs)
+    venv.reset()
+    env.reset(options={"reference": 0})
+    zero = np.zeros((1, 2), dtype=np.float32)
+    for _ in range(refs[0].n_samples):
+        _, reward, done, infos = venv.step(zero)
+        _, _, _, _, info = env.step(zero[0])
+    assert done[0]
+    np.testing.assert_allclose(infos[0]["tracking_rms"], np.sqrt(np.mean(info["trial"].error ** 2, axis=0)))
+    assert infos[0]["episode"]["l"] == refs[0].n_samples
+    hidden = HideError(make_sb3_vec_env("lcgym/IX-v0", num_envs=2, references=refs), ERROR_COLUMNS["ix"])
+    obs = hidden.reset()
+    for _ in range(20):
+        obs, *_ = hidden.step(np.ones((2, 2), dtype=np.float32))
+    assert np.all(obs[:, 34:36] == 0) and np.any(obs[:, :34] != 0)
+
+
+def test_env_takes_a_fitted_model_as_base():
+    refs = reference_set("validation", 0, 1, 4.0)
+    model = PhysicalModel().fit(IXPlant().run(reference_set("train", 3, 1, 4.0)))
+    env = IXEnv(references=refs, base_feedforward=model)
+    np.testing.assert_allclose(env.task.base_ff[0, : refs[0].n_samples], model.predict(refs[0].positions))
+    assert env.action_space.high[0] == 1.0
+    with pytest.raises(ValueError, match="fitted model"):
+        IXEnv(references=refs, base_feedforward=object())
+
+
+def test_config_errors():
+    with pytest.raises(ValueError, match="algorithm"):
+        RLConfig(algorithm="dqn")
+    with pytest.raises(ValueError, match="passes"):
+        RLConfig(passes={"ix": 0.0, "flexarm": 1.0})
+    with pytest.raises(ValueError, match="total_steps"):
+        RLConfig(total_steps=0)
+    with pytest.raises(RuntimeError, match="fit"):
+        RLFeedforward().learn(IXPlant(), reference_set("validation", 0, 1, 4.0)[0])
+
+
+def test_bench_cell_counts_env_steps(monkeypatch, tmp_path):
+    monkeypatch.setenv("LCGYM_CACHE", str(tmp_path))
+    config = BenchConfig(methods=("rl",), systems=("ix",), seeds=(0,), n_train=1, n_validation=1, duration=2.0)
+    rows, trace = run_cell("ix", "rl", 0, config)
+    assert {r["status"] for r in rows} == {"ok"}, rows[0].get("error")
+    steps = {r["env_steps"] for r in rows}
+    assert len(steps) == 1 and steps.pop() > 12 * 2_000  # 12 passes over more than 2,000 training samples
+    assert trace is not None and any(tmp_path.rglob("*.zip"))
