@@ -68,7 +68,7 @@ def main() -> None:
     for p in passes:
         config = RLConfig(algorithm=args.algorithm, observe_error=not args.no_error,
                           passes={**defaults, args.system: p}, hyperparameters=overrides, seed=args.seed,
-                          cache=not args.no_cache)
+                          cache=not args.no_cache, progress=True)
         rl = RLFeedforward(config).fit(trials)
         t0 = time.perf_counter()
         rms = validation_rms(bench, val, rl, bench.plant)

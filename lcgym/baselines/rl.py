@@ -18,8 +18,8 @@ cell's training references: one action per control sample, the feedback loop ins
   ``observe_error=False`` the error is zeroed in every observation: the policy is a function of the
   reference alone (a pure feedforward), whose rollout needs no plant run and counts none.
 * **Hyperparameters**: ``HYPERPARAMETERS`` below, per algorithm (PPO default; SAC, TD3);
-  ``RLConfig.hyperparameters`` overrides entries. Torch runs on the CPU with the threads the
-  caller set (the benchmark's workers: one).
+  ``RLConfig.hyperparameters`` overrides entries. Torch trains on the CPU with one thread (the
+  networks are small; more threads stall on a busy machine), restored afterwards.
 * **Cache**: a trained model is saved in stable-baselines3's zip format under
   ``<cache_dir>/<key>.zip`` (key: hash of the configuration, system, training references, base
   model, plant and lcgym's source), with its training curve (``.csv``, ``.png``) and a JSON record
@@ -45,6 +45,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from tqdm.auto import tqdm
 
 from .protocol import Controller, Cost
 
@@ -81,7 +82,8 @@ class RLConfig:
     sample, per system; total_steps: a fixed budget instead; num_envs: parallel envs (IX: one
     compiled batch; FlexArm: ``DummyVecEnv`` copies); hyperparameters: overrides of
     ``HYPERPARAMETERS[algorithm]``; seed: of the agent and its envs; cache: save trained models
-    and reuse them (``cache_dir``, default ``default_cache_dir()``).
+    and reuse them (``cache_dir``, default ``default_cache_dir()``); progress: a progress bar of
+    the training (env steps, last episode's RMS tracking error).
     """
 
     algorithm: str = "ppo"
@@ -94,6 +96,7 @@ class RLConfig:
     seed: int = 0
     cache: bool = True
     cache_dir: str | None = None
+    progress: bool = False
 
     def __post_init__(self):
         if self.algorithm not in ALGORITHMS:
@@ -174,6 +177,8 @@ class RLFeedforward(Controller):
         cfg = self._config()
         if cfg.total_steps is not None:
             return int(cfg.total_steps)
+        if self.system_ not in cfg.passes:
+            raise ValueError(f"rl: RLConfig.passes has no entry for {self.system_!r}: {cfg.passes}")
         return int(round(cfg.passes[self.system_] * sum(r.n_samples for r in self.training_)))
 
     # --- learn: train once, then one rollout per reference ----------------------------------
@@ -192,20 +197,19 @@ class RLFeedforward(Controller):
 
         from ..leaderboard.runner import source_hash
 
+        config = {k: v for k, v in asdict(self._config()).items() if k not in ("cache", "cache_dir", "progress")}
         h = hashlib.sha256()
-        h.update(json.dumps({"config": {k: v for k, v in asdict(self._config()).items() if k not in ("cache", "cache_dir")},
-                             "system": self.system_, "budget": self.budget(), "plant": repr(plant),
+        h.update(json.dumps({"config": config, "system": self.system_, "budget": self.budget(), "plant": repr(plant),
                              "lcgym": source_hash(), "sb3": stable_baselines3.__version__,
                              "torch": torch.__version__}, sort_keys=True, default=str).encode())
-        for r in self.training_:
+        for r in self.training_:  # the references, and the base feedforward the residual adds to
             h.update(np.ascontiguousarray(r.positions, dtype=np.float64).tobytes())
-        if self.base_ is not None:
-            h.update(repr(self.base_.__dict__).encode())
+            if self.base_ is not None:
+                h.update(np.ascontiguousarray(self.base_.predict(r.positions), dtype=np.float64).tobytes())
         return h.hexdigest()[:16]
 
     def _train_or_load(self, plant) -> None:
         cfg = self._config()
-        self.plant_ = plant
         key = self.cache_key(plant)
         folder = Path(cfg.cache_dir) if cfg.cache_dir else default_cache_dir()
         record = None
@@ -225,6 +229,7 @@ class RLFeedforward(Controller):
         self.cost_.plant_trials += record["episodes"]
 
     def _train(self, plant) -> dict:
+        import torch
         from stable_baselines3.common.callbacks import BaseCallback
 
         cfg = self._config()
@@ -233,21 +238,33 @@ class RLFeedforward(Controller):
         rows: list[dict] = []
         axes = _scored_axes(self.system_, self.training_[0].axes)
 
+        bar = tqdm(total=self.budget(), desc=f"rl {cfg.algorithm} on {self.system_}", unit="step",
+                   disable=not cfg.progress, leave=False)
+
         class TrainingCurve(BaseCallback):
             """One row per finished episode: env steps so far, return, RMS tracking error [deg]."""
 
             def _on_step(self) -> bool:
+                bar.update(self.training_env.num_envs)
                 for info in self.locals["infos"]:
                     if "tracking_rms" in info:
                         rows.append({"env_steps": self.num_timesteps, "return": info["episode"]["r"],
                                      **{f"rms_{a}_deg": float(np.degrees(v))
                                         for a, v in zip(axes, info["tracking_rms"], strict=True)}})
+                        bar.set_postfix_str("episode RMS " + " / ".join(f"{v:.4f}" for v in list(rows[-1].values())[2:])
+                                            + " deg")
                 return True
 
-        model = algorithm("MlpPolicy", venv, seed=cfg.seed, device="cpu", verbose=0, **cfg.agent_kwargs())
-        t0 = time.perf_counter()
-        model.learn(self.budget(), callback=TrainingCurve(), progress_bar=False)
-        seconds = time.perf_counter() - t0
+        threads = torch.get_num_threads()
+        torch.set_num_threads(1)  # small networks: one thread is fastest, and several stall on a busy machine
+        try:
+            model = algorithm("MlpPolicy", venv, seed=cfg.seed, device="cpu", verbose=0, **cfg.agent_kwargs())
+            t0 = time.perf_counter()
+            model.learn(self.budget(), callback=TrainingCurve(), progress_bar=False)
+            seconds = time.perf_counter() - t0
+        finally:
+            torch.set_num_threads(threads)
+            bar.close()
         venv.close()
         self.model_ = model
         self.curve_ = pd.DataFrame(rows, columns=["env_steps", "return", *[f"rms_{a}_deg" for a in axes]])
@@ -303,7 +320,9 @@ class RLFeedforward(Controller):
     def load_model(self, path: str | Path, _verified: str | None = None):
         """Load a stable-baselines3 zip of this configuration's algorithm. It unpickles Python
         objects: give only files from trusted sources. (``learn`` calls it for its own cache only,
-        after checking the file's SHA-256 against the record it wrote.)"""
+        after checking the file's SHA-256 against the record it wrote.) To use a model of your
+        own: ``rl.fit(trials); rl.model_ = rl.load_model(path)``; ``learn`` then only rolls it
+        out (its training cost is unknown to lcgym and not counted)."""
         data = Path(path).read_bytes()
         if _verified is not None and hashlib.sha256(data).hexdigest() != _verified:
             raise ValueError(f"rl: cached model {path} does not match its record; delete it to retrain")
@@ -368,8 +387,8 @@ def _scored_axes(system: str, axes) -> tuple[str, ...]:
 
 
 def plot_training_curve(curve: pd.DataFrame, path: str | Path, title: str = "") -> Path:
-    """Episode RMS tracking error [deg] per axis against env steps (points: episodes; line: the
-    mean of the last 16 episodes), written atomically."""
+    """Episode RMS tracking error [deg] per axis against env steps (points: training episodes,
+    run with the exploring policy; line: the mean of the last 16), written atomically."""
     import matplotlib
 
     matplotlib.use("Agg")
