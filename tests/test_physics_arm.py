@@ -20,11 +20,19 @@ def _states(n, seed=0):
     return rng.uniform(-2.5, 2.5, (n, 6)), rng.uniform(-2, 2, (n, 6)), rng.uniform(-5, 5, (n, 6))
 
 
+@pytest.fixture(autouse=True)
+def float64_torch():
+    """Double precision for the autograd derivation, restored afterwards (other tests train nets)."""
+    before = torch.get_default_dtype()
+    torch.set_default_dtype(torch.float64)
+    yield
+    torch.set_default_dtype(before)
+
+
 def _lagrangian_torque(q, qd, qdd, g=arm.GRAVITY):
     """tau = d/dt dL/dqd - dL/dq by torch autograd, L = T - V written from the DH chain with the
     centre-of-mass form of each link (c = h / m, I_c by the parallel-axis theorem): an
     independent path from the Newton-Euler recursion."""
-    torch.set_default_dtype(torch.float64)
     dh = torch.tensor(DH)
 
     def chain(qv):

@@ -171,3 +171,14 @@ def test_bench_cell_counts_env_steps(monkeypatch, tmp_path):
     steps = {r["env_steps"] for r in rows}
     assert len(steps) == 1 and steps.pop() > 12 * 2_000  # 12 passes over more than 2,000 training samples
     assert trace is not None and any(tmp_path.rglob("*.zip"))
+
+
+def test_trains_under_a_callers_float64_and_threads_and_restores_them(ix_data, tmp_path):
+    before = torch.get_default_dtype(), torch.get_num_threads()
+    torch.set_default_dtype(torch.float64)
+    try:
+        rl = trained(ix_data, tmp_path, cache=False)
+        assert torch.get_default_dtype() == torch.float64 and torch.get_num_threads() == before[1]
+        assert np.all(np.isfinite(rl.feedforward(ix_data[2][0])))
+    finally:
+        torch.set_default_dtype(before[0])

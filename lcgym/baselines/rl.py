@@ -19,7 +19,8 @@ cell's training references: one action per control sample, the feedback loop ins
   reference alone (a pure feedforward), whose rollout needs no plant run and counts none.
 * **Hyperparameters**: ``HYPERPARAMETERS`` below, per algorithm (PPO default; SAC, TD3);
   ``RLConfig.hyperparameters`` overrides entries. Torch trains on the CPU with one thread (the
-  networks are small; more threads stall on a busy machine), restored afterwards.
+  networks are small; more threads stall on a busy machine) and float32 (``torch_settings``),
+  the caller's settings restored afterwards.
 * **Cache**: a trained model is saved in stable-baselines3's zip format under
   ``<cache_dir>/<key>.zip`` (key: hash of the configuration, system, training references, base
   model, plant and lcgym's source), with its training curve (``.csv``, ``.png``) and a JSON record
@@ -40,6 +41,7 @@ import io
 import json
 import os
 import time
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -229,7 +231,6 @@ class RLFeedforward(Controller):
         self.cost_.plant_trials += record["episodes"]
 
     def _train(self, plant) -> dict:
-        import torch
         from stable_baselines3.common.callbacks import BaseCallback
 
         cfg = self._config()
@@ -255,15 +256,13 @@ class RLFeedforward(Controller):
                                             + " deg")
                 return True
 
-        threads = torch.get_num_threads()
-        torch.set_num_threads(1)  # small networks: one thread is fastest, and several stall on a busy machine
         try:
-            model = algorithm("MlpPolicy", venv, seed=cfg.seed, device="cpu", verbose=0, **cfg.agent_kwargs())
-            t0 = time.perf_counter()
-            model.learn(self.budget(), callback=TrainingCurve(), progress_bar=False)
-            seconds = time.perf_counter() - t0
+            with torch_settings():
+                model = algorithm("MlpPolicy", venv, seed=cfg.seed, device="cpu", verbose=0, **cfg.agent_kwargs())
+                t0 = time.perf_counter()
+                model.learn(self.budget(), callback=TrainingCurve(), progress_bar=False)
+                seconds = time.perf_counter() - t0
         finally:
-            torch.set_num_threads(threads)
             bar.close()
         venv.close()
         self.model_ = model
@@ -326,11 +325,29 @@ class RLFeedforward(Controller):
         data = Path(path).read_bytes()
         if _verified is not None and hashlib.sha256(data).hexdigest() != _verified:
             raise ValueError(f"rl: cached model {path} does not match its record; delete it to retrain")
-        return _algorithm_class(self._config().algorithm).load(io.BytesIO(data), device="cpu")
+        with torch_settings():
+            return _algorithm_class(self._config().algorithm).load(io.BytesIO(data), device="cpu")
 
     def plot_curve(self, path: str | Path) -> Path:
         """Save the training curve (episode RMS tracking error per axis vs env steps) as a PNG."""
         return plot_training_curve(self.curve_, path, title=f"{self._config().algorithm} on {self.system_}")
+
+
+@contextmanager
+def torch_settings():
+    """One torch thread (the networks are small: one is fastest, and several stall on a busy
+    machine) and float32 tensors (SB3's observations are float32), whatever the caller had set;
+    restored on exit."""
+    import torch
+
+    threads, dtype = torch.get_num_threads(), torch.get_default_dtype()
+    torch.set_num_threads(1)
+    torch.set_default_dtype(torch.float32)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(threads)
+        torch.set_default_dtype(dtype)
 
 
 def deterministic_actor(model):

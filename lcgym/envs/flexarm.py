@@ -265,7 +265,7 @@ def loop_sample(st, q_ref_k, q_ref_next, ff_k, off_k, dh, pi, drive, C, cfg, acc
     return False
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)  # nogil: references run in parallel threads (leaderboard.systems)
 def simulate(q_ref, ff, off, dh, pi, drive, C, cfg, accel_offset, sig):
     """Closed loop over the reference after a pre-roll of cfg[6] samples at its first sample;
     fills sig (T, N_SIG); returns -1, or the sample where the state left the safe range."""

@@ -3,7 +3,8 @@
 A cell (system, method, seed):
 
 1. runs the system's plant with feedback only on the seeded training references (the shared
-   training data, counted in every method's ``plant_trials``);
+   training data, counted in every method's ``plant_trials``; computed once per process for all
+   methods of a system and seed);
 2. builds the method's controller and calls ``fit(training trials)``; methods that learn on the
    plant (``uses_plant``) also get ``learn(plant, reference)`` before each evaluation reference;
 3. applies its feedforward (and, on the FlexArm, its reference offset) on the training and the
@@ -20,6 +21,7 @@ that raises, or returns a bad feedforward, is recorded as a failed cell with its
 
 from __future__ import annotations
 
+import copy
 import hashlib
 import json
 import subprocess
@@ -28,7 +30,7 @@ import uuid
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field, replace
 from datetime import UTC, datetime
-from functools import cache
+from functools import cache, lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -134,6 +136,14 @@ def _single_thread() -> None:
     torch.set_num_threads(1)
 
 
+@lru_cache(maxsize=4)
+def _training_trials(system: str, seed: int, config: BenchConfig) -> list:
+    """The feedback-only runs of a cell's training references: the same for every method of a
+    (system, seed, budget), so computed once per process (the plants are deterministic)."""
+    bench = BENCH_SYSTEMS[system]()
+    return bench.run(bench.references("train", seed, config.n_train, config.duration))
+
+
 def _rms_per_axis(signals: Sequence[np.ndarray]) -> np.ndarray:
     x = np.concatenate([np.asarray(s, dtype=float) for s in signals])
     return np.sqrt(np.mean(x * x, axis=0))
@@ -149,7 +159,7 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig,
     bench = BENCH_SYSTEMS[system]()
     refs = {name: bench.references(name, seed, n, config.duration)
             for name, n in (("train", config.n_train), ("validation", config.n_validation))}
-    train_trials = bench.run(refs["train"])
+    train_trials = copy.deepcopy(_training_trials(system, seed, config))  # a copy: a method may alter its trials
     try:
         controller = load_method(method, CONTROLLERS)()
         t0 = time.perf_counter()

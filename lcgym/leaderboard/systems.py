@@ -25,7 +25,9 @@ reference is one TCP line out and back (5-6 s).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 
+import numba
 import numpy as np
 import pandas as pd
 
@@ -91,8 +93,12 @@ class FlexArmBench:
         feedforward = [None] * len(references) if feedforward is None else list(feedforward)
         offsets = [None] * len(references) if offsets is None else list(offsets)
         N = np.asarray(self.plant.true_drive.N)
-        return [self.plant.run(r, f, None if o is None else N * np.asarray(o, dtype=float))
+        jobs = [(r, f, None if o is None else N * np.asarray(o, dtype=float))
                 for r, f, o in zip(references, feedforward, offsets, strict=True)]
+        # the compiled loop releases the GIL: as many threads as numba may use (one in the
+        # benchmark's parallel workers)
+        with ThreadPoolExecutor(max_workers=max(1, min(len(jobs), numba.get_num_threads()))) as pool:
+            return list(pool.map(lambda job: self.plant.run(*job), jobs))
 
     @staticmethod
     def load_error(trial) -> np.ndarray:
