@@ -1,7 +1,7 @@
 """The ``lcgym`` command. Thin: parses, calls library functions, prints.
 
     lcgym bench [--systems ix,flexarm] [--methods feedback,physical] [--seeds 0,1,2] [--quick]
-                [--out results.csv] [--jobs N] [--dask ADDRESS] [--resume]
+                [--out results.csv] [--jobs N] [--dask ADDRESS] [--resume] [--timeout SECONDS]
     lcgym leaderboard [results.csv] [--markdown OUT.md] [--html OUT.html]
     lcgym simulate --system ix --controller feedback,physical --out run.csv --plot run.png
 """
@@ -56,6 +56,16 @@ def _positive(text: str) -> int:
     return v
 
 
+def _seconds(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number of seconds, got {text!r}") from None
+    if not v > 0 or v == float("inf"):
+        raise argparse.ArgumentTypeError(f"must be > 0 and finite, got {text}")
+    return v
+
+
 def _writable(text: str) -> Path:
     p = Path(text)
     if not p.parent.resolve().is_dir():
@@ -76,6 +86,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--jobs", type=_positive, default=1, help="parallel cells (joblib processes)")
     bench.add_argument("--dask", metavar="ADDRESS", help="run the cells on this Dask scheduler (tcp://host:port)")
     bench.add_argument("--resume", action="store_true", help="skip cells already stored with the same configuration")
+    bench.add_argument("--timeout", type=_seconds, metavar="SECONDS",
+                       help="per-cell time limit of a method (fit, learn, feedforward, runs); a cell past it fails")
     board = sub.add_parser("leaderboard", help="rank the methods of a results CSV")
     board.add_argument("csv", nargs="?", type=Path, default=Path("results.csv"))
     board.add_argument("--reference-set", choices=("validation", "train", "test"), default="validation")
@@ -181,7 +193,8 @@ def cmd_bench(args) -> int:
     chosen = {k: v for k, v in (("systems", args.systems), ("methods", args.methods), ("seeds", args.seeds)) if v}
     config = BenchConfig.quick(**chosen) if args.quick else BenchConfig(**chosen)
     try:
-        summary = run_benchmark(config, args.out, jobs=args.jobs, dask=args.dask, resume=args.resume)
+        summary = run_benchmark(config, args.out, jobs=args.jobs, dask=args.dask, resume=args.resume,
+                                timeout=args.timeout)
     except KeyboardInterrupt:
         print(f"\nlcgym bench: interrupted; every finished cell is in {args.out}; add --resume to run the rest",
               file=sys.stderr)

@@ -25,7 +25,8 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 def cli(*args, **kwargs):
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), kwargs.pop("pythonpath", "")])}
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), kwargs.pop("pythonpath", "")]),
+           **kwargs.pop("env_extra", {})}
     return subprocess.Popen([sys.executable, "-m", "lcgym.cli", *args], env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, **kwargs)
 
@@ -113,6 +114,27 @@ BAD_CONTROLLERS = textwrap.dedent("""
             return self
         def feedforward(self, reference):
             return np.zeros_like(reference.positions)
+
+    class NaNs(Good):
+        def feedforward(self, reference):
+            f = np.zeros_like(reference.positions)
+            f[len(f) // 2, 1] = np.nan
+            return f
+
+    class WrongDtype(Good):
+        def feedforward(self, reference):
+            return np.full(reference.positions.shape, "volts")
+
+    class SlowFit(Good):
+        def fit(self, trials):
+            import time
+            time.sleep(30)
+            return self
+
+    class SlowFeedforward(Good):
+        def feedforward(self, reference):
+            while True:
+                pass
 """)
 
 
@@ -129,6 +151,38 @@ def test_user_controllers_failures_are_recorded_and_others_run(tmp_path, monkeyp
     assert "shape" in errors["my_ctrl:WrongShape"]
     assert (df[df.method == "my_ctrl:Good"]["status"] == "ok").all()
     assert "failed cells" in format_text(df)
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize(("method", "message"), [
+    ("my_ctrl:Raises", "RuntimeError: my controller is broken"),
+    ("my_ctrl:WrongShape", "has shape (3,), expected"),
+    ("my_ctrl:NaNs", "contains NaN or inf"),
+    ("my_ctrl:WrongDtype", "ValueError: could not convert string to float"),
+    ("my_ctrl:SlowFit", "CellTimeout: the cell ran past its time limit of 1.5 s, in fit"),
+    ("my_ctrl:SlowFeedforward", "CellTimeout: the cell ran past its time limit of 1.5 s, in feedforward of"),
+])
+def test_bad_user_controller_fails_its_cell_alone(tmp_path, monkeypatch, method, message):
+    """Each bad controller gets one failed row naming the fault; the good method beside it runs; the
+    slow ones are stopped by the per-cell time limit within a few seconds; no trace is left."""
+    (tmp_path / "my_ctrl.py").write_text(BAD_CONTROLLERS)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    out = tmp_path / "r.csv"
+    t0 = time.perf_counter()
+    summary = run_benchmark(BenchConfig(methods=(method, "feedback"), **TINY), out, progress=False, timeout=1.5)
+    assert time.perf_counter() - t0 < 20
+    df = read_results(out)
+    failed = df[df.method == method]
+    assert summary["cells_failed"] == 1 and len(failed) == 1 and (failed.status == "failed").all()
+    assert message in failed.error.iloc[0], failed.error.iloc[0]
+    assert (df[df.method == "feedback"].status == "ok").all() and not df[["MA", "RMS", "Inf"]].dropna().empty
+    assert not any((tmp_path / "r.csv.traces").glob("*my_ctrl*"))
+
+
+@pytest.mark.bad_input
+def test_bench_refuses_a_bad_timeout(tmp_path):
+    with pytest.raises(ValueError, match="timeout must be > 0"):
+        run_benchmark(BenchConfig(methods=("feedback",), **TINY), tmp_path / "r.csv", progress=False, timeout=0)
 
 
 def test_unknown_method_and_system_refused():
@@ -275,3 +329,48 @@ def test_leaderboard_ranks_one_configuration_and_the_newest_run_per_cell(tmp_pat
     assert len(others) == 1 and (newest["plant_trials"] == 2).all()
     older, _ = select(full, others[0])
     assert (older["plant_trials"] == 1).all() and len(older) == 16
+
+
+NUMBERS = ["system", "method", "seed", "reference_set", "axis", "signal", *METRICS, "unit", "plant_trials", "env_steps",
+           "nn_rms", "status", "error", "config_hash"]
+
+
+def _quick(out: Path, cache: Path, **kwargs) -> subprocess.Popen:
+    return cli("bench", "--quick", "--out", str(out), env_extra={"LCGYM_CACHE": str(cache)}, **kwargs)
+
+
+@pytest.mark.slow
+def test_quick_benchmark_twice_gives_every_number_bit_for_bit(tmp_path, tally):
+    """Two `lcgym bench --quick` runs, each training `rl` anew (own cache): every stored number equal."""
+    frames = []
+    for i in range(2):
+        proc = _quick(tmp_path / f"{i}.csv", tmp_path / f"cache{i}")
+        _, err = proc.communicate(timeout=900)
+        assert proc.returncode == 0, err[-2000:]
+        frames.append(read_results(tmp_path / f"{i}.csv")[NUMBERS].sort_values(NUMBERS[:6]).reset_index(drop=True))
+    pd.testing.assert_frame_equal(frames[0], frames[1], check_exact=True)
+    assert (frames[0].status == "ok").all() and len(frames[0]) > 100
+    tally("rows_checked", 2 * len(frames[0]))
+
+
+@pytest.mark.slow
+def test_eight_concurrent_quick_benchmarks_share_one_csv(tmp_path, tally):
+    """8 `lcgym bench --quick` processes append to one CSV at once: no row lost, none corrupt (every
+    run's numbers equal the others'), every trace file readable."""
+    out = tmp_path / "shared.csv"
+    procs = [_quick(out, tmp_path / "cache") for _ in range(8)]
+    for p in procs:
+        _, err = p.communicate(timeout=1800)
+        assert p.returncode == 0, err[-2000:]
+    df = read_results(out)
+    runs = df.groupby("run_id")
+    assert runs.ngroups == 8 and runs.size().nunique() == 1 and (df.status == "ok").all()
+    first = None
+    for _, run in runs:
+        numbers = run[NUMBERS].sort_values(NUMBERS[:6]).reset_index(drop=True)
+        if first is None:
+            first = numbers
+        pd.testing.assert_frame_equal(numbers, first, check_exact=True)
+    for trace in (tmp_path / "shared.csv.traces").glob("*.parquet"):
+        assert len(pd.read_parquet(trace)) > 0
+    tally("rows_checked", len(df))

@@ -21,6 +21,7 @@ def test_simulate_writes_file_plot_and_table(tmp_path, capsys):
     assert png.stat().st_size > 10_000
 
 
+@pytest.mark.bad_input
 @pytest.mark.parametrize(
     "args, message",
     [
@@ -36,6 +37,7 @@ def test_bad_options_are_refused_with_a_reason(args, message):
     assert message in proc.stderr
 
 
+@pytest.mark.bad_input
 @pytest.mark.parametrize(
     "args, message",
     [
@@ -44,6 +46,10 @@ def test_bad_options_are_refused_with_a_reason(args, message):
         (["bench", "--seeds", "0,-1"], "must be >= 0"),
         (["bench", "--out", "/nonexistent-folder/r.csv"], "does not exist"),
         (["leaderboard", "/nonexistent-folder/r.csv"], "no such results file"),
+        (["bench", "--timeout", "0", "--quick"], "must be > 0"),
+        (["bench", "--timeout", "nan", "--quick"], "must be > 0"),
+        (["bench", "--timeout", "soon", "--quick"], "must be a number of seconds"),
+        (["bench", "--out", "/etc/hostname/r.csv", "--quick"], "does not exist"),  # a file where the folder is
     ],
 )
 def test_bench_and_leaderboard_refuse_bad_options(args, message):

@@ -76,6 +76,7 @@ def test_trial_properties():
     assert make_trial(0, n=10, with_ff=False).fb is None
 
 
+@pytest.mark.bad_input
 def test_trial_rejects_wrong_shape():
     with pytest.raises(ValueError, match="pos"):
         Trial(t=np.arange(5.0), ref=np.zeros((5, 2)), pos=np.zeros((4, 2)), u=np.zeros((5, 2)), axes=AXES)
@@ -151,6 +152,7 @@ def test_sidecar_metadata_is_optional(tmp_path):
     assert tr.meta == {"rig": "IX-2", "gain": 3, "source": str(path)}
 
 
+@pytest.mark.bad_input
 def test_write_rejects_no_trials_and_bad_extension(tmp_path):
     with pytest.raises(ValueError):
         write_trials(tmp_path / "x.csv", [])
@@ -180,6 +182,7 @@ def _without_column(tmp_path, column: str) -> Path:
     return write_csv(tmp_path, text)
 
 
+@pytest.mark.bad_input
 @pytest.mark.parametrize("system", [None, "ix"])
 def test_missing_column(tmp_path, system):
     path = _without_column(tmp_path, "u_roll")
@@ -188,6 +191,7 @@ def test_missing_column(tmp_path, system):
     assert_names(exc, path, "u_roll")
 
 
+@pytest.mark.bad_input
 def test_missing_reference_column_with_system(tmp_path):
     path = _without_column(tmp_path, "ref_roll")
     with pytest.raises(MeasurementFileError) as exc:
@@ -202,6 +206,7 @@ def _corrupt(row: int, column: str, value: str, n: int = 8) -> str:
     return rows_csv(rows)
 
 
+@pytest.mark.bad_input
 @pytest.mark.parametrize(
     ("column", "row", "value"),
     [
@@ -220,6 +225,7 @@ def test_bad_value(tmp_path, column, row, value):
     assert_names(exc, path, column, row)
 
 
+@pytest.mark.bad_input
 def test_bad_value_reports_first_offending_row(tmp_path):
     rows = good_rows(10)
     rows[2][COL["pos_propeller"]] = "nan"  # row 3
@@ -230,6 +236,7 @@ def test_bad_value_reports_first_offending_row(tmp_path):
     assert_names(exc, path, "pos_propeller", 3)
 
 
+@pytest.mark.bad_input
 def test_bad_value_in_ff_column_is_rejected(tmp_path):
     rows = [r + [0.25] for r in good_rows()]
     rows[4][-1] = "oops"
@@ -240,6 +247,7 @@ def test_bad_value_in_ff_column_is_rejected(tmp_path):
     assert_names(exc, path, "ff_propeller", 5)
 
 
+@pytest.mark.bad_input
 def test_non_uniform_time(tmp_path):
     # steps 0.1 except one doubled step from data row 4 to row 5: t = 0, .1, .2, .3, .5, .6, ...
     rows = good_rows(8)
@@ -259,6 +267,7 @@ def test_small_jitter_in_time_is_accepted(tmp_path):
     assert tr.n_samples == 8
 
 
+@pytest.mark.bad_input
 def test_decreasing_time(tmp_path):
     rows = good_rows(8)
     rows[5][0] = 0.35  # row 6 goes back from 0.4 to 0.35
@@ -268,6 +277,7 @@ def test_decreasing_time(tmp_path):
     assert_names(exc, path, "t", 6)
 
 
+@pytest.mark.bad_input
 def test_repeated_time(tmp_path):
     rows = good_rows(8)
     rows[2][0] = rows[1][0]  # row 3 repeats row 2's time
@@ -277,6 +287,7 @@ def test_repeated_time(tmp_path):
     assert_names(exc, path, "t", 3)
 
 
+@pytest.mark.bad_input
 def test_empty_file(tmp_path):
     path = write_csv(tmp_path, "")
     with pytest.raises(MeasurementFileError) as exc:
@@ -285,6 +296,7 @@ def test_empty_file(tmp_path):
     assert "empty" in str(exc.value)
 
 
+@pytest.mark.bad_input
 def test_header_only(tmp_path):
     path = write_csv(tmp_path, HEADER + "\n")
     with pytest.raises(MeasurementFileError) as exc:
@@ -293,6 +305,7 @@ def test_header_only(tmp_path):
     assert "no data rows" in str(exc.value)
 
 
+@pytest.mark.bad_input
 def test_one_data_row(tmp_path):
     path = write_csv(tmp_path, rows_csv(good_rows(1)))
     with pytest.raises(MeasurementFileError) as exc:
@@ -300,6 +313,7 @@ def test_one_data_row(tmp_path):
     assert_names(exc, path, "t", 1)
 
 
+@pytest.mark.bad_input
 def test_min_samples(tmp_path):
     path = write_csv(tmp_path, rows_csv(good_rows(4)))
     assert read_trials(path, min_samples=4)[0].n_samples == 4
@@ -309,6 +323,7 @@ def test_min_samples(tmp_path):
     assert "4 samples" in str(exc.value)
 
 
+@pytest.mark.bad_input
 @pytest.mark.parametrize("name", ["meas.txt", "meas.xlsx", "meas"])
 def test_unknown_extension(tmp_path, name):
     path = write_csv(tmp_path, rows_csv(good_rows()), name=name)
@@ -318,6 +333,7 @@ def test_unknown_extension(tmp_path, name):
     assert "unknown file type" in str(exc.value)
 
 
+@pytest.mark.bad_input
 def test_missing_file(tmp_path):
     path = tmp_path / "nope.csv"
     with pytest.raises(MeasurementFileError) as exc:
@@ -325,6 +341,7 @@ def test_missing_file(tmp_path):
     assert_names(exc, path)
 
 
+@pytest.mark.bad_input
 def test_unknown_system(tmp_path):
     path = write_csv(tmp_path, rows_csv(good_rows()))
     with pytest.raises(ValueError, match="system"):
@@ -373,6 +390,7 @@ def test_two_trials_in_one_file(tmp_path):
     assert all("trial" not in tr.extra for tr in trials)
 
 
+@pytest.mark.bad_input
 def test_two_trials_error_names_trial_and_file_row(tmp_path):
     header = HEADER.replace("t,", "t,trial,", 1)
     a = good_rows(5)
@@ -392,6 +410,7 @@ def test_two_trials_error_names_trial_and_file_row(tmp_path):
 # ---------------------------------------------------------------------------------------------
 
 
+@pytest.mark.fault
 def test_failed_write_keeps_old_file(tmp_path, monkeypatch):
     path = tmp_path / "keep.csv"
     write_trials(path, [make_trial(0, n=12)], meta={"version": 1})
@@ -426,6 +445,7 @@ def test_successful_overwrite_leaves_no_temp_file(tmp_path):
     assert back.n_samples == 30
 
 
+@pytest.mark.bad_input
 def test_write_into_missing_folder(tmp_path):
     path = tmp_path / "missing" / "x.csv"
     with pytest.raises(FileNotFoundError):

@@ -120,6 +120,7 @@ def test_user_registered_effect_is_ranked_with_the_rest():
         fx.EFFECTS.pop("quadratic_drag", None)
 
 
+@pytest.mark.bad_input
 def test_register_effect_rejects_bad_input():
     with pytest.raises(TypeError, match="name"):
         register_effect(lambda q, qd, qdd: qd)
@@ -203,6 +204,7 @@ def test_cli_diagnose_writes_the_spec_json_and_plots(tmp_path, capsys):
     assert "coulomb_friction@roll" in text and "replay" in text
 
 
+@pytest.mark.bad_input
 @pytest.mark.parametrize("content, message", [
     ("t,ref_propeller,ref_roll\n0,0,0\n", "required column 'pos_propeller' missing"),
     ("", "empty"),
@@ -219,6 +221,7 @@ def test_cli_diagnose_bad_file_fails_clearly_and_writes_nothing(tmp_path, capsys
     assert not out.exists() and not (tmp_path / "plots").exists()
 
 
+@pytest.mark.bad_input
 def test_cli_rejects_unknown_effect_and_lists_effects(tmp_path, capsys):
     data = write_trials(tmp_path / "m.csv", _trials(()), meta={"system": "ix"})
     assert main(["diagnose", str(data), "--system", "ix", "--add", "warp_drive@roll"]) == 1
@@ -236,6 +239,7 @@ def test_read_back_keeps_the_plant_record_for_replay(tmp_path):
     assert plant.effects == (SINGLE["cable_drape@roll"],)
 
 
+@pytest.mark.bad_input
 def test_cli_refuses_too_short_data_and_an_unusable_plot_folder(tmp_path, capsys):
     runs = _trials(())
     short = [Trial(t=r.t[:1500], ref=r.ref[:1500], pos=r.pos[:1500], u=r.u[:1500], axes=r.axes) for r in runs]

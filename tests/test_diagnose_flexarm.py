@@ -66,6 +66,7 @@ def test_cli_on_an_arm_file(tmp_path, capsys, with_payload):
     assert "payload" in listed and "cable_drape" not in listed
 
 
+@pytest.mark.bad_input
 def test_effects_stay_on_their_system():
     from lcgym.envs.ix import IXPlant
     from lcgym.physics import effects as fx

@@ -41,6 +41,7 @@ def test_zero_action_episode_is_the_plant_run_with_the_basic_feedforward(refs):
     np.testing.assert_array_equal(trial.extra["load_j3"], run.extra["load_j3"])
 
 
+@pytest.mark.bad_input
 def test_bad_actions_and_clipping(refs):
     env = FlexArmEnv(references=refs)
     env.reset(seed=1)

@@ -74,6 +74,7 @@ def test_episode_matches_plant_run_and_ends_with_trial():
     np.testing.assert_array_equal(trial.u, expected.u)
 
 
+@pytest.mark.bad_input
 def test_nan_action_raises_and_out_of_bound_is_clipped():
     env = gym.make("lcgym/IX-v0", **SHORT)
     env.reset(seed=0)
@@ -88,6 +89,7 @@ def test_nan_action_raises_and_out_of_bound_is_clipped():
     assert info["clipped_actions"] == 3
 
 
+@pytest.mark.fault
 def test_terminated_when_plant_leaves_safe_range():
     plant = IXPlant(gains=FeedbackGains(kp=(-170.0, 120.0)))  # destabilizing propeller feedback
     env = gym.make("lcgym/IX-v0", plant=plant, **SHORT)
@@ -155,6 +157,7 @@ def test_vector_env_same_step_autoreset_gives_final_obs():
     assert not np.array_equal(info["final_obs"][0], obs[0])
 
 
+@pytest.mark.bad_input
 def test_vector_env_nan_action_names_sub_env():
     venv = gym.make_vec("lcgym/IX-v0", num_envs=2, vectorization_mode="vector_entry_point", **SHORT)
     venv.reset(seed=0)
@@ -198,6 +201,7 @@ def test_observation_layout_and_reward_as_documented():
     assert np.any(np.abs(obs[10:12]) > 0.01)  # the axes do move by now
 
 
+@pytest.mark.bad_input
 def test_misuse_gets_clear_errors():
     venv = gym.make_vec("lcgym/IX-v0", num_envs=2, vectorization_mode="vector_entry_point", **SHORT)
     with pytest.raises(RuntimeError, match="reset"):

@@ -56,6 +56,7 @@ def test_norms_ordering_on_random_signal():
     np.testing.assert_allclose(n["RMS"] ** 2, n["MA"] ** 2 + np.var(np.abs(x), axis=0), rtol=1e-12)
 
 
+@pytest.mark.bad_input
 @pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
 def test_norms_rejects_non_finite(bad):
     with pytest.raises(ValueError):
@@ -66,6 +67,7 @@ def test_norms_rejects_non_finite(bad):
         norms(x)
 
 
+@pytest.mark.bad_input
 @pytest.mark.parametrize("empty", [[], np.zeros((0,)), np.zeros((0, 2))])
 def test_norms_rejects_empty(empty):
     with pytest.raises(ValueError, match="empty"):
@@ -149,6 +151,7 @@ def test_input_residual_pools_trials():
     assert table.loc["propeller", "Inf"] == pytest.approx(2.0)
 
 
+@pytest.mark.bad_input
 def test_tables_reject_nan():
     e = np.zeros((3, 2))
     e[1, 0] = np.nan
@@ -160,6 +163,7 @@ def test_tables_reject_nan():
         input_residual_table([_trial(np.zeros((3, 2)))], [f])
 
 
+@pytest.mark.bad_input
 def test_input_residual_rejects_mismatched_counts():
     """Two trials with one feedforward must not silently drop the second trial."""
     trials = [_trial(np.zeros((3, 2)), u=np.full((3, 2), k + 1.0)) for k in range(2)]
@@ -167,6 +171,7 @@ def test_input_residual_rejects_mismatched_counts():
         input_residual_table(trials, [np.zeros((3, 2))])
 
 
+@pytest.mark.bad_input
 def test_input_residual_rejects_wrong_feedforward_shape():
     tr = _trial(np.zeros((3, 2)), u=np.ones((3, 2)))
     with pytest.raises(ValueError):

@@ -99,6 +99,7 @@ def test_compiled_regressor_equals_numpy():
     np.testing.assert_allclose(compiled.regressor(zn, q, qd, qdd), ix.regressor(zn, q, qd, qdd), rtol=1e-12, atol=1e-12)
 
 
+@pytest.mark.bad_input
 def test_plant_only_effects_rejected_in_model():
     with pytest.raises(ValueError, match="plants only"):
         PhysicalModel(effects=(fx.Stiction("roll"),))
@@ -106,6 +107,7 @@ def test_plant_only_effects_rejected_in_model():
         PhysicalModel(effects=(fx.CableSpring("roll"),)).with_effect("cable_spring@roll")
 
 
+@pytest.mark.bad_input
 def test_effect_labels():
     e = fx.make_effect("coulomb_friction@roll", Fc=0.05)
     assert e.key == "coulomb_friction@roll" and e.Fc == 0.05

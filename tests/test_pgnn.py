@@ -100,6 +100,7 @@ def test_save_and_load_round_trip(small_pgnn, tmp_path):
     torch.load(path, weights_only=True)  # tensors only: loadable without trusting pickled objects
 
 
+@pytest.mark.bad_input
 def test_module_rejects_unknown_activation():
     with pytest.raises(ValueError, match="activation"):
         PGNNModule(IX, ix.IXParameters().to_vector(), 8, activation="swish")
@@ -138,6 +139,7 @@ def test_leaderboard_methods_report_the_network_contribution():
         assert all(np.isfinite(r["RMS"]) and r["nn_rms"] > 0 for r in rows)
 
 
+@pytest.mark.bad_input
 def test_sample_rate_mismatch_and_ls_variant_config():
     with pytest.raises(ValueError, match="physical model samples at 1000"):
         PGNN(PGNNConfig(max_epochs=1, threads=1), fs=500.0, physical=PhysicalModel(fs=1000.0)).fit(_trials(n=1))

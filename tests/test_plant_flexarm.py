@@ -52,6 +52,8 @@ def test_rest_holds_the_static_balance_and_the_accelerometer_reads_gravity():
     np.testing.assert_allclose(tr.pos * np.asarray(plant.true_drive.N), motor)
 
 
+@pytest.mark.fault
+@pytest.mark.bad_input
 def test_bad_feedforward_and_divergence_fail_clearly(line):
     plant = FlexArmPlant()
     ff = np.zeros((line.n_samples, 6))

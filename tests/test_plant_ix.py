@@ -83,6 +83,7 @@ def test_input_saturates_at_5_volt(ref):
     assert np.max(np.abs(tr.u)) == pytest.approx(5.0)
 
 
+@pytest.mark.fault
 def test_unstable_feedback_stops_with_state():
     from lcgym.envs.ix import FeedbackGains
 
@@ -92,6 +93,7 @@ def test_unstable_feedback_stops_with_state():
         plant.run(ref)
 
 
+@pytest.mark.bad_input
 def test_bad_feedforward_is_refused(ref):
     ff = np.zeros_like(ref.positions)
     ff[17, 1] = np.nan
@@ -119,11 +121,13 @@ def test_every_default_effect_changes_the_run(ref):
         assert np.max(np.abs(reduced.u - base.u)) > 1e-3, effects[k].key
 
 
+@pytest.mark.bad_input
 def test_flexible_drive_needs_less_motor_inertia_than_axis():
     with pytest.raises(ValueError, match="motor inertia"):
         IXPlant(effects=(fx.DrivetrainFlexibility("roll", Jm=5.0),))
 
 
+@pytest.mark.bad_input
 def test_duplicate_effect_rejected():
     with pytest.raises(ValueError, match="twice"):
         IXPlant(effects=(fx.CableSpring("roll", k=0.1), fx.CableSpring("roll", k=0.2)))

@@ -117,6 +117,7 @@ def test_predictor_learns_an_error_that_is_a_function_of_the_reference():
     assert all(0 <= s < 0.2 for s in pred.outside_share_.values())
 
 
+@pytest.mark.bad_input
 def test_bad_configuration_is_refused():
     with pytest.raises(ValueError, match="dims"):
         RBFExpertConfig(dims=4)

@@ -41,6 +41,7 @@ def test_momentum_method_reaches_the_least_squares_cost():
     assert h[0] > 3 * h[-1] and len(h) < 2000
 
 
+@pytest.mark.bad_input
 def test_bad_input_is_refused():
     net = RBFNetwork(RANGES, COUNTS)
     with pytest.raises(ValueError, match="dimensions"):

@@ -368,23 +368,27 @@ def test_calibration_set(sets):
 # ---------------------------------------------------------------------------------------------
 
 
+@pytest.mark.bad_input
 @pytest.mark.parametrize("name", ["train", "calibration"])
 def test_negative_seed(name):
     with pytest.raises(ValueError, match="seed"):
         reference_set(name, seed=-1)
 
 
+@pytest.mark.bad_input
 @pytest.mark.parametrize("name", ["training", "Test", "", "val"])
 def test_unknown_set_name(name):
     with pytest.raises(ValueError, match="reference set"):
         reference_set(name)
 
 
+@pytest.mark.bad_input
 def test_non_positive_reference_count():
     with pytest.raises(ValueError):
         reference_set("train", n_references=0)
 
 
+@pytest.mark.bad_input
 @pytest.mark.parametrize(
     ("v", "a", "j"),
     [(0.0, 1.0, 1.0), (1.0, 0.0, 1.0), (1.0, 1.0, 0.0), (-1.0, 1.0, 1.0), (1.0, -2.0, 1.0), (1.0, 1.0, -5.0)],

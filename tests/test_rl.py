@@ -75,6 +75,7 @@ def test_budget_and_cost(ix_data, tmp_path):
     assert by_passes.budget() == round(2.5 * samples)
 
 
+@pytest.mark.fault
 def test_cache_reuses_verified_models_only(ix_data, tmp_path):
     bench, trials, val = ix_data
     first = trained(ix_data, tmp_path)
@@ -152,6 +153,7 @@ def test_env_takes_a_fitted_model_as_base():
         IXEnv(references=refs, base_feedforward=object())
 
 
+@pytest.mark.bad_input
 def test_config_errors():
     with pytest.raises(ValueError, match="algorithm"):
         RLConfig(algorithm="dqn")

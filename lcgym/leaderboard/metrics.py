@@ -26,7 +26,11 @@ def norms(x) -> dict[str, np.ndarray]:
     if not np.all(np.isfinite(x)):
         raise ValueError("signal contains NaN or inf: metrics would be meaningless")
     a = np.abs(x)
-    return {"MA": a.mean(axis=0), "RMS": np.sqrt(np.mean(x * x, axis=0)), "Inf": a.max(axis=0)}
+    peak = a.max(axis=0)
+    # RMS scaled by the peak: x * x would underflow below 1e-154 and overflow above 1e154
+    scale = np.where(peak > 0, peak, 1.0)
+    rms = peak * np.sqrt(np.mean((a / scale) ** 2, axis=0))
+    return {"MA": a.mean(axis=0), "RMS": rms, "Inf": peak}
 
 
 def tracking_error_table(trials: Sequence, label: str = "") -> pd.DataFrame:

@@ -16,7 +16,8 @@ Cells run in parallel through joblib (``jobs``; workers use one numba and one to
 or on an existing Dask cluster through joblib's dask backend (``dask="tcp://host:port"``). Rows
 are appended to the results CSV as each cell finishes, so an interrupted run keeps every finished
 cell, and ``resume`` skips cells already stored under the same configuration hash. A controller
-that raises, or returns a bad feedforward, is recorded as a failed cell with its error.
+that raises, returns a bad feedforward or runs past the per-cell time limit (``timeout``) is
+recorded as a failed cell with its error.
 """
 
 from __future__ import annotations
@@ -24,10 +25,13 @@ from __future__ import annotations
 import copy
 import hashlib
 import json
+import signal
 import subprocess
+import threading
 import time
 import uuid
 from collections.abc import Sequence
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field, replace
 from datetime import UTC, datetime
 from functools import cache, lru_cache
@@ -149,10 +153,37 @@ def _rms_per_axis(signals: Sequence[np.ndarray]) -> np.ndarray:
     return np.sqrt(np.mean(x * x, axis=0))
 
 
-def run_cell(system: str, method: str, seed: int, config: BenchConfig,
-             single_thread: bool = False) -> tuple[list[dict], pd.DataFrame | None]:
+class CellTimeout(TimeoutError):
+    """A cell ran past the benchmark's per-cell time limit."""
+
+
+@contextmanager
+def _time_limit(seconds: float | None, where: list[str]):
+    """Raise ``CellTimeout`` in this thread after ``seconds`` of wall time, naming ``where[0]``
+    (the stage the cell is in). A signal timer: POSIX and the main thread only (the benchmark's
+    own and joblib's worker processes); elsewhere (Windows, Dask's worker threads) no limit."""
+    if seconds is None or not hasattr(signal, "setitimer") or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def expire(signum, frame):
+        raise CellTimeout(f"the cell ran past its time limit of {seconds:g} s, in {where[0]}")
+
+    previous = signal.signal(signal.SIGALRM, expire)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_thread: bool = False,
+             timeout: float | None = None) -> tuple[list[dict], pd.DataFrame | None]:
     """Run one cell: its result rows (without run id and provenance) and the trace of its first
-    validation reference (``BenchSystem.trace``; None for a failed cell)."""
+    validation reference (``BenchSystem.trace``; None for a failed cell). ``timeout`` [s]: the
+    method's part of the cell (fit, learn, feedforward and the evaluation runs) may take this
+    long; past it the cell is recorded as failed with ``CellTimeout`` and the stage it was in."""
     if single_thread:
         _single_thread()
     key = {"system": system, "method": method, "seed": seed, "config_hash": config.config_hash()}
@@ -160,44 +191,50 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig,
     refs = {name: bench.references(name, seed, n, config.duration)
             for name, n in (("train", config.n_train), ("validation", config.n_validation))}
     train_trials = copy.deepcopy(_training_trials(system, seed, config))  # a copy: a method may alter its trials
+    stage = ["loading the method"]
     try:
-        controller = load_method(method, CONTROLLERS)()
-        t0 = time.perf_counter()
-        controller.fit(train_trials)
-        learn_seconds = time.perf_counter() - t0
-        rows = []
-        for set_name in EVALUATED_SETS:
-            ffs, offsets, nn = [], [], []
-            for r in refs[set_name]:
-                if getattr(controller, "uses_plant", False):
-                    t1 = time.perf_counter()
-                    controller.learn(bench.plant, r)
-                    learn_seconds += time.perf_counter() - t1
-                ffs.append(_checked(controller.feedforward(r), r, "feedforward"))
-                offset = getattr(controller, "reference_offset", lambda _: None)(r)
-                offsets.append(None if offset is None else _checked(offset, r, "reference_offset"))
-                if hasattr(controller, "nn_contribution"):
-                    nn.append(controller.nn_contribution(r))
-            trials = bench.run(refs[set_name], ffs, offsets)
-            if set_name == "validation":
-                trace = bench.trace(trials[0])
-            nn_rms = dict(zip(bench.axes, _rms_per_axis(nn), strict=True)) if nn else {}
-            for table in bench.tables(trials, ffs):
-                for row in table.to_dict("records"):
-                    row.pop("label")
-                    rows.append({**key, **row, "reference_set": set_name, "nn_rms": nn_rms.get(row["axis"], np.nan)})
-        cost = getattr(controller, "cost_", Cost())
-        for row in rows:
-            row.update(plant_trials=config.n_train + cost.plant_trials, env_steps=cost.env_steps,
-                       fit_seconds=round(learn_seconds + cost.cached_seconds, 3), status="ok", error="")
-        return rows, trace
+        with _time_limit(timeout, stage):
+            controller = load_method(method, CONTROLLERS)()
+            stage[0] = "fit"
+            t0 = time.perf_counter()
+            controller.fit(train_trials)
+            learn_seconds = time.perf_counter() - t0
+            rows = []
+            for set_name in EVALUATED_SETS:
+                ffs, offsets, nn = [], [], []
+                for r in refs[set_name]:
+                    if getattr(controller, "uses_plant", False):
+                        stage[0] = f"learn on {r.name}"
+                        t1 = time.perf_counter()
+                        controller.learn(bench.plant, r)
+                        learn_seconds += time.perf_counter() - t1
+                    stage[0] = f"feedforward of {r.name}"
+                    ffs.append(_checked(controller.feedforward(r), r, "feedforward"))
+                    offset = getattr(controller, "reference_offset", lambda _: None)(r)
+                    offsets.append(None if offset is None else _checked(offset, r, "reference_offset"))
+                    if hasattr(controller, "nn_contribution"):
+                        nn.append(controller.nn_contribution(r))
+                stage[0] = f"the plant runs of the {set_name} references"
+                trials = bench.run(refs[set_name], ffs, offsets)
+                if set_name == "validation":
+                    trace = bench.trace(trials[0])
+                nn_rms = dict(zip(bench.axes, _rms_per_axis(nn), strict=True)) if nn else {}
+                for table in bench.tables(trials, ffs):
+                    for row in table.to_dict("records"):
+                        row.pop("label")
+                        rows.append({**key, **row, "reference_set": set_name, "nn_rms": nn_rms.get(row["axis"], np.nan)})
+            cost = getattr(controller, "cost_", Cost())
+            for row in rows:
+                row.update(plant_trials=config.n_train + cost.plant_trials, env_steps=cost.env_steps,
+                           fit_seconds=round(learn_seconds + cost.cached_seconds, 3), status="ok", error="")
+            return rows, trace
     except Exception as exc:  # a method's failure is a result, not a crash of the benchmark
         return [{**key, "status": "failed", "error": f"{type(exc).__name__}: {exc}"[:500]}], None
 
 
-def _checked(signal, reference, what: str) -> np.ndarray:
+def _checked(values, reference, what: str) -> np.ndarray:
     """A method's signal for ``reference`` as a float array, or a clear error: the reference's shape, finite."""
-    f = np.asarray(signal, dtype=float)
+    f = np.asarray(values, dtype=float)
     if f.shape != reference.positions.shape:
         raise ValueError(f"{what} for {reference.name} has shape {f.shape}, expected {reference.positions.shape}")
     if not np.all(np.isfinite(f)):
@@ -216,14 +253,17 @@ def trace_path(out: str | Path, system: str, method: str, seed: int) -> Path:
 
 
 def run_benchmark(config: BenchConfig, out: str | Path, jobs: int = 1, dask: str | None = None,
-                  resume: bool = False, progress: bool = True) -> dict:
+                  resume: bool = False, progress: bool = True, timeout: float | None = None) -> dict:
     """Run every cell (skipping stored ones with ``resume``) and append the rows to ``out``.
+    ``timeout``: per-cell time limit [s] of the method's part (``run_cell``; none on Dask).
 
     Returns {"run_id", "cells_run", "cells_skipped", "cells_failed"}.
     """
     out = Path(out)
     if not out.resolve().parent.is_dir():
         raise ValueError(f"cannot write {out}: folder {out.parent} does not exist")
+    if timeout is not None and not timeout > 0:
+        raise ValueError(f"timeout must be > 0 s, got {timeout}")
     todo = config.cells()
     skipped = 0
     if resume:
@@ -249,7 +289,7 @@ def run_benchmark(config: BenchConfig, out: str | Path, jobs: int = 1, dask: str
     if dask is None and jobs == 1:
         for cell in todo:
             bar.set_postfix_str("/".join(map(str, cell)))
-            store(run_cell(*cell, config))
+            store(run_cell(*cell, config, timeout=timeout))
             bar.update()
     else:
         from joblib import Parallel, delayed, parallel_config
@@ -265,7 +305,7 @@ def run_benchmark(config: BenchConfig, out: str | Path, jobs: int = 1, dask: str
             backend = {"backend": "dask"}
         try:
             with parallel_config(**backend):
-                tasks = (delayed(run_cell)(*cell, config, True) for cell in todo)
+                tasks = (delayed(run_cell)(*cell, config, True, timeout) for cell in todo)
                 for result in Parallel(n_jobs=jobs if dask is None else -1, return_as="generator_unordered")(tasks):
                     store(result)
                     bar.update()
