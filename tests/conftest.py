@@ -1,4 +1,4 @@
-"""Suite-wide helpers: the hardening tally printed in the summary.
+"""Suite-wide helpers: the hardening tally printed in the summary; a float64 torch fixture.
 
 Tests that try bad input on purpose carry the marker ``bad_input``, tests that inject a fault
 (a diverging plant, a killed writer, a raising controller) the marker ``fault``; each passed
@@ -11,6 +11,7 @@ nothing lost.
 from collections import Counter
 
 import pytest
+import torch
 
 LABELS = {"bad_input": "bad inputs tried", "fault": "faults injected", "rows_checked": "result rows checked"}
 COUNTS: Counter = Counter()
@@ -42,3 +43,12 @@ def pytest_terminal_summary(terminalreporter):
     if COUNTS:
         parts = ", ".join(f"{COUNTS[k]} {label}" for k, label in LABELS.items())
         terminalreporter.write_line(f"lcgym hardening: {parts}; each ended with a clear error and nothing lost")
+
+
+@pytest.fixture
+def float64_torch():
+    """Double precision for autograd checks, restored afterwards (other tests train float32 nets)."""
+    before = torch.get_default_dtype()
+    torch.set_default_dtype(torch.float64)
+    yield
+    torch.set_default_dtype(before)

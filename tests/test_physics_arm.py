@@ -20,13 +20,7 @@ def _states(n, seed=0):
     return rng.uniform(-2.5, 2.5, (n, 6)), rng.uniform(-2, 2, (n, 6)), rng.uniform(-5, 5, (n, 6))
 
 
-@pytest.fixture(autouse=True)
-def float64_torch():
-    """Double precision for the autograd derivation, restored afterwards (other tests train nets)."""
-    before = torch.get_default_dtype()
-    torch.set_default_dtype(torch.float64)
-    yield
-    torch.set_default_dtype(before)
+pytestmark = pytest.mark.usefixtures("float64_torch")  # the autograd checks run in double precision
 
 
 def _lagrangian_torque(q, qd, qdd, g=arm.GRAVITY):

@@ -21,13 +21,7 @@ from lcgym.physics import ix
 P = ix.IXParameters()
 
 
-@pytest.fixture(autouse=True)
-def float64_torch():
-    """Double precision for the autograd checks, restored afterwards (other tests train nets)."""
-    before = torch.get_default_dtype()
-    torch.set_default_dtype(torch.float64)
-    yield
-    torch.set_default_dtype(before)
+pytestmark = pytest.mark.usefixtures("float64_torch")  # the autograd checks run in double precision
 RNG = np.random.default_rng(0)
 
 

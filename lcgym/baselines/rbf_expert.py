@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..physics.kinematics import reference_kinematics
 from ..rbf_expert.influence import arm_influence
 from ..rbf_expert.predictor import RBFExpertConfig, RBFExpertPredictor
 from .ilc import ILCConfig, arm_tau_nl_update, frequency_update, ix_learning_filters
@@ -48,16 +47,12 @@ class RBFExpertFeedforward(Controller):
         self.learning = learning
 
     def fit(self, trials) -> RBFExpertFeedforward:
-        from ..envs.references import Reference
+        from ..envs.references import references_of
         from .physical import PhysicalFeedforward
 
         self.system_ = trials[0].meta.get("system", "ix")
         self.start_ = PhysicalFeedforward().fit(trials) if self.system_ == "ix" else None
-        self.training_ = []
-        for i, tr in enumerate(trials):
-            q, qd, qdd = reference_kinematics(tr.ref, tr.fs)
-            self.training_.append(Reference(tr.meta.get("reference", f"training-{i}"), tr.fs, tr.ref, qd, qdd,
-                                            axes=tuple(tr.axes)))
+        self.training_ = references_of(trials)
         self.cost_ = Cost()
         self.outside_ = {}
         return self

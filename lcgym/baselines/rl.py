@@ -146,8 +146,7 @@ class RLFeedforward(Controller):
 
     # --- fit: what the training data gives -------------------------------------------------
     def fit(self, trials) -> RLFeedforward:
-        from ..envs.references import Reference
-        from ..physics.kinematics import reference_kinematics
+        from ..envs.references import references_of
 
         self.system_ = trials[0].meta.get("system", "ix")
         cfg = self._config()
@@ -156,11 +155,7 @@ class RLFeedforward(Controller):
             from .physical import PhysicalFeedforward
 
             self.base_ = PhysicalFeedforward().fit(trials).model_
-        self.training_ = []
-        for i, tr in enumerate(trials):
-            _, qd, qdd = reference_kinematics(tr.ref, tr.fs)
-            self.training_.append(Reference(tr.meta.get("reference", f"training-{i}"), tr.fs, tr.ref, qd, qdd,
-                                            axes=tuple(tr.axes)))
+        self.training_ = references_of(trials)
         self.cost_ = Cost()
         self.rollouts_: dict = {}
         return self

@@ -148,6 +148,19 @@ class Reference:
         return np.arange(self.n_samples) / self.fs
 
 
+def references_of(trials) -> list[Reference]:
+    """The references of measured trials (what a method's ``fit`` gets), with velocities and
+    accelerations by ``physics.kinematics.reference_kinematics``; named by the trial's
+    ``meta["reference"]``, else ``training-<i>``."""
+    from ..physics.kinematics import reference_kinematics
+
+    refs = []
+    for i, tr in enumerate(trials):
+        _, qd, qdd = reference_kinematics(tr.ref, tr.fs)
+        refs.append(Reference(tr.meta.get("reference", f"training-{i}"), tr.fs, tr.ref, qd, qdd, axes=tuple(tr.axes)))
+    return refs
+
+
 def sample(name: str, profiles: Sequence[AxisProfile], fs: float, tail: float = 1.0) -> Reference:
     """Sample axis profiles at fs over their common duration plus ``tail`` seconds of rest."""
     duration = max(p.end_time for p in profiles) + tail
