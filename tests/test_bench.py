@@ -125,6 +125,10 @@ BAD_CONTROLLERS = textwrap.dedent("""
         def feedforward(self, reference):
             return np.full(reference.positions.shape, "volts")
 
+    class HugeOffset(Good):  # the FlexArm's motor reference 2 rad away: the plant leaves its safe range
+        def reference_offset(self, reference):
+            return np.full(reference.positions.shape, 2.0)
+
     class SlowFit(Good):
         def fit(self, trials):
             import time
@@ -177,6 +181,22 @@ def test_bad_user_controller_fails_its_cell_alone(tmp_path, monkeypatch, method,
     assert message in failed.error.iloc[0], failed.error.iloc[0]
     assert (df[df.method == "feedback"].status == "ok").all() and not df[["MA", "RMS", "Inf"]].dropna().empty
     assert not any((tmp_path / "r.csv.traces").glob("*my_ctrl*"))
+
+
+@pytest.mark.fault
+def test_a_diverging_plant_fails_its_cell_with_the_state_and_never_gives_nan_rows(tmp_path, monkeypatch):
+    (tmp_path / "my_ctrl.py").write_text(BAD_CONTROLLERS)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    out = tmp_path / "r.csv"
+    config = BenchConfig(methods=("my_ctrl:HugeOffset", "basic"), **{**TINY, "systems": ("flexarm",)})
+    summary = run_benchmark(config, out, progress=False)
+    df = read_results(out)
+    failed = df[df.method == "my_ctrl:HugeOffset"]
+    assert summary["cells_failed"] == 1 and len(failed) == 1 and failed.status.iloc[0] == "failed"
+    assert "SimulationDiverged" in failed.error.iloc[0] and "left its safe range at t =" in failed.error.iloc[0]
+    assert "load angles" in failed.error.iloc[0]  # the state at which it diverged
+    ok = df[df.status == "ok"]
+    assert len(ok) and np.isfinite(ok[METRICS].to_numpy()).all()
 
 
 @pytest.mark.bad_input
