@@ -8,7 +8,7 @@ import pytest
 import torch
 from stable_baselines3 import PPO, SAC, TD3
 
-from lcgym.baselines.rl import ERROR_COLUMNS, RLConfig, RLFeedforward, deterministic_actor
+from lcgym.baselines.rl import ERROR_COLUMNS, HYPERPARAMETERS, RLConfig, RLFeedforward, deterministic_actor
 from lcgym.envs.ix import FeedbackGains, IXPlant
 from lcgym.envs.ix_env import IXEnv
 from lcgym.envs.references import reference_set
@@ -170,8 +170,14 @@ def test_bench_cell_counts_env_steps(monkeypatch, tmp_path):
     config = BenchConfig(methods=("rl",), systems=("ix",), seeds=(0,), n_train=1, n_validation=1, duration=2.0)
     rows, trace = run_cell("ix", "rl", 0, config)
     assert {r["status"] for r in rows} == {"ok"}, rows[0].get("error")
-    steps = {r["env_steps"] for r in rows}
-    assert len(steps) == 1 and steps.pop() > 12 * 2_000  # 12 passes over more than 2,000 training samples
+    steps, trials = {r["env_steps"] for r in rows}, {r["plant_trials"] for r in rows}
+    bench = BENCH_SYSTEMS["ix"]()
+    train, val = (bench.references(s, 0, 1, 2.0)[0].n_samples for s in ("train", "validation"))
+    budget = round(RLConfig().passes["ix"] * train)
+    batch = 8 * HYPERPARAMETERS["ppo"]["n_steps"]  # PPO trains in whole rollouts of 8 envs x n_steps
+    trained_steps = -(-budget // batch) * batch
+    assert steps == {trained_steps + train + val}  # training, then one rollout per evaluated reference
+    assert len(trials) == 1 and trials.pop() >= 1 + 8 + 2  # shared run, episodes begun, rollouts
     assert trace is not None and any(tmp_path.rglob("*.zip"))
 
 

@@ -157,6 +157,12 @@ class FlexArmPlant:
                      meta={"system": "flexarm", "reference": reference.name})
 
 
+def load_error(trial: Trial) -> np.ndarray:
+    """q_lr - q_l (T, 6) [rad]: reference minus the true load angle of a FlexArm trial (what the
+    benchmark scores; the encoders sit on the motors and cannot see it)."""
+    return trial.ref - np.column_stack([trial.extra[f"load_{a}"] for a in trial.axes])
+
+
 def run_basic(plant: FlexArmPlant, reference: Reference, tau_nl_update=None) -> Trial:
     """Run ``reference`` with the nominal feedforward of paper 002 Fig. 1 ("Basic", plus an optional
     update of tau_nl (T, 6) [N m]) and add the model-following error to the trial's extras:

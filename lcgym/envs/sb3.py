@@ -33,13 +33,11 @@ class SB3VecAdapter(VecEnv):
         self.venv = venv
         super().__init__(venv.num_envs, venv.single_observation_space, venv.single_action_space)
         self._actions = None
-        self._clear(np.ones(self.num_envs, dtype=bool))
+        self._return, self._length = np.zeros(self.num_envs), np.zeros(self.num_envs, dtype=np.int64)
+        self._sq_error = np.zeros((self.num_envs, 2))  # running sums of the open episodes
         self._t0 = time.perf_counter()
 
     def _clear(self, mask: np.ndarray) -> None:
-        if not hasattr(self, "_return"):
-            self._return, self._length = np.zeros(self.num_envs), np.zeros(self.num_envs, dtype=np.int64)
-            self._sq_error = np.zeros((self.num_envs, 2))
         self._return[mask], self._length[mask], self._sq_error[mask] = 0.0, 0, 0.0
 
     def reset(self):
@@ -118,9 +116,9 @@ def arm_episode_rms(trial) -> np.ndarray:
     """RMS load-side tracking error [rad] of the moving joints 2, 3, 5 (what the benchmark
     scores) over a FlexArm trial."""
     from .arm_references import MOVING
+    from .flexarm import load_error
 
-    load = np.column_stack([trial.extra[f"load_{a}"] for a in trial.axes])
-    return np.sqrt(np.mean(np.square(trial.ref - load)[:, list(MOVING)], axis=0))
+    return np.sqrt(np.mean(np.square(load_error(trial))[:, list(MOVING)], axis=0))
 
 
 class _ArmTrackingRMS(gym.Wrapper):

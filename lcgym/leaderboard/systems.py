@@ -32,7 +32,7 @@ import numpy as np
 import pandas as pd
 
 from ..envs.arm_references import MOVING, arm_reference_set, tcp_positions
-from ..envs.flexarm import FlexArmPlant
+from ..envs.flexarm import FlexArmPlant, load_error
 from ..envs.ix import IXPlant
 from ..envs.references import reference_set
 from .metrics import input_residual_table, norms_table, tracking_error_table
@@ -100,10 +100,7 @@ class FlexArmBench:
         with ThreadPoolExecutor(max_workers=max(1, min(len(jobs), numba.get_num_threads()))) as pool:
             return list(pool.map(lambda job: self.plant.run(*job), jobs))
 
-    @staticmethod
-    def load_error(trial) -> np.ndarray:
-        """q_lr - q_l (T, 6) [rad]: reference minus the true load angle."""
-        return trial.ref - np.column_stack([trial.extra[f"load_{a}"] for a in trial.axes])
+    load_error = staticmethod(load_error)
 
     def tcp_error(self, trial) -> np.ndarray:
         """|TCP - TCP of the reference| (T,) [mm]."""
