@@ -9,6 +9,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -42,15 +43,22 @@ def _seeds(text: str) -> tuple[int, ...]:
     return seeds
 
 
+def _integer(text: str) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+
+
 def _nonnegative(text: str) -> int:
-    v = int(text)
+    v = _integer(text)
     if v < 0:
         raise argparse.ArgumentTypeError(f"must be >= 0, got {v}")
     return v
 
 
 def _positive(text: str) -> int:
-    v = int(text)
+    v = _integer(text)
     if v < 1:
         raise argparse.ArgumentTypeError(f"must be >= 1, got {v}")
     return v
@@ -66,10 +74,25 @@ def _seconds(text: str) -> float:
     return v
 
 
+def _duration(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number of seconds, got {text!r}") from None
+    if not 1.0 <= v <= 3600.0:
+        raise argparse.ArgumentTypeError(f"must be within 1..3600 s, got {text}")
+    return v
+
+
 def _writable(text: str) -> Path:
+    """An output file's path: its folder must exist and be writable, and it must not be a folder."""
     p = Path(text)
     if not p.parent.resolve().is_dir():
         raise argparse.ArgumentTypeError(f"folder {p.parent} does not exist")
+    if p.is_dir():
+        raise argparse.ArgumentTypeError(f"{p} is a folder; give a file name")
+    if not os.access(p.parent.resolve(), os.W_OK):
+        raise argparse.ArgumentTypeError(f"folder {p.parent} is not writable")
     return p
 
 
@@ -101,7 +124,7 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--seed", type=_nonnegative, default=0)
     sim.add_argument("--n-train", type=_positive, default=8, help="training references")
     sim.add_argument("--n-validation", type=_positive, default=4, help="validation references")
-    sim.add_argument("--duration", type=float, default=40.0,
+    sim.add_argument("--duration", type=_duration, default=40.0,
                      help="moving time of each reference [s]; a final rest of a few seconds follows")
     sim.add_argument("--out", type=_writable, help="measurement file (.csv or .parquet) of the validation runs")
     sim.add_argument("--plot", type=_writable, help="PNG of tracking errors with the scaled reference velocity")
@@ -167,8 +190,6 @@ def cmd_simulate(args) -> int:
     from .leaderboard.plots import plot_tracking_errors
     from .simulate import metric_table, simulate
 
-    if not 1.0 <= args.duration <= 3600.0:
-        raise SystemExit(f"lcgym simulate: --duration must be within 1..3600 s, got {args.duration}")
     results = simulate(args.controller, seed=args.seed, n_train=args.n_train, n_validation=args.n_validation,
                        duration=args.duration)
     table = metric_table(results)

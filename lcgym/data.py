@@ -10,28 +10,33 @@ Files: one row per sample, CSV or Parquet, columns ``t``, optional ``trial``, an
 as extras. An optional JSON sidecar ``<file>.json`` carries metadata. Reading is strict: a
 missing required column, a non-numeric, NaN or inf value, a non-increasing or non-uniform time
 column, or too few samples raises ``MeasurementFileError`` naming the file, the column and the
-first offending data row (1 = first row after the header). Writing goes to a temporary file
+first offending data row (1 = first row after the header). Files are read in chunks, so a file
+larger than memory as a table is read with memory for its trials only. Writing goes to a temporary file
 that is renamed into place, so an existing file is never left half-written.
 """
 
 from __future__ import annotations
 
+import difflib
 import json
 import os
 import tempfile
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
 
 SYSTEM_AXES = {
     "ix": ("propeller", "roll"),
     "flexarm": ("j1", "j2", "j3", "j4", "j5", "j6"),
 }
 UNIFORM_TOLERANCE = 1e-3  # relative deviation of a time step from the file's step
+CHUNK_ROWS = 50_000  # rows read at a time: memory holds the trials and one chunk, not the file
 
 
 class MeasurementFileError(ValueError):
@@ -152,44 +157,24 @@ def read_trials(path: str | Path, system: str | None = None, min_samples: int = 
     """Read a measurement file (CSV or Parquet) into trials, enforcing the reading rules.
 
     ``system`` ("ix" or "flexarm") fixes the expected axes; without it the axes are taken from
-    the ``ref_<axis>`` columns present.
+    the ``ref_<axis>`` columns present. The file is streamed in chunks of ``CHUNK_ROWS`` rows
+    into arrays sized once from a count of the file's lines: memory holds the trials' arrays and
+    one chunk, never the whole file as a table, and a bad value stops the reading at its chunk.
     """
     path = Path(path)
     where = str(path)
     if not path.exists():
         raise MeasurementFileError(f"{where}: file not found")
-    try:
-        if path.suffix.lower() == ".csv":
-            frame = pd.read_csv(path, low_memory=False)
-        elif path.suffix.lower() in (".parquet", ".pq"):
-            frame = pd.read_parquet(path)
-        else:
-            raise MeasurementFileError(f"{where}: unknown file type {path.suffix!r} (use .csv or .parquet)")
-    except pd.errors.EmptyDataError:
-        raise MeasurementFileError(f"{where}: file is empty (no header row)") from None
-    except (pd.errors.ParserError, UnicodeDecodeError, OSError) as exc:
-        if isinstance(exc, MeasurementFileError):
-            raise
-        raise MeasurementFileError(f"{where}: cannot parse file: {exc}") from None
+    if system is not None and system not in SYSTEM_AXES:
+        raise ValueError(f"unknown system {system!r}; choose one of {sorted(SYSTEM_AXES)}")
 
-    if system is not None:
-        if system not in SYSTEM_AXES:
-            raise ValueError(f"unknown system {system!r}; choose one of {sorted(SYSTEM_AXES)}")
-        axes = SYSTEM_AXES[system]
-    else:
-        axes = tuple(c[4:] for c in frame.columns if c.startswith("ref_"))
-        if not axes:
-            raise MeasurementFileError(f"{where}: column 'ref_<axis>' missing (no reference column found)")
-    required = ["t"] + [f"{p}_{ax}" for p in ("ref", "pos", "u") for ax in axes]
-    optional = [f"ff_{ax}" for ax in axes]
-    for col in required:
-        if col not in frame.columns:
-            raise MeasurementFileError(f"{where}: required column {col!r} missing")
-    if len(frame) == 0:
+    table: _Table | None = None
+    for chunk in _chunks(path, where):
+        if table is None:  # the first chunk: check the header, size the arrays
+            table = _Table(list(chunk.columns), SYSTEM_AXES.get(system, ()), _row_bound(path), where)
+        table.append(chunk)
+    if table is None or table.n == 0:
         raise MeasurementFileError(f"{where}: file has a header but no data rows")
-
-    for col in required + [c for c in optional if c in frame.columns] + (["trial"] if "trial" in frame else []):
-        frame[col] = _numeric_column(frame[col], where, col)
 
     sidecar = Path(f"{path}.json")
     try:
@@ -198,52 +183,184 @@ def read_trials(path: str | Path, system: str | None = None, min_samples: int = 
         raise MeasurementFileError(f"{sidecar}: the JSON sidecar cannot be parsed: {exc}") from None
     trial_meta = meta.pop("trials", []) if isinstance(meta, dict) else []
 
-    groups = [frame] if "trial" not in frame else [g for _, g in frame.groupby("trial", sort=False)]
     trials = []
-    for gi, g in enumerate(groups):
-        label = "" if "trial" not in frame else f" (trial {int(g['trial'].iloc[0])})"
-        if len(g) < max(min_samples, 2):
-            need = max(min_samples, 2)
+    extras = table.extras()
+    for gi, (label, rows) in enumerate(table.trial_rows()):
+        trial_where = where if label is None else f"{where} (trial {int(label)})"
+        file_rows = np.arange(table.n)[rows]  # 0-based data rows of the file
+        need = max(min_samples, 2)
+        if len(file_rows) < need:
             raise MeasurementFileError(
-                f"{where}{label}: column 't', row {int(g.index[0]) + 1}: only {len(g)} samples, need at least {need}"
+                f"{trial_where}: column 't', row {int(file_rows[0]) + 1}: only {len(file_rows)} samples, "
+                f"need at least {need}"
             )
-        t = g["t"].to_numpy(dtype=float)
-        _check_time(t, g.index.to_numpy(), where + label)
-        for ax in axes:
-            p = g[f"pos_{ax}"].to_numpy(dtype=float)
-            if np.max(np.abs(p)) > 2 * np.pi:
+        t = table.t[rows]
+        _check_time(t, file_rows, trial_where)
+        sig = {p: table.signals[p][rows] for p in ("ref", "pos", "u")}
+        for i, ax in enumerate(table.axes):
+            peak = float(np.max(np.abs(sig["pos"][:, i])))
+            if peak > 2 * np.pi:
                 warnings.warn(
-                    f"{where}{label}: column 'pos_{ax}' reaches {np.max(np.abs(p)):.3g}, beyond 2 pi: "
+                    f"{trial_where}: column 'pos_{ax}' reaches {peak:.3g}, beyond 2 pi: "
                     "the file's positions look like degrees; lcgym reads them as rad",
                     stacklevel=2,
                 )
-        sig = {p: np.column_stack([g[f"{p}_{ax}"].to_numpy(dtype=float) for ax in axes]) for p in ("ref", "pos", "u")}
-        ff = (
-            np.column_stack([g[f"ff_{ax}"].to_numpy(dtype=float) for ax in axes])
-            if all(f"ff_{ax}" in g for ax in axes)
-            else None
-        )
-        known = set(required) | set(optional) | {"trial"}
-        extra = {c: g[c].to_numpy() for c in g.columns if c not in known}
+        ff = table.signals["ff"][rows] if "ff" in table.signals else None
         tm = dict(meta) if isinstance(meta, dict) else {}
         if gi < len(trial_meta) and isinstance(trial_meta[gi], dict):
             tm.update(trial_meta[gi])
         tm["source"] = where
-        trials.append(Trial(t=t, axes=axes, ff=ff, extra=extra, meta=tm, **sig))
+        extra = {c: v[rows] for c, v in extras.items()}
+        trials.append(Trial(t=t, axes=table.axes, ff=ff, extra=extra, meta=tm, **sig))
     return trials
 
 
+class _Table:
+    """The file's checked numbers, filled chunk by chunk into preallocated arrays.
+
+    ``t`` (N,), ``signals[p]`` (N, n_axes) for p in ref, pos, u and (when every axis has one) ff,
+    ``labels`` (N,) of the ``trial`` column or None; the other columns are extras, kept as read.
+    """
+
+    def __init__(self, names: list[str], axes: tuple[str, ...], capacity: int, where: str):
+        self.where = where
+        self.axes = _check_header(names, axes, where)
+        prefixes = ["ref", "pos", "u"] + (["ff"] if all(f"ff_{ax}" in names for ax in self.axes) else [])
+        self.t = np.empty(capacity)
+        self.signals = {p: np.empty((capacity, len(self.axes))) for p in prefixes}
+        self.labels = np.empty(capacity) if "trial" in names else None
+        self.n = 0
+        self._signal_of = {f"{p}_{ax}": (p, j) for p in prefixes for j, ax in enumerate(self.axes)}
+        stored = {"t", "trial", *self._signal_of}
+        # an ff column of only some axes is checked like the others and kept as an extra
+        self._checked = {c for c in names if c in stored or c.startswith("ff_") and c[3:] in self.axes}
+        self._extras: dict[str, list[np.ndarray]] = {c: [] for c in names if c not in stored}
+
+    def append(self, chunk: pd.DataFrame) -> None:
+        stop = self.n + len(chunk)
+        if stop > len(self.t):
+            self._grow(max(stop, 2 * len(self.t)))
+        rows = slice(self.n, stop)
+        for col in chunk.columns:
+            values = chunk[col]
+            if col in self._checked:
+                values = _numeric_column(values, self.where, col)
+            if col == "t":
+                self.t[rows] = values.to_numpy()
+            elif col == "trial":
+                self.labels[rows] = values.to_numpy()
+            elif col in self._signal_of:
+                p, j = self._signal_of[col]
+                self.signals[p][rows, j] = values.to_numpy()
+            else:
+                self._extras[col].append(values.to_numpy(copy=True))
+        self.n = stop
+
+    def _grow(self, capacity: int) -> None:
+        """More rows than the line count promised (a line ending it did not count): enlarge."""
+
+        def bigger(a: np.ndarray) -> np.ndarray:
+            b = np.empty((capacity, *a.shape[1:]))
+            b[: self.n] = a[: self.n]
+            return b
+
+        self.t = bigger(self.t)
+        self.signals = {p: bigger(a) for p, a in self.signals.items()}
+        self.labels = None if self.labels is None else bigger(self.labels)
+
+    def extras(self) -> dict[str, np.ndarray]:
+        """The extra columns, each joined into one array (they are not checked)."""
+        return {c: parts[0] if len(parts) == 1 else np.concatenate(parts) for c, parts in self._extras.items()}
+
+    def trial_rows(self) -> list[tuple[float | None, slice | np.ndarray]]:
+        """(label, rows) per trial in order of first appearance; rows is a slice when they are
+        adjacent, so that the trial's arrays are views of the table, not copies."""
+        if self.labels is None:
+            return [(None, slice(0, self.n))]
+        labels = self.labels[: self.n]
+        values, first = np.unique(labels, return_index=True)
+        out = []
+        for label in values[np.argsort(first)]:
+            rows = np.flatnonzero(labels == label)
+            adjacent = rows[-1] - rows[0] + 1 == len(rows)
+            out.append((float(label), slice(int(rows[0]), int(rows[-1]) + 1) if adjacent else rows))
+        return out
+
+
+def _row_bound(path: Path) -> int:
+    """An upper bound of the data rows: the file's line count (Parquet: its row count)."""
+    if path.suffix.lower() != ".csv":
+        return max(pq.ParquetFile(path).metadata.num_rows, 1)
+    lines, last = 0, b"\n"
+    with open(path, "rb") as f:
+        while block := f.read(1 << 20):
+            lines += max(block.count(b"\n"), block.count(b"\r"))
+            last = block[-1:]
+    return max(lines + (last not in b"\r\n"), 1)
+
+
+def _chunks(path: Path, where: str) -> Iterator[pd.DataFrame]:
+    """The file's rows, ``CHUNK_ROWS`` at a time, indexed by 0-based data row of the file."""
+    suffix = path.suffix.lower()
+    if suffix not in (".csv", ".parquet", ".pq"):
+        raise MeasurementFileError(f"{where}: unknown file type {path.suffix!r} (use .csv or .parquet)")
+    try:
+        if suffix == ".csv":
+            with pd.read_csv(path, chunksize=CHUNK_ROWS) as reader:  # the chunks' index runs on over the file
+                yield from reader
+        else:
+            parquet = pq.ParquetFile(path)
+            start = 0
+            for batch in parquet.iter_batches(batch_size=CHUNK_ROWS):
+                chunk = batch.to_pandas()
+                chunk.index = pd.RangeIndex(start, start + len(chunk))
+                start += len(chunk)
+                yield chunk
+            if start == 0:  # no row group: one empty chunk carries the header
+                yield parquet.schema_arrow.empty_table().to_pandas()
+    except pd.errors.EmptyDataError:
+        raise MeasurementFileError(f"{where}: file is empty (no header row)") from None
+    except (pd.errors.ParserError, UnicodeDecodeError, OSError, pa.ArrowException) as exc:
+        raise MeasurementFileError(f"{where}: cannot parse file: {exc}") from None
+
+
+def _check_header(names: list[str], axes: tuple[str, ...], where: str) -> tuple[str, ...]:
+    """The axes of a file with these column names, after checking that every required column is
+    there. A missing column is named, with the file's nearest column names when one looks like a
+    renamed or misspelled version of it.
+    """
+    if not axes:
+        axes = tuple(c[4:] for c in names if c.startswith("ref_"))
+        if not axes:
+            raise MeasurementFileError(f"{where}: column 'ref_<axis>' missing (no reference column found)")
+    required = ["t"] + [f"{p}_{ax}" for p in ("ref", "pos", "u") for ax in axes]
+    for col in required:
+        if col not in names:
+            near = difflib.get_close_matches(col, [n for n in names if n not in required], n=3, cutoff=0.6)
+            hint = f"; did you mean {' or '.join(map(repr, near))}?" if near else ""
+            others = [n[4:] for n in names if n.startswith("ref_") and n[4:] not in axes]
+            if others and not near:
+                hint = f"; the file's axes are {', '.join(others)}: is it a file of another system?"
+            raise MeasurementFileError(f"{where}: required column {col!r} missing{hint}")
+    return axes
+
+
 def _numeric_column(col: pd.Series, where: str, name: str) -> pd.Series:
+    """``col`` as floats; its index is the 0-based data row of the file, named 1-based in errors."""
     values = pd.to_numeric(col, errors="coerce")
     bad_text = values.isna() & col.notna()
     if bad_text.any():
-        row = int(np.flatnonzero(bad_text.to_numpy())[0])
-        raise MeasurementFileError(f"{where}: column {name!r}, row {row + 1}: non-numeric value {col.iloc[row]!r}")
+        i = int(np.flatnonzero(bad_text.to_numpy())[0])
+        raise MeasurementFileError(
+            f"{where}: column {name!r}, row {int(col.index[i]) + 1}: non-numeric value {col.iloc[i]!r}"
+        )
     arr = values.to_numpy(dtype=float)
     bad = ~np.isfinite(arr)
     if bad.any():
-        row = int(np.flatnonzero(bad)[0])
-        raise MeasurementFileError(f"{where}: column {name!r}, row {row + 1}: {arr[row]} (NaN or inf, or an empty cell)")
+        i = int(np.flatnonzero(bad)[0])
+        raise MeasurementFileError(
+            f"{where}: column {name!r}, row {int(col.index[i]) + 1}: {arr[i]} (NaN or inf, or an empty cell)"
+        )
     return values.astype(float)
 
 
@@ -253,7 +370,8 @@ def _check_time(t: np.ndarray, rows: np.ndarray, where: str) -> None:
     if nonpos.size:
         r = int(rows[nonpos[0] + 1]) + 1
         a, b = t[nonpos[0]], t[nonpos[0] + 1]
-        raise MeasurementFileError(f"{where}: column 't', row {r}: time not strictly increasing ({a} -> {b})")
+        hint = " (several runs in one file? give each run its own number in a 'trial' column)" if b < a else ""
+        raise MeasurementFileError(f"{where}: column 't', row {r}: time not strictly increasing ({a} -> {b}){hint}")
     step = float(np.median(dt))
     off = np.flatnonzero(np.abs(dt - step) > UNIFORM_TOLERANCE * step)
     if off.size:

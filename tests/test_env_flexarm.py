@@ -1,4 +1,4 @@
-"""lcgym/FlexArm-v0: conformance, agreement with the plant, bad actions."""
+"""lcgym/FlexArm-v0: conformance, agreement with the plant (bad actions: test_bad_actions.py)."""
 
 import gymnasium as gym
 import numpy as np
@@ -39,20 +39,6 @@ def test_zero_action_episode_is_the_plant_run_with_the_basic_feedforward(refs):
     trial = info["trial"]
     np.testing.assert_array_equal(trial.u, run.u)
     np.testing.assert_array_equal(trial.extra["load_j3"], run.extra["load_j3"])
-
-
-@pytest.mark.bad_input
-def test_bad_actions_and_clipping(refs):
-    env = FlexArmEnv(references=refs)
-    env.reset(seed=1)
-    with pytest.raises(ValueError, match="NaN or inf"):
-        env.step(np.array([0, np.nan, 0, 0, 0, 0]))
-    with pytest.raises(ValueError, match="shape"):
-        env.step(np.zeros(2))
-    _, _, _, _, info = env.step(np.full(6, 100.0))
-    assert info["clipped_actions"] == 1
-    with pytest.raises(ValueError, match="base_feedforward"):
-        FlexArmEnv(references=refs, base_feedforward="physical")
 
 
 def test_sync_vector_env_steps_each_copy_like_a_single_env(refs):

@@ -1,4 +1,5 @@
-"""Gymnasium environments of the IX: conformance, determinism, bad actions, vector autoreset, PPO."""
+"""Gymnasium environments of the IX: conformance, determinism, vector autoreset, PPO (bad actions:
+test_bad_actions.py)."""
 
 import gymnasium as gym
 import numpy as np
@@ -74,21 +75,6 @@ def test_episode_matches_plant_run_and_ends_with_trial():
     np.testing.assert_array_equal(trial.u, expected.u)
 
 
-@pytest.mark.bad_input
-def test_nan_action_raises_and_out_of_bound_is_clipped():
-    env = gym.make("lcgym/IX-v0", **SHORT)
-    env.reset(seed=0)
-    with pytest.raises(ValueError, match="NaN or inf"):
-        env.step(np.array([np.nan, 0.0], dtype=np.float32))
-    with pytest.raises(ValueError, match="shape"):
-        env.step(np.zeros(3, dtype=np.float32))
-    env.reset(seed=0)
-    _, _, _, _, info = env.step(np.array([9.0, -0.5], dtype=np.float32))
-    assert info["clipped_actions"] == 1 and info["ff"][0] == 5.0
-    _, _, _, _, info = env.step(np.array([-7.0, 8.0], dtype=np.float32))
-    assert info["clipped_actions"] == 3
-
-
 @pytest.mark.fault
 def test_terminated_when_plant_leaves_safe_range():
     plant = IXPlant(gains=FeedbackGains(kp=(-170.0, 120.0)))  # destabilizing propeller feedback
@@ -155,14 +141,6 @@ def test_vector_env_same_step_autoreset_gives_final_obs():
     assert trunc.all() and info["_final_obs"].all()
     np.testing.assert_array_equal(obs[0], inner.task.first_observation(0))  # already reset
     assert not np.array_equal(info["final_obs"][0], obs[0])
-
-
-@pytest.mark.bad_input
-def test_vector_env_nan_action_names_sub_env():
-    venv = gym.make_vec("lcgym/IX-v0", num_envs=2, vectorization_mode="vector_entry_point", **SHORT)
-    venv.reset(seed=0)
-    with pytest.raises(ValueError, match="sub-env 1"):
-        venv.step(np.array([[0.0, 0.0], [np.inf, 0.0]]))
 
 
 def test_ppo_runs_on_single_and_vector_env():

@@ -51,6 +51,7 @@ import numpy as np
 
 from ..data import Trial
 from . import flexarm as F
+from .actions import checked_action
 from .arm_references import arm_reference_set
 from .references import Reference
 
@@ -144,11 +145,9 @@ class FlexArmEnv(gym.Env):
     def step(self, action):
         if self._st is None:
             raise RuntimeError("FlexArmEnv: call reset() before step()")
-        a = np.asarray(action, dtype=float)
-        if a.shape != (6,):
-            raise ValueError(f"FlexArmEnv: action must have shape (6,), got {a.shape}")
+        a = checked_action(action, (6,), "FlexArmEnv", self._k, "one motor torque per joint in N m").astype(float)
         if not np.all(np.isfinite(a)):
-            raise ValueError(f"FlexArmEnv: action contains NaN or inf: {a.tolist()}")
+            raise ValueError(f"FlexArmEnv: action at step {self._k} contains NaN or inf: {a.tolist()}")
         bound = float(self.action_space.high[0])
         if np.any(np.abs(a) > bound):
             self._clipped += 1

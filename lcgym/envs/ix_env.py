@@ -64,6 +64,7 @@ from ..data import Trial
 from ..physics.kinematics import reference_kinematics, reference_positions, relay
 from ..physics.model import PhysicalModel
 from . import ix_kernel as K
+from .actions import checked_action
 from .ix import IXPlant
 from .references import Reference, reference_set
 
@@ -76,6 +77,7 @@ REWARD_SCALE = 0.1 * DEG
 RESIDUAL_BOUND = 1.0  # V, action bound with base_feedforward="physical"
 OBS_BOUND = 25.0
 N_OBS = 6 * len(PREVIEW) + 6  # 3 signals x 2 axes x P preview points, relay, base ff, error
+IX_ACTION = "(propeller, roll) feedforward in V"
 
 _MODEL_CACHE: dict[tuple, PhysicalModel] = {}
 
@@ -219,15 +221,9 @@ class IXEnv(gym.Env):
     def step(self, action):
         if not self._started:
             raise RuntimeError("IX-v0: call reset() before step()")
-        try:
-            self._action[0] = action  # casts to float64; refuses other shapes
-        except (ValueError, TypeError):
-            raise ValueError(f"IX-v0: action must have shape (2,) (propeller, roll feedforward in V), "
-                             f"got {np.shape(action)}") from None
-        if np.shape(action) != (2,):
-            raise ValueError(f"IX-v0: action must have shape (2,) (propeller, roll feedforward in V), got {np.shape(action)}")
         t = self.task
         k = int(self._k[0])
+        self._action[0] = checked_action(action, (2,), "IX-v0", k, IX_ACTION)
         K.env_step_serial(self._active, self._st, self._work, t.ref_pos, t.feats, t.base_ff, t.lengths, self._ref_idx,
                           self._k, self._action, t.scales, *t.kernel_args, self._obs, self._reward, self._status,
                           self._clipped, self._sig)
@@ -336,6 +332,7 @@ class IXVectorEnv(VectorEnv):
         self._sig = np.zeros((N, K.N_ENV_SIG))
         self._autoreset = np.zeros(N, dtype=np.bool_)
         self._started = False
+        self._steps = 0  # vector steps since reset, named in errors
         self._kernel = K.env_step_parallel if N >= 16 else K.env_step_serial
 
     def _restart(self, mask: np.ndarray) -> None:
@@ -351,22 +348,28 @@ class IXVectorEnv(VectorEnv):
         self._restart(np.ones(self.num_envs, dtype=np.bool_))
         self._autoreset[:] = False
         self._started = True
+        self._steps = 0
         return self._obs.copy(), {}
 
     def step(self, actions):
         if not self._started:
             raise RuntimeError("IX-v0 vector env: call reset() before step()")
-        a = np.asarray(actions, dtype=np.float64)
-        if a.shape != (self.num_envs, 2):
-            raise ValueError(f"IX-v0 vector env: actions must have shape ({self.num_envs}, 2), got {a.shape}")
+        a = checked_action(actions, (self.num_envs, 2), "IX-v0 vector env", self._steps,
+                           f"{IX_ACTION}, one row per sub-env")
+        a = a.astype(np.float64, copy=False)
+        # refused before the kernel, which would step the sub-envs before the bad one; the action of a
+        # sub-env that autoresets in this step is ignored
+        bad = np.flatnonzero(~np.isfinite(a).all(axis=1) & ~self._autoreset)
+        if bad.size:
+            i = int(bad[0])
+            raise ValueError(f"IX-v0 vector env: action at step {self._steps} is NaN or inf for sub-env {i} "
+                             f"(its sample {self._k[i]}): {a[i].tolist()}")
+        self._steps += 1
         resetting = self._autoreset.copy()
         active = ~resetting
         t = self.task
         self._kernel(active, self._st, self._work, t.ref_pos, t.feats, t.base_ff, t.lengths, self._ref_idx, self._k,
                      a, t.scales, *t.kernel_args, self._obs, self._reward, self._status, self._clipped, self._sig)
-        bad = np.flatnonzero(active & (self._status == K.ENV_BAD_ACTION))
-        if bad.size:
-            raise ValueError(f"IX-v0 vector env: action of sub-env {bad[0]} is NaN or inf: {a[bad[0]].tolist()}")
         terminated = active & (self._status == K.ENV_DIVERGED)
         truncated = active & ~terminated & (self._k >= t.lengths[self._ref_idx])
         reward = np.where(active, self._reward, 0.0)

@@ -233,12 +233,20 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_th
 
 
 def _checked(values, reference, what: str) -> np.ndarray:
-    """A method's signal for ``reference`` as a float array, or a clear error: the reference's shape, finite."""
-    f = np.asarray(values, dtype=float)
+    """A method's signal for ``reference`` as a float array, or a clear error: real numbers, the
+    reference's shape, finite (the error names the first bad sample and axis)."""
+    f = np.asarray(values)
+    if f.dtype.kind not in "fiu":
+        shown = repr(values) if len(repr(values)) <= 60 else repr(values)[:57] + "..."
+        raise ValueError(f"{what} for {reference.name} must be real numbers, got dtype {f.dtype}: {shown}")
     if f.shape != reference.positions.shape:
         raise ValueError(f"{what} for {reference.name} has shape {f.shape}, expected {reference.positions.shape}")
-    if not np.all(np.isfinite(f)):
-        raise ValueError(f"{what} for {reference.name} contains NaN or inf")
+    f = f.astype(float, copy=False)
+    bad = np.argwhere(~np.isfinite(f))
+    if len(bad):
+        sample, axis = bad[0]
+        raise ValueError(f"{what} for {reference.name} contains NaN or inf, first at sample {sample}, axis {axis}: "
+                         f"{f[sample, axis]}")
     return f
 
 

@@ -1,0 +1,112 @@
+"""Bad command-line options, on purpose: every ``lcgym`` command refuses them with a reason and
+writes nothing.
+
+Each case runs ``lcgym.cli.main`` in this process (argparse errors exit with status 2, the
+library's errors return 1) and checks: a non-zero status, the reason on stderr, no file created
+in the case's folder, and an output file that existed before left byte for byte as it was.
+One test runs the installed entry point as a user would (``python -m lcgym.cli``).
+
+Cases of issue 11: unknown system, method, controller or effect (and axis); negative seeds;
+unwritable output paths (missing folder, a file where the folder should be, a folder given as
+the file); plus bad numbers (timeouts, durations, significance levels, job counts), a
+measurement file of the wrong system, missing or malformed, and an unknown configuration hash.
+"""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from lcgym.cli import main
+from lcgym.data import Trial, write_trials
+from lcgym.leaderboard.runner import BenchConfig, run_benchmark
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory):
+    """A valid IX measurement file, one with a NaN in data row 5 of pos_roll, and a results CSV."""
+    folder = tmp_path_factory.mktemp("inputs")
+    n = 200
+    t = np.arange(n) / 500.0
+    ref = np.column_stack([np.sin(t), np.cos(t)])
+    trial = Trial(t=t, ref=ref, pos=ref * 0.99, u=np.zeros((n, 2)), axes=("propeller", "roll"))
+    write_trials(folder / "run.csv", [trial])
+    bad = trial.to_frame()
+    bad.loc[4, "pos_roll"] = np.nan
+    bad.to_csv(folder / "bad.csv", index=False)
+    run_benchmark(BenchConfig(methods=("feedback",), systems=("ix",), seeds=(0,), n_train=1, n_validation=1,
+                              duration=4.0), folder / "results.csv", progress=False)
+    return {"data": str(folder / "run.csv"), "bad": str(folder / "bad.csv"), "results": str(folder / "results.csv")}
+
+
+CASES = [
+    # simulate
+    (["simulate", "--controller", "magic"], "unknown controller"),
+    (["simulate", "--seed", "-1"], "must be >= 0"),
+    (["simulate", "--system", "crane"], "invalid choice"),
+    (["simulate", "--n-train", "0"], "must be >= 1"),
+    (["simulate", "--n-validation", "two"], "must be an integer, got 'two'"),
+    (["simulate", "--duration", "-1"], "--duration: must be within 1..3600 s"),
+    (["simulate", "--duration", "nan"], "--duration: must be within 1..3600 s"),
+    (["simulate", "--out", "{tmp}/missing/run.csv"], "does not exist"),
+    (["simulate", "--out", "{tmp}/out.csv/run.csv"], "does not exist"),  # a file where the folder should be
+    (["simulate", "--out", "{tmp}"], "is a folder"),
+    # bench
+    (["bench", "--methods", "magic", "--quick", "--out", "{tmp}/out.csv"], "unknown method"),
+    (["bench", "--methods", "no_such_module:Thing", "--quick", "--out", "{tmp}/out.csv"], "cannot import"),
+    (["bench", "--systems", "crane", "--quick", "--out", "{tmp}/out.csv"], "unknown system"),
+    (["bench", "--seeds", "0,-1", "--out", "{tmp}/out.csv"], "must be >= 0"),
+    (["bench", "--seeds", "zero", "--out", "{tmp}/out.csv"], "must be integers"),
+    (["bench", "--jobs", "0", "--out", "{tmp}/out.csv"], "must be >= 1"),
+    (["bench", "--timeout", "0", "--quick", "--out", "{tmp}/out.csv"], "must be > 0"),
+    (["bench", "--timeout", "nan", "--quick", "--out", "{tmp}/out.csv"], "must be > 0"),
+    (["bench", "--timeout", "inf", "--quick", "--out", "{tmp}/out.csv"], "must be > 0"),
+    (["bench", "--timeout", "soon", "--quick", "--out", "{tmp}/out.csv"], "must be a number of seconds"),
+    (["bench", "--out", "{tmp}/missing/r.csv"], "does not exist"),
+    (["bench", "--out", "{tmp}/out.csv/r.csv", "--quick"], "does not exist"),
+    (["bench", "--out", "{tmp}", "--quick"], "is a folder"),
+    # leaderboard
+    (["leaderboard", "{tmp}/missing.csv"], "no such results file"),
+    (["leaderboard", "{results}", "--config", "deadbeef"], "configuration 'deadbeef' not in the results"),
+    (["leaderboard", "{data}"], "column"),  # a measurement file is not a results file
+    (["leaderboard", "{results}", "--markdown", "{tmp}/missing/board.md"], "does not exist"),
+    (["leaderboard", "{results}", "--reference-set", "holdout"], "invalid choice"),
+    # diagnose and effects
+    (["diagnose", "{data}", "--system", "ix", "--add", "magic@roll"], "'magic' is not an effect"),
+    (["diagnose", "{data}", "--system", "ix", "--add", "coulomb_friction@elbow"], "unknown axis 'elbow'"),
+    (["diagnose", "{data}", "--system", "ix", "--min-explained", "nan"], "min_explained must be in (0, 1)"),
+    (["diagnose", "{data}", "--system", "ix", "--min-explained", "3"], "min_explained must be in (0, 1)"),
+    (["diagnose", "{data}", "--system", "flexarm"], "is it a file of another system?"),
+    (["diagnose", "{data}", "--system", "crane"], "invalid choice"),
+    (["diagnose", "{tmp}/missing.csv", "--system", "ix"], "file not found"),
+    (["diagnose", "{bad}", "--system", "ix"], "column 'pos_roll', row 5"),
+    (["diagnose", "{data}", "--system", "ix", "--json", "{tmp}/missing/report.json"], "does not exist"),
+    (["diagnose", "{data}", "--system", "ix", "--plots", "{tmp}/out.csv"], "exists and is not a folder"),
+    (["effects", "--system", "crane"], "invalid choice"),
+]
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize(("args", "message"), CASES, ids=[" ".join(a)[:60] for a, _ in CASES])
+def test_bad_option_is_refused_with_a_reason_and_writes_nothing(tmp_path, capsys, inputs, args, message):
+    kept = tmp_path / "out.csv"
+    kept.write_text("a file the command must not touch\n")
+    argv = [a.format(tmp=tmp_path, **inputs) for a in args]
+    try:
+        status = main(argv)
+    except SystemExit as exc:  # argparse
+        status = exc.code
+    err = capsys.readouterr().err
+    assert status not in (0, None), err
+    assert message in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.csv"]
+    assert kept.read_text() == "a file the command must not touch\n"
+
+
+@pytest.mark.bad_input
+def test_the_installed_command_exits_non_zero_with_the_reason(tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "lcgym.cli", "bench", "--methods", "magic", "--quick", "--out",
+                           str(tmp_path / "r.csv")], capture_output=True, text=True)
+    assert proc.returncode == 1 and "lcgym bench: unknown method" in proc.stderr
+    assert not (tmp_path / "r.csv").exists()

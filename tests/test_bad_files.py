@@ -1,0 +1,481 @@
+"""Bad measurement files, on purpose: every case the reader must refuse, with what and where.
+
+``lcgym.data.read_trials`` raises ``MeasurementFileError`` naming the file, the column and the
+first offending data row (row 1 = the first row after the header); reading writes nothing, so
+nothing can be half-written. Every test here runs twice, reading the whole file as one chunk
+and in chunks of 3 rows, so that the streamed reader names the same row as a whole-file read.
+
+The cases of issue 11 and where they are:
+
+- missing columns: ``test_missing_column``, ``test_missing_reference_column_with_system``;
+  renamed or misspelled ones: ``test_renamed_column_is_named_with_the_near_miss``;
+- extra columns are *not* an error: logs carry extra sensors (the FlexArm's accelerometer), so
+  they are kept in ``Trial.extra`` (``test_extra_columns_are_kept``); a partial ``ff_<axis>`` set
+  is checked like the signals;
+- NaN, inf, empty cells, strings: ``test_bad_value`` and the tests after it;
+- empty file, header only, one row, too few samples: ``test_empty_file`` to ``test_min_samples``;
+- non-uniform, decreasing or repeated time: ``test_non_uniform_time`` to ``test_repeated_time``;
+- degrees instead of radians: a warning naming the column (``test_degrees_warning``); an angle
+  beyond 2 pi can be a real joint range, so it is not refused;
+- several trials mixed: with a ``trial`` column they are split (also interleaved); without one,
+  the restart of time is named with a hint (``test_two_runs_without_trial_column``);
+- huge files streamed: ``test_a_large_file_is_read_in_chunks`` (and
+  ``benchmarks/read_large.py`` for the memory);
+- file type, missing file, unreadable bytes, corrupt Parquet: the tests at the end.
+"""
+
+import math
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from lcgym import data
+from lcgym.data import MeasurementFileError, read_trials
+
+HEADER = "t,ref_propeller,ref_roll,pos_propeller,pos_roll,u_propeller,u_roll"
+
+
+@pytest.fixture(autouse=True, params=["whole file", "3-row chunks"])
+def chunking(request, monkeypatch):
+    """Each test reads its file in one chunk and in chunks of 3 rows."""
+    if request.param == "3-row chunks":
+        monkeypatch.setattr(data, "CHUNK_ROWS", 3)
+    return request.param
+
+
+def rows_csv(rows: list[list]) -> str:
+    return HEADER + "\n" + "\n".join(",".join(str(v) for v in r) for r in rows) + "\n"
+
+
+def good_rows(n: int = 6, dt: float = 0.1) -> list[list]:
+    """n clean rows; all values are small rad/V numbers."""
+    return [[round(k * dt, 10), 0.1 * k, -0.05 * k, 0.1 * k - 0.01, -0.05 * k + 0.01, 0.5, -0.5] for k in range(n)]
+
+
+COL = {name: i for i, name in enumerate(HEADER.split(","))}
+
+
+def write_csv(tmp_path: Path, text: str, name: str = "meas.csv") -> Path:
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+def assert_names(exc: pytest.ExceptionInfo, path: Path, column: str | None = None, row: int | None = None):
+    msg = str(exc.value)
+    assert path.name in msg, msg
+    if column is not None:
+        assert re.search(rf"['\"]{re.escape(column)}['\"]", msg), msg
+    if row is not None:
+        # "row 3" but not "row 30"
+        assert re.search(rf"\brow {row}\b", msg), msg
+        others = [int(m) for m in re.findall(r"\brow (\d+)", msg)]
+        assert others == [row], msg
+
+
+# ---------------------------------------------------------------------------------------------
+# Malformed files
+# ---------------------------------------------------------------------------------------------
+
+
+def test_clean_hand_written_file_reads(tmp_path):
+    """Control for the malformed cases below: the unmodified rows are accepted."""
+    path = write_csv(tmp_path, rows_csv(good_rows()))
+    (tr,) = read_trials(path, system="ix")
+    np.testing.assert_allclose(tr.t, np.arange(6) * 0.1)
+    np.testing.assert_allclose(tr.u, np.tile([0.5, -0.5], (6, 1)))
+
+
+def _without_column(tmp_path, column: str) -> Path:
+    cols = HEADER.split(",")
+    keep = [i for i, c in enumerate(cols) if c != column]
+    text = ",".join(cols[i] for i in keep) + "\n"
+    text += "\n".join(",".join(str(r[i]) for i in keep) for r in good_rows()) + "\n"
+    return write_csv(tmp_path, text)
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize("system", [None, "ix"])
+def test_missing_column(tmp_path, system):
+    path = _without_column(tmp_path, "u_roll")
+    with pytest.raises(MeasurementFileError) as exc:
+        read_trials(path, system=system)
+    assert_names(exc, path, "u_roll")
+
+
+@pytest.mark.bad_input
+def test_missing_reference_column_with_system(tmp_path):
+    path = _without_column(tmp_path, "ref_roll")
+    with pytest.raises(MeasurementFileError) as exc:
+        read_trials(path, system="ix")
+    assert_names(exc, path, "ref_roll")
+
+
+def _corrupt(row: int, column: str, value: str, n: int = 8) -> str:
+    """The clean rows with data row ``row`` (1-based) of ``column`` replaced by ``value``."""
+    rows = good_rows(n)
+    rows[row - 1][COL[column]] = value
+    return rows_csv(rows)
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize(
+    ("column", "row", "value"),
+    [
+        ("pos_propeller", 4, "NaN"),  # NaN
+        ("pos_roll", 3, ""),  # empty cell
+        ("ref_propeller", 5, "inf"),  # inf
+        ("u_roll", 2, "-inf"),
+        ("u_propeller", 6, "abc"),  # non-numeric
+        ("t", 7, "0.6x"),
+    ],
+)
+def test_bad_value(tmp_path, column, row, value):
+    path = write_csv(tmp_path, _corrupt(row, column, value))
+    with pytest.raises(MeasurementFileError) as exc:
+        read_trials(path, system="ix")
+    assert_names(exc, path, column, row)
+
+
+@pytest.mark.bad_input
+def test_bad_value_reports_first_offending_row(tmp_path):
+    rows = good_rows(10)
+    rows[2][COL["pos_propeller"]] = "nan"  # row 3
+    rows[7][COL["pos_propeller"]] = "nan"  # row 8
+    path = write_csv(tmp_path, rows_csv(rows))
+    with pytest.raises(MeasurementFileError) as exc:
+        read_trials(path)
+    assert_names(exc, path, "pos_propeller", 3)
+
+
+@pytest.mark.bad_input
+def test_bad_value_in_ff_column_is_rejected(tmp_path):
+    rows = [r + [0.25] for r in good_rows()]
+    rows[4][-1] = "oops"
+    text = HEADER + ",ff_propeller\n" + "\n".join(",".join(map(str, r)) for r in rows) + "\n"
+    path = write_csv(tmp_path, text)
+    with pytest.raises(MeasurementFileError) as exc:
+        read_trials(path)
+    assert_names(exc, path, "ff_propeller", 5)
+
+
+@pytest.mark.bad_input
+def test_non_uniform_time(tmp_path):
+    # steps 0.1 except one doubled step from data row 4 to row 5: t = 0, .1, .2, .3, .5, .6, ...
+    rows = good_rows(8)
+    for k in range(4, 8):
+        rows[k][0] = round(rows[k][0] + 0.1, 10)
+    path = write_csv(tmp_path, rows_csv(rows))
+    with pytest.raises(MeasurementFileError) as exc:
+        read_trials(path)
+    assert_names(exc, path, "t", 5)
+    assert "uniform" in str(exc.value)
+
+
+def test_small_jitter_in_time_is_accepted(tmp_path):
+    rows = good_rows(8)
+    rows[3][0] = 0.3 + 1e-6  # 1e-5 of the step: within tolerance
+    (tr,) = read_trials(write_csv(tmp_path, rows_csv(rows)))
+    assert tr.n_samples == 8
+
+
+@pytest.mark.bad_input
+def test_decreasing_time(tmp_path):
+    rows = good_rows(8)
+    rows[5][0] = 0.35  # row 6 goes back from 0.4 to 0.35
+    path = write_csv(tmp_path, rows_csv(rows))
+    with pytest.raises(MeasurementFileError) as exc:
+        read_trials(path)
+    assert_names(exc, path, "t", 6)
+
+
+@pytest.mark.bad_input
+def test_repeated_time(tmp_path):
+    rows = good_rows(8)
+    rows[2][0] = rows[1][0]  # row 3 repeats row 2's time
+    path = write_csv(tmp_path, rows_csv(rows))
+    with pytest.raises(MeasurementFileError) as exc:
+        read_trials(path)
+    assert_names(exc, path, "t", 3)
+
+
+@pytest.mark.bad_input
+def test_empty_file(tmp_path):
+    path = write_csv(tmp_path, "")
+    with pytest.raises(MeasurementFileError) as exc:
+        read_trials(path)
+    assert_names(exc, path)
+    assert "empty" in str(exc.value)
+
+
+@pytest.mark.bad_input
+def test_header_only(tmp_path):
+    path = write_csv(tmp_path, HEADER + "\n")
+    with pytest.raises(MeasurementFileError) as exc:
+        read_trials(path, system="ix")
+    assert_names(exc, path)
+    assert "no data rows" in str(exc.value)
+
+
+@pytest.mark.bad_input
+def test_one_data_row(tmp_path):
+    path = write_csv(tmp_path, rows_csv(good_rows(1)))
+    with pytest.raises(MeasurementFileError) as exc:
+        read_trials(path)
+    assert_names(exc, path, "t", 1)
+
+
+@pytest.mark.bad_input
+def test_min_samples(tmp_path):
+    path = write_csv(tmp_path, rows_csv(good_rows(4)))
+    assert read_trials(path, min_samples=4)[0].n_samples == 4
+    with pytest.raises(MeasurementFileError) as exc:
+        read_trials(path, min_samples=5)
+    assert_names(exc, path, "t", 1)
+    assert "4 samples" in str(exc.value)
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize("name", ["meas.txt", "meas.xlsx", "meas"])
+def test_unknown_extension(tmp_path, name):
+    path = write_csv(tmp_path, rows_csv(good_rows()), name=name)
+    with pytest.raises(MeasurementFileError) as exc:
+        read_trials(path)
+    assert_names(exc, path)
+    assert "unknown file type" in str(exc.value)
+
+
+@pytest.mark.bad_input
+def test_missing_file(tmp_path):
+    path = tmp_path / "nope.csv"
+    with pytest.raises(MeasurementFileError) as exc:
+        read_trials(path)
+    assert_names(exc, path)
+
+
+@pytest.mark.bad_input
+def test_unknown_system(tmp_path):
+    path = write_csv(tmp_path, rows_csv(good_rows()))
+    with pytest.raises(ValueError, match="system"):
+        read_trials(path, system="scara")
+
+
+# ---------------------------------------------------------------------------------------------
+# Degrees, multi-trial files
+# ---------------------------------------------------------------------------------------------
+
+
+@pytest.mark.bad_input
+def test_degrees_warning(tmp_path):
+    rows = good_rows(6)
+    for k, r in enumerate(rows):
+        r[COL["ref_roll"]] = 18.0 * k  # up to 90: degrees
+        r[COL["pos_roll"]] = 18.0 * k - 0.3
+    path = write_csv(tmp_path, rows_csv(rows))
+    with pytest.warns(UserWarning, match="degrees") as rec:
+        (tr,) = read_trials(path)
+    assert any("pos_roll" in str(w.message) for w in rec)
+    assert tr.pos[-1, 1] == pytest.approx(89.7)  # read as-is
+
+
+def test_rad_file_gives_no_warning(tmp_path):
+    rows = good_rows(6)
+    for r in rows:
+        r[COL["pos_roll"]] = 0.99 * math.pi  # large but plausible rad
+    path = write_csv(tmp_path, rows_csv(rows))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        read_trials(path)
+
+
+def test_two_trials_in_one_file(tmp_path):
+    header = HEADER.replace("t,", "t,trial,", 1)
+    a = good_rows(5, dt=0.1)  # 10 Hz
+    b = good_rows(7, dt=0.02)  # 50 Hz, time restarts at 0
+    lines = [header] + [",".join(map(str, [r[0], 0, *r[1:]])) for r in a]
+    lines += [",".join(map(str, [r[0], 1, *r[1:]])) for r in b]
+    path = write_csv(tmp_path, "\n".join(lines) + "\n")
+    trials = read_trials(path, system="ix")
+    assert [tr.n_samples for tr in trials] == [5, 7]
+    assert trials[0].fs == pytest.approx(10.0)
+    assert trials[1].fs == pytest.approx(50.0)
+    np.testing.assert_allclose(trials[1].t, np.arange(7) * 0.02)
+    assert all("trial" not in tr.extra for tr in trials)
+
+
+@pytest.mark.bad_input
+def test_two_trials_error_names_trial_and_file_row(tmp_path):
+    header = HEADER.replace("t,", "t,trial,", 1)
+    a = good_rows(5)
+    b = good_rows(6)
+    b[3][0] = 0.25  # trial 1, its 4th row -> file data row 5 + 4 = 9: step not uniform
+    lines = [header] + [",".join(map(str, [r[0], 0, *r[1:]])) for r in a]
+    lines += [",".join(map(str, [r[0], 1, *r[1:]])) for r in b]
+    path = write_csv(tmp_path, "\n".join(lines) + "\n")
+    with pytest.raises(MeasurementFileError) as exc:
+        read_trials(path)
+    assert_names(exc, path, "t", 9)
+    assert "trial 1" in str(exc.value)
+
+
+
+# ---------------------------------------------------------------------------------------------
+# Renamed and extra columns, mixed runs
+# ---------------------------------------------------------------------------------------------
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize(("renamed", "to"), [("pos_roll", "pos_rol"), ("u_propeller", "U_propeller"),
+                                             ("t", "time")])
+def test_renamed_column_is_named_with_the_near_miss(tmp_path, renamed, to):
+    path = write_csv(tmp_path, rows_csv(good_rows()).replace(renamed, to, 1))
+    with pytest.raises(MeasurementFileError) as exc:
+        read_trials(path, system="ix")
+    assert_names(exc, path, renamed)
+    if renamed != "t":  # "time" is too far from "t" to be suggested
+        assert f"did you mean '{to}'" in str(exc.value)
+
+
+def test_extra_columns_are_kept(tmp_path):
+    rows = [r + [k, "ok", 0.25] for k, r in enumerate(good_rows())]
+    text = HEADER + ",acc_x,status,ff_roll\n" + "\n".join(",".join(map(str, r)) for r in rows) + "\n"
+    (tr,) = read_trials(write_csv(tmp_path, text), system="ix")
+    assert tr.ff is None  # ff_roll without ff_propeller: no feedforward, the column is an extra
+    np.testing.assert_array_equal(tr.extra["acc_x"], np.arange(6))
+    assert list(tr.extra["status"]) == ["ok"] * 6
+    np.testing.assert_array_equal(tr.extra["ff_roll"], np.full(6, 0.25))
+
+
+@pytest.mark.bad_input
+def test_a_partial_ff_column_is_still_checked(tmp_path):
+    rows = [r + [0.25] for r in good_rows()]
+    rows[3][-1] = "nan"
+    text = HEADER + ",ff_roll\n" + "\n".join(",".join(map(str, r)) for r in rows) + "\n"
+    path = write_csv(tmp_path, text)
+    with pytest.raises(MeasurementFileError) as exc:
+        read_trials(path, system="ix")
+    assert_names(exc, path, "ff_roll", 4)
+
+
+@pytest.mark.bad_input
+def test_two_runs_without_trial_column(tmp_path):
+    path = write_csv(tmp_path, rows_csv(good_rows(5) + good_rows(4)))  # time restarts at data row 6
+    with pytest.raises(MeasurementFileError) as exc:
+        read_trials(path)
+    assert_names(exc, path, "t", 6)
+    assert "'trial' column" in str(exc.value)
+
+
+def test_interleaved_trials_are_split(tmp_path):
+    """Rows of two trials alternating (a logger writing two channels' runs in turn)."""
+    header = HEADER.replace("t,", "t,trial,", 1)
+    a, b = good_rows(5), good_rows(5, dt=0.2)
+    lines = [header]
+    for ra, rb in zip(a, b, strict=True):
+        lines += [",".join(map(str, [ra[0], 3, *ra[1:]])), ",".join(map(str, [rb[0], 7, *rb[1:]]))]
+    trials = read_trials(write_csv(tmp_path, "\n".join(lines) + "\n"), system="ix")
+    assert [tr.n_samples for tr in trials] == [5, 5]
+    np.testing.assert_allclose(trials[0].t, np.arange(5) * 0.1)
+    np.testing.assert_allclose(trials[1].t, np.arange(5) * 0.2)
+
+
+# ---------------------------------------------------------------------------------------------
+# Large files, line endings, unreadable bytes, Parquet
+# ---------------------------------------------------------------------------------------------
+
+
+def _large_frame(n: int) -> pd.DataFrame:
+    rng = np.random.default_rng(0)
+    cols = {"t": np.arange(n) * 1e-3}
+    for p in ("ref", "pos", "u", "ff"):
+        for ax in ("propeller", "roll"):
+            cols[f"{p}_{ax}"] = rng.normal(scale=0.5, size=n)
+    cols["acc_x"] = rng.normal(size=n)
+    return pd.DataFrame(cols)
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_a_large_file_is_read_in_chunks(tmp_path, monkeypatch, chunking, suffix):
+    """20,000 rows in chunks of 1,000: the same trial as one read; a bad value in row 17,001 is
+    named and the reading stops at its chunk."""
+    frame = _large_frame(20_000)
+    path = tmp_path / f"large{suffix}"
+    write = frame.to_csv if suffix == ".csv" else frame.to_parquet
+    write(path, index=False)
+    monkeypatch.setattr(data, "CHUNK_ROWS", 10**9)
+    (whole,) = read_trials(path, system="ix")
+    monkeypatch.setattr(data, "CHUNK_ROWS", 1000)
+    (chunked,) = read_trials(path, system="ix")
+    for name in ("t", "ref", "pos", "u", "ff"):
+        np.testing.assert_array_equal(getattr(chunked, name), getattr(whole, name))
+    np.testing.assert_array_equal(chunked.extra["acc_x"], whole.extra["acc_x"])
+
+    frame.loc[17_000, "u_roll"] = np.inf
+    write(path, index=False)
+    chunks_read = []
+    real_chunks = data._chunks
+
+    def counting(*args):
+        for chunk in real_chunks(*args):
+            chunks_read.append(len(chunk))
+            yield chunk
+
+    monkeypatch.setattr(data, "_chunks", counting)
+    with pytest.raises(MeasurementFileError) as exc:
+        read_trials(path, system="ix")
+    assert_names(exc, path, "u_roll", 17_001)
+    assert len(chunks_read) == 18  # rows 17,001-18,000 are the 18th chunk; two more are never read
+
+
+def test_more_rows_than_the_line_count_grow_the_arrays(tmp_path, monkeypatch):
+    path = write_csv(tmp_path, rows_csv(good_rows(9)))
+    monkeypatch.setattr(data, "_row_bound", lambda path: 1)
+    (tr,) = read_trials(path, system="ix")
+    np.testing.assert_allclose(tr.t, np.arange(9) * 0.1)
+    np.testing.assert_allclose(tr.u, np.tile([0.5, -0.5], (9, 1)))
+
+
+@pytest.mark.parametrize("newline", ["\r\n", "\r"])
+def test_windows_and_old_mac_line_endings_read(tmp_path, newline):
+    path = tmp_path / "meas.csv"
+    path.write_bytes(rows_csv(good_rows(7)).replace("\n", newline).encode())
+    (tr,) = read_trials(path, system="ix")
+    np.testing.assert_allclose(tr.t, np.arange(7) * 0.1)
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize("content", [b"\xff\xfe\x00garbage\x00\n\x80\x81,\x82\n", b"PK\x03\x04 a zip, not a CSV"])
+def test_unreadable_bytes(tmp_path, content):
+    path = tmp_path / "meas.csv"
+    path.write_bytes(content)
+    with pytest.raises(MeasurementFileError) as exc:
+        read_trials(path, system="ix")
+    assert_names(exc, path)
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize("content", [b"PAR1 not really parquet", b""])
+def test_corrupt_parquet(tmp_path, content):
+    path = tmp_path / "meas.parquet"
+    path.write_bytes(content)
+    with pytest.raises(MeasurementFileError) as exc:
+        read_trials(path, system="ix")
+    assert_names(exc, path)
+    assert "cannot parse" in str(exc.value)
+
+
+@pytest.mark.bad_input
+def test_parquet_with_strings_and_nan(tmp_path):
+    frame = _large_frame(10)
+    frame["pos_roll"] = frame["pos_roll"].map(str)  # a logger that wrote text: numbers as text are read
+    frame.loc[6, "pos_roll"] = "stuck"
+    path = tmp_path / "meas.parquet"
+    frame.to_parquet(path, index=False)
+    with pytest.raises(MeasurementFileError) as exc:
+        read_trials(path, system="ix")
+    assert_names(exc, path, "pos_roll", 7)
