@@ -11,8 +11,9 @@ Action (float32, shape (6,)): motor torque per joint [N m], added to the feedfor
     ``physics/arm_nominal.py``) and the action is an update of tau_nl, bounds +-``ACTION_BOUND``
     (2 N m; the largest nominal feedforward on the validation lines is about 7 N m).
     ``base_feedforward="none"``: feedback only plus the action, bounds +-``plant.u_max``.
-    Out-of-bound actions are clipped and counted (``info["clipped_actions"]``); NaN, inf or a
-    wrong shape raise ``ValueError``. The total torque is saturated at +-``plant.u_max``.
+    Out-of-bound actions are clipped and counted (``info["clipped_actions"]``); NaN, inf, a
+    wrong shape or non-numbers raise ``ValueError`` naming the step, before the plant moves.
+    The total torque is saturated at +-``plant.u_max``.
 
 Observation (float32, shape (36,)), all O(1):
     - [0:6]    load-side reference angle / (pi/2 rad)

@@ -13,7 +13,8 @@ Action (float32, shape (2,)): feedforward input of (propeller, roll) for the cur
     3 V). A fitted model itself (anything with ``predict(positions) -> (T, 2)`` [V], e.g. a
     benchmark cell's ``PhysicalModel``) may be given instead of "physical": residual learning on
     that model. Out-of-bound actions are clipped and counted (``info["clipped_actions"]``, per episode);
-    NaN or inf raise ``ValueError``. The total input is saturated at +-5 V by the plant.
+    NaN, inf, a wrong shape or non-numbers (strings, bool, complex) raise ``ValueError`` naming
+    the step, before the plant moves. The total input is saturated at +-5 V by the plant.
 
 Observation (float32, shape (36,)), all O(1); P = len(PREVIEW) = 5 preview points at 0, 10, 25,
     50 and 100 samples ahead (0-200 ms; beyond the reference end the last sample is repeated):
