@@ -277,13 +277,13 @@ class _Table:
         adjacent, so that the trial's arrays are views of the table, not copies."""
         if self.labels is None:
             return [(None, slice(0, self.n))]
-        labels = self.labels[: self.n]
-        values, first = np.unique(labels, return_index=True)
+        values, first, inverse = np.unique(self.labels[: self.n], return_index=True, return_inverse=True)
+        by_label = np.split(np.argsort(inverse, kind="stable"), np.cumsum(np.bincount(inverse))[:-1])
         out = []
-        for label in values[np.argsort(first)]:
-            rows = np.flatnonzero(labels == label)
+        for i in np.argsort(first):
+            rows = by_label[i]  # in file order
             adjacent = rows[-1] - rows[0] + 1 == len(rows)
-            out.append((float(label), slice(int(rows[0]), int(rows[-1]) + 1) if adjacent else rows))
+            out.append((float(values[i]), slice(int(rows[0]), int(rows[-1]) + 1) if adjacent else rows))
         return out
 
 

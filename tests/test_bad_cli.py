@@ -110,3 +110,19 @@ def test_the_installed_command_exits_non_zero_with_the_reason(tmp_path):
                            str(tmp_path / "r.csv")], capture_output=True, text=True)
     assert proc.returncode == 1 and "lcgym bench: unknown method" in proc.stderr
     assert not (tmp_path / "r.csv").exists()
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize("args", [["bench", "--quick", "--out"], ["simulate", "--out"],
+                                  ["diagnose", "{data}", "--system", "ix", "--json"]])
+def test_an_unwritable_folder_is_refused_before_any_work(tmp_path, capsys, monkeypatch, inputs, args):
+    """The tests run as root here, for whom every folder is writable: the permission check is made
+    to answer no, as it does for a user without write access."""
+    import lcgym.cli
+
+    monkeypatch.setattr(lcgym.cli.os, "access", lambda path, mode: False)
+    with pytest.raises(SystemExit) as exc:
+        main([a.format(**inputs) for a in args] + [str(tmp_path / "out.file")])
+    assert exc.value.code == 2
+    assert f"folder {tmp_path} is not writable" in capsys.readouterr().err
+    assert not any(tmp_path.iterdir())

@@ -479,3 +479,31 @@ def test_parquet_with_strings_and_nan(tmp_path):
     with pytest.raises(MeasurementFileError) as exc:
         read_trials(path, system="ix")
     assert_names(exc, path, "pos_roll", 7)
+
+
+def test_many_trials_in_any_row_order_are_split_in_file_order(tmp_path):
+    """40 trials, once one after the other and once with their rows randomly interleaved (each
+    trial's rows in order): the same trials, in the order of their first row."""
+    rng = np.random.default_rng(3)
+    frames = []
+    for k in range(40):
+        f = _large_frame(int(rng.integers(3, 30)))
+        f.insert(1, "trial", k)
+        frames.append(f)
+    whole = pd.concat(frames, ignore_index=True)
+    owner = rng.permutation(np.repeat(np.arange(40), [len(f) for f in frames]))  # which trial each row is
+    taken = [0] * 40
+    mixed_rows = []
+    for k in owner:
+        mixed_rows.append(frames[k].iloc[taken[k]])
+        taken[k] += 1
+    mixed = pd.DataFrame(mixed_rows)
+    for name, frame in (("whole", whole), ("mixed", mixed)):
+        path = tmp_path / f"{name}.csv"
+        frame.to_csv(path, index=False)
+        trials = read_trials(path, system="ix")
+        firsts = pd.unique(frame["trial"])
+        assert len(trials) == 40
+        for tr, k in zip(trials, firsts, strict=True):
+            np.testing.assert_allclose(tr.t, frames[int(k)]["t"].to_numpy())
+            np.testing.assert_allclose(tr.u[:, 1], frames[int(k)]["u_roll"].to_numpy())

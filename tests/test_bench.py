@@ -101,6 +101,7 @@ def test_resume_skips_stored_cells(tmp_path):
     assert sorted(set(df["seed"])) == [0, 1] and len(df) == 16
 
 
+@pytest.mark.bad_input
 def test_store_refuses_a_corrupt_csv(tmp_path):
     out = tmp_path / "r.csv"
     run_benchmark(BenchConfig(methods=("feedback",), **TINY), out, progress=False)
@@ -121,7 +122,7 @@ def _cells_in(path: Path) -> int:
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL], ids=["SIGINT", "SIGKILL"])
-def test_killed_bench_leaves_valid_csv_and_resume_completes(tmp_path, sig):
+def test_killed_bench_leaves_valid_csv_and_resume_completes(tmp_path, tally, sig):
     out = tmp_path / "r.csv"
     # physical cells (about 0.5 s each, not feedback's 0.1 s) leave the kill a window of seconds
     args = ["bench", "--quick", "--systems", "ix", "--methods", "physical", "--seeds", "0,1,2,3,4,5,6,7", "--out", str(out)]
@@ -143,9 +144,11 @@ def test_killed_bench_leaves_valid_csv_and_resume_completes(tmp_path, sig):
     df = read_results(out)
     assert df.groupby(["method", "seed"]).ngroups == 8
     assert not df.duplicated(["method", "seed", "reference_set", "axis", "signal"]).any()
+    tally("fault")
+    tally("rows_checked", len(df))
 
 
-def test_concurrent_writers_lose_no_row(tmp_path):
+def test_concurrent_writers_lose_no_row(tmp_path, tally):
     out = tmp_path / "r.csv"
     procs = [cli("bench", "--quick", "--systems", "ix", "--methods", "feedback", "--seeds", str(s), "--out", str(out))
              for s in range(4)]
@@ -154,6 +157,7 @@ def test_concurrent_writers_lose_no_row(tmp_path):
         assert p.returncode == 0, stderr
     df = read_results(out)
     assert sorted(set(df["seed"])) == [0, 1, 2, 3] and len(df) == 4 * 8
+    tally("rows_checked", len(df))
 
 
 def test_dask_local_cluster(tmp_path):
