@@ -64,21 +64,22 @@ def _positive(text: str) -> int:
     return v
 
 
-def _seconds(text: str) -> float:
+def _float_seconds(text: str) -> float:
     try:
-        v = float(text)
+        return float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"must be a number of seconds, got {text!r}") from None
+
+
+def _seconds(text: str) -> float:
+    v = _float_seconds(text)
     if not v > 0 or v == float("inf"):
         raise argparse.ArgumentTypeError(f"must be > 0 and finite, got {text}")
     return v
 
 
 def _duration(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a number of seconds, got {text!r}") from None
+    v = _float_seconds(text)
     if not 1.0 <= v <= 3600.0:
         raise argparse.ArgumentTypeError(f"must be within 1..3600 s, got {text}")
     return v

@@ -10,9 +10,9 @@ Files: one row per sample, CSV or Parquet, columns ``t``, optional ``trial``, an
 as extras. An optional JSON sidecar ``<file>.json`` carries metadata. Reading is strict: a
 missing required column, a non-numeric, NaN or inf value, a non-increasing or non-uniform time
 column, or too few samples raises ``MeasurementFileError`` naming the file, the column and the
-first offending data row (1 = first row after the header). Files are read in chunks, so a file
-larger than memory as a table is read with memory for its trials only. Writing goes to a temporary file
-that is renamed into place, so an existing file is never left half-written.
+first offending data row (1 = first row after the header). Files are read in chunks, so a
+large file needs memory for its numbers, not for a table of the file. Writing goes to a
+temporary file that is renamed into place, so an existing file is never left half-written.
 """
 
 from __future__ import annotations
@@ -185,9 +185,10 @@ def read_trials(path: str | Path, system: str | None = None, min_samples: int = 
 
     trials = []
     extras = table.extras()
+    data_rows = np.arange(table.n)  # 0-based data rows of the file
     for gi, (label, rows) in enumerate(table.trial_rows()):
         trial_where = where if label is None else f"{where} (trial {int(label)})"
-        file_rows = np.arange(table.n)[rows]  # 0-based data rows of the file
+        file_rows = data_rows[rows]
         need = max(min_samples, 2)
         if len(file_rows) < need:
             raise MeasurementFileError(
