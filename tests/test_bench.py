@@ -24,10 +24,16 @@ METRICS = ["MA", "RMS", "Inf"]
 REPO = Path(__file__).resolve().parents[1]
 
 
+# `lcgym` as a user's terminal starts it: Ctrl-C raises KeyboardInterrupt. A test run started in the
+# background of a non-interactive shell ignores SIGINT, and a child would inherit that.
+LCGYM_WITH_CTRL_C = ("import signal, sys; signal.signal(signal.SIGINT, signal.default_int_handler); "
+                     "from lcgym.cli import main; sys.exit(main())")
+
+
 def cli(*args, **kwargs):
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), kwargs.pop("pythonpath", "")]),
            **kwargs.pop("env_extra", {})}
-    return subprocess.Popen([sys.executable, "-m", "lcgym.cli", *args], env=env, stdout=subprocess.PIPE,
+    return subprocess.Popen([sys.executable, "-c", LCGYM_WITH_CTRL_C, *args], env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, **kwargs)
 
 
