@@ -43,43 +43,37 @@ def _seeds(text: str) -> tuple[int, ...]:
     return seeds
 
 
-def _integer(text: str) -> int:
+def _number(text: str, kind: type, what: str):
+    """``kind(text)``, or argparse's error "must be <what>, got '<text>'"."""
     try:
-        return int(text)
+        return kind(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}") from None
 
 
 def _nonnegative(text: str) -> int:
-    v = _integer(text)
+    v = _number(text, int, "an integer")
     if v < 0:
         raise argparse.ArgumentTypeError(f"must be >= 0, got {v}")
     return v
 
 
 def _positive(text: str) -> int:
-    v = _integer(text)
+    v = _number(text, int, "an integer")
     if v < 1:
         raise argparse.ArgumentTypeError(f"must be >= 1, got {v}")
     return v
 
 
-def _float_seconds(text: str) -> float:
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a number of seconds, got {text!r}") from None
-
-
 def _seconds(text: str) -> float:
-    v = _float_seconds(text)
+    v = _number(text, float, "a number of seconds")
     if not v > 0 or v == float("inf"):
         raise argparse.ArgumentTypeError(f"must be > 0 and finite, got {text}")
     return v
 
 
 def _duration(text: str) -> float:
-    v = _float_seconds(text)
+    v = _number(text, float, "a number of seconds")
     if not 1.0 <= v <= 3600.0:
         raise argparse.ArgumentTypeError(f"must be within 1..3600 s, got {text}")
     return v
