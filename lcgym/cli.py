@@ -11,25 +11,31 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import tempfile
+import warnings
 from pathlib import Path
 
 SIMULATE_SYSTEMS = ("ix",)  # lcgym simulate; bench and diagnose take both systems
 
 
 def _controllers(text: str) -> list[str]:
-    from .baselines import CONTROLLERS
+    from .simulate import SIMULATE_CONTROLLERS
 
-    names = [c.strip() for c in text.split(",") if c.strip()]
-    bad = [c for c in names if c not in CONTROLLERS]
-    if not names or bad:
-        raise argparse.ArgumentTypeError(f"unknown controller {', '.join(bad) or text!r}; choose from {', '.join(CONTROLLERS)}")
+    names = list(_names(text))
+    bad = [c for c in names if c not in SIMULATE_CONTROLLERS]
+    if bad:
+        raise argparse.ArgumentTypeError(f"unknown controller {', '.join(bad)}; choose from "
+                                         f"{', '.join(SIMULATE_CONTROLLERS)} (the others run in lcgym bench)")
     return names
 
 
 def _names(text: str) -> tuple[str, ...]:
     names = tuple(c.strip() for c in text.split(",") if c.strip())
     if not names:
-        raise argparse.ArgumentTypeError("empty list")
+        raise argparse.ArgumentTypeError(f"no name given in {text!r}")
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise argparse.ArgumentTypeError(f"{', '.join(twice)} listed twice")
     return names
 
 
@@ -38,7 +44,9 @@ def _seeds(text: str) -> tuple[int, ...]:
         seeds = tuple(int(c) for c in text.split(",") if c.strip())
     except ValueError:
         raise argparse.ArgumentTypeError(f"seeds must be integers, got {text!r}") from None
-    if not seeds or any(k < 0 for k in seeds):
+    if not seeds:
+        raise argparse.ArgumentTypeError(f"no seed given in {text!r}")
+    if any(k < 0 for k in seeds):
         raise argparse.ArgumentTypeError(f"seeds must be >= 0, got {text!r}")
     return seeds
 
@@ -79,6 +87,18 @@ def _duration(text: str) -> float:
     return v
 
 
+def _file_of(*suffixes: str):
+    """``_writable`` for a file whose name must end in one of ``suffixes`` (checked before any work)."""
+
+    def check(text: str) -> Path:
+        p = _writable(text)
+        if p.suffix.lower() not in suffixes:
+            raise argparse.ArgumentTypeError(f"{p}: use a file name ending in {' or '.join(suffixes)}")
+        return p
+
+    return check
+
+
 def _writable(text: str) -> Path:
     """An output file's path: its folder must exist and be writable, and it must not be a folder."""
     p = Path(text)
@@ -115,16 +135,18 @@ def build_parser() -> argparse.ArgumentParser:
     sim = sub.add_parser("simulate", help="fit controllers on training runs and simulate validation references")
     sim.add_argument("--system", choices=SIMULATE_SYSTEMS, default="ix")
     sim.add_argument("--controller", type=_controllers, default=["feedback", "physical"],
-                     help="controller name or comma-separated list (feedback, physical)")
+                     help="controller name or comma-separated list (feedback, physical, pgnn, pgnn-ls)")
     sim.add_argument("--seed", type=_nonnegative, default=0)
     sim.add_argument("--n-train", type=_positive, default=8, help="training references")
     sim.add_argument("--n-validation", type=_positive, default=4, help="validation references")
     sim.add_argument("--duration", type=_duration, default=40.0,
                      help="moving time of each reference [s]; a final rest of a few seconds follows")
-    sim.add_argument("--out", type=_writable, help="measurement file (.csv or .parquet) of the validation runs")
-    sim.add_argument("--plot", type=_writable, help="PNG of tracking errors with the scaled reference velocity")
+    sim.add_argument("--out", type=_file_of(".csv", ".parquet", ".pq"),
+                     help="measurement file (.csv or .parquet) of the validation runs")
+    sim.add_argument("--plot", type=_file_of(".png", ".pdf", ".svg"),
+                     help="PNG (or PDF, SVG) of tracking errors with the scaled reference velocity")
     diag = sub.add_parser("diagnose", help="compare the physical model with measurements; find the missing effect")
-    diag.add_argument("data", type=Path, help="measurement file (.csv or .parquet, spec/measurements.md)")
+    diag.add_argument("data", type=Path, help="measurement file (.csv or .parquet; README, 'Measurement files')")
     diag.add_argument("--system", choices=("ix", "flexarm"), required=True)
     diag.add_argument("--add", action="append", default=[], metavar="EFFECT@AXIS",
                       help="add this effect to the model, refit, show before/after (repeatable)")
@@ -147,6 +169,10 @@ def cmd_diagnose(args) -> int:
         existing = next(p for p in (args.plots, *args.plots.parents) if p.exists())
         if not existing.is_dir():
             raise ValueError(f"--plots {args.plots}: {existing} exists and is not a folder")
+        try:  # a folder can be made in it: make one and remove it
+            os.rmdir(tempfile.mkdtemp(prefix=".lcgym-check-", dir=existing))
+        except OSError as exc:
+            raise ValueError(f"--plots {args.plots}: cannot make a folder in {existing} ({exc.strerror})") from None
     trials = read_trials(args.data, system=args.system, min_samples=100)
     try:
         report = diagnose(trials, system=args.system, add=args.add, replay=args.replay,
@@ -243,8 +269,14 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     commands = {"simulate": cmd_simulate, "bench": cmd_bench, "leaderboard": cmd_leaderboard,
                 "diagnose": cmd_diagnose, "effects": cmd_effects}
+
+    def show_warning(message, category, filename, lineno, file=None, line=None):  # one line, no source
+        print(f"lcgym {args.command}: warning: {message}", file=sys.stderr)
+
     try:
-        return commands[args.command](args)
+        with warnings.catch_warnings():
+            warnings.showwarning = show_warning
+            return commands[args.command](args)
     except (ValueError, OSError, RuntimeError) as exc:
         print(f"lcgym {args.command}: {exc}", file=sys.stderr)
         return 1

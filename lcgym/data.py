@@ -187,7 +187,7 @@ def read_trials(path: str | Path, system: str | None = None, min_samples: int = 
     extras = table.extras()
     data_rows = np.arange(table.n)  # 0-based data rows of the file
     for gi, (label, rows) in enumerate(table.trial_rows()):
-        trial_where = where if label is None else f"{where} (trial {int(label)})"
+        trial_where = where if label is None else f"{where} (trial {label:g})"
         file_rows = data_rows[rows]
         need = max(min_samples, 2)
         if len(file_rows) < need:
@@ -198,14 +198,15 @@ def read_trials(path: str | Path, system: str | None = None, min_samples: int = 
         t = table.t[rows]
         _check_time(t, file_rows, trial_where)
         sig = {p: table.signals[p][rows] for p in ("ref", "pos", "u")}
-        for i, ax in enumerate(table.axes):
-            peak = float(np.max(np.abs(sig["pos"][:, i])))
-            if peak > 2 * np.pi:
-                warnings.warn(
-                    f"{trial_where}: column 'pos_{ax}' reaches {peak:.3g}, beyond 2 pi: "
-                    "the file's positions look like degrees; lcgym reads them as rad",
-                    stacklevel=2,
-                )
+        for p in ("ref", "pos"):
+            for i, ax in enumerate(table.axes):
+                peak = float(np.max(np.abs(sig[p][:, i])))
+                if peak > 2 * np.pi:
+                    warnings.warn(
+                        f"{trial_where}: column '{p}_{ax}' reaches {peak:.3g}, beyond 2 pi: "
+                        "the file's angles look like degrees; lcgym reads them as rad",
+                        stacklevel=2,
+                    )
         ff = table.signals["ff"][rows] if "ff" in table.signals else None
         tm = dict(meta) if isinstance(meta, dict) else {}
         if gi < len(trial_meta) and isinstance(trial_meta[gi], dict):
@@ -330,6 +331,9 @@ def _check_header(names: list[str], axes: tuple[str, ...], where: str) -> tuple[
     there. A missing column is named, with the file's nearest column names when one looks like a
     renamed or misspelled version of it.
     """
+    if len(names) == 1 and any(sep in names[0] for sep in ";\t|"):
+        raise MeasurementFileError(f"{where}: the header is one column {names[0][:60]!r}: lcgym reads "
+                                   "comma-separated files; convert the file (e.g. pandas.read_csv(path, sep=';'))")
     if not axes:
         axes = tuple(c[4:] for c in names if c.startswith("ref_"))
         if not axes:

@@ -24,6 +24,11 @@ from .envs.ix import IXPlant
 from .envs.references import reference_set
 from .leaderboard.metrics import input_residual_table, tracking_error_table
 
+# fitted on the training trials alone and run on the IX; the methods that learn on the plant
+# itself (ILC, the RBF expert, RL) or belong to the FlexArm run in ``lcgym bench``
+SIMULATE_CONTROLLERS = {name: c for name, c in CONTROLLERS.items()
+                        if "ix" in getattr(c, "systems", ("ix",)) and not getattr(c, "uses_plant", False)}
+
 
 @dataclass
 class SimulationResult:
@@ -37,29 +42,30 @@ def simulate(
     plant: IXPlant | None = None, progress: bool = True,
 ) -> list[SimulationResult]:
     """Fit each named controller on seeded training references and run it on validation ones."""
-    unknown = [c for c in controllers if c not in CONTROLLERS]
+    unknown = [c for c in controllers if c not in SIMULATE_CONTROLLERS]
     if unknown:
-        raise ValueError(f"unknown controller(s) {unknown}; choose from {sorted(CONTROLLERS)}")
+        raise ValueError(f"unknown controller(s) {unknown}; choose from {sorted(SIMULATE_CONTROLLERS)} "
+                         "(the others run in lcgym bench)")
     plant = plant if plant is not None else IXPlant()
-    steps = tqdm(total=2 + 2 * len(controllers), desc="simulate", disable=not progress, leave=False)
-    train_refs = reference_set("train", seed, n_train, duration, plant.fs)
-    val_refs = reference_set("validation", seed, n_validation, duration, plant.fs)
-    steps.set_postfix_str("training experiment (feedback only)")
-    train_trials = plant.run(train_refs)
-    steps.update(2)
-    results = []
-    for name in controllers:
-        steps.set_postfix_str(f"fit {name}")
-        ctrl = CONTROLLERS[name]().fit(train_trials)
-        steps.update()
-        steps.set_postfix_str(f"run {name}")
-        ff = [ctrl.feedforward(r) for r in val_refs]
-        trials = plant.run(val_refs, ff)
-        for t in trials:
-            t.meta.update(controller=name, seed=seed, reference_set="validation")
-        results.append(SimulationResult(name, trials, ff))
-        steps.update()
-    steps.close()
+    # a context manager: a failure closes the bar before its message is printed, not after
+    with tqdm(total=2 + 2 * len(controllers), desc="simulate", disable=not progress, leave=False) as steps:
+        train_refs = reference_set("train", seed, n_train, duration, plant.fs)
+        val_refs = reference_set("validation", seed, n_validation, duration, plant.fs)
+        steps.set_postfix_str("training experiment (feedback only)")
+        train_trials = plant.run(train_refs)
+        steps.update(2)
+        results = []
+        for name in controllers:
+            steps.set_postfix_str(f"fit {name}")
+            ctrl = SIMULATE_CONTROLLERS[name]().fit(train_trials)
+            steps.update()
+            steps.set_postfix_str(f"run {name}")
+            ff = [ctrl.feedforward(r) for r in val_refs]
+            trials = plant.run(val_refs, ff)
+            for t in trials:
+                t.meta.update(controller=name, seed=seed, reference_set="validation")
+            results.append(SimulationResult(name, trials, ff))
+            steps.update()
     return results
 
 

@@ -14,6 +14,7 @@ measurement file of the wrong system, missing or malformed, and an unknown confi
 
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -35,14 +36,21 @@ def inputs(tmp_path_factory):
     bad = trial.to_frame()
     bad.loc[4, "pos_roll"] = np.nan
     bad.to_csv(folder / "bad.csv", index=False)
+    degrees = Trial(t=t, ref=np.degrees(ref), pos=np.degrees(ref), u=np.zeros((n, 2)), axes=("propeller", "roll"))
+    write_trials(folder / "degrees.csv", [degrees, degrees])  # two trials: one warning line per trial and column
     run_benchmark(BenchConfig(methods=("feedback",), systems=("ix",), seeds=(0,), n_train=1, n_validation=1,
                               duration=4.0), folder / "results.csv", progress=False)
-    return {"data": str(folder / "run.csv"), "bad": str(folder / "bad.csv"), "results": str(folder / "results.csv")}
+    return {"data": str(folder / "run.csv"), "bad": str(folder / "bad.csv"), "degrees": str(folder / "degrees.csv"),
+            "results": str(folder / "results.csv")}
 
 
 CASES = [
     # simulate
     (["simulate", "--controller", "magic"], "unknown controller"),
+    (["simulate", "--controller", "basic"], "unknown controller basic"),  # the FlexArm's; and ilc, rl: bench only
+    (["simulate", "--controller", "physical,physical"], "physical listed twice"),
+    (["simulate", "--out", "{tmp}/run.txt"], "use a file name ending in .csv or .parquet or .pq"),
+    (["simulate", "--plot", "{tmp}/errors.txt"], "use a file name ending in .png or .pdf or .svg"),
     (["simulate", "--seed", "-1"], "must be >= 0"),
     (["simulate", "--system", "crane"], "invalid choice"),
     (["simulate", "--n-train", "0"], "must be >= 1"),
@@ -58,6 +66,8 @@ CASES = [
     (["bench", "--systems", "crane", "--quick", "--out", "{tmp}/out.csv"], "unknown system"),
     (["bench", "--seeds", "0,-1", "--out", "{tmp}/out.csv"], "must be >= 0"),
     (["bench", "--seeds", "zero", "--out", "{tmp}/out.csv"], "must be integers"),
+    (["bench", "--seeds", ",", "--out", "{tmp}/out.csv"], "no seed given"),
+    (["bench", "--methods", "physical,physical", "--out", "{tmp}/out.csv"], "physical listed twice"),
     (["bench", "--jobs", "0", "--out", "{tmp}/out.csv"], "must be >= 1"),
     (["bench", "--timeout", "0", "--quick", "--out", "{tmp}/out.csv"], "must be > 0"),
     (["bench", "--timeout", "nan", "--quick", "--out", "{tmp}/out.csv"], "must be > 0"),
@@ -83,8 +93,13 @@ CASES = [
     (["diagnose", "{bad}", "--system", "ix"], "column 'pos_roll', row 5"),
     (["diagnose", "{data}", "--system", "ix", "--json", "{tmp}/missing/report.json"], "does not exist"),
     (["diagnose", "{data}", "--system", "ix", "--plots", "{tmp}/out.csv"], "exists and is not a folder"),
+    (["diagnose", "{degrees}", "--system", "ix"], "lcgym diagnose: warning: {degrees} (trial 0): column 'ref_roll' "
+                                                   "reaches 57.3, beyond 2 pi"),
     (["effects", "--system", "crane"], "invalid choice"),
 ]
+if Path("/proc").is_dir():  # a place where no folder can be made, even by root
+    CASES.append((["diagnose", "{data}", "--system", "ix", "--plots", "/proc/lcgym-plots"],
+                  "--plots /proc/lcgym-plots: cannot make a folder in /proc"))
 
 
 @pytest.mark.bad_input
@@ -93,6 +108,7 @@ def test_bad_option_is_refused_with_a_reason_and_writes_nothing(tmp_path, capsys
     kept = tmp_path / "out.csv"
     kept.write_text("a file the command must not touch\n")
     argv = [a.format(tmp=tmp_path, **inputs) for a in args]
+    message = message.format(**inputs)
     try:
         status = main(argv)
     except SystemExit as exc:  # argparse

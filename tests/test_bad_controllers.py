@@ -106,7 +106,7 @@ def test_user_controllers_failures_are_recorded_and_others_run(tmp_path, monkeyp
 
 @pytest.mark.bad_input
 @pytest.mark.parametrize(("method", "message"), [
-    ("my_ctrl:Raises", "RuntimeError: my controller is broken"),
+    ("my_ctrl:Raises", "RuntimeError in fit at my_ctrl.py:7: my controller is broken"),
     ("my_ctrl:WrongShape", "has shape (3,), expected"),
     ("my_ctrl:NaNs", "contains NaN or inf, first at sample"),
     ("my_ctrl:WrongDtype", "feedforward for train-0-0 must be real numbers, got dtype <U5"),

@@ -467,3 +467,21 @@ def test_many_trials_in_any_row_order_are_split_in_file_order(tmp_path):
         for tr, k in zip(trials, firsts, strict=True):
             np.testing.assert_allclose(tr.t, frames[int(k)]["t"].to_numpy())
             np.testing.assert_allclose(tr.u[:, 1], frames[int(k)]["u_roll"].to_numpy())
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize("sep", [";", "\t"])
+def test_another_separator_is_named(tmp_path, sep):
+    path = write_csv(tmp_path, rows_csv(good_rows()).replace(",", sep))
+    message = refused(path, system="ix")
+    assert "lcgym reads comma-separated files" in message
+
+
+@pytest.mark.bad_input
+def test_a_fractional_trial_label_is_named_as_written(tmp_path):
+    header = HEADER.replace("t,", "t,trial,", 1)
+    rows = good_rows(6)
+    rows[4][0] = 0.45  # non-uniform step in the trial labelled 0.5
+    path = write_csv(tmp_path, "\n".join([header] + [",".join(map(str, [r[0], 0.5, *r[1:]])) for r in rows]) + "\n")
+    message = refused(path, "t", 5)
+    assert "(trial 0.5)" in message

@@ -232,6 +232,13 @@ def test_cli_rejects_unknown_effect_and_lists_effects(tmp_path, capsys):
     assert all(c.name in listed for c in candidates_for("ix")) and "payload" not in listed
 
 
+def test_replay_without_add_replays_the_suggested_model():
+    """``--replay`` alone (no ``--add``) replays the model with the effects the search selected."""
+    rep = diagnose(_trials((SINGLE["coulomb_friction@roll"],)), replay=True)
+    assert rep.after is None and rep.after_model is None
+    assert rep.replay["after"]["roll"] < rep.replay["before"]["roll"], rep.text()
+
+
 def test_read_back_keeps_the_plant_record_for_replay(tmp_path):
     trials = _trials((SINGLE["cable_drape@roll"],))
     back = read_trials(write_trials(tmp_path / "m.parquet", trials), system="ix")

@@ -1,4 +1,4 @@
-"""The diagnosis report: printed text, JSON (`spec/diagnose.md`) and plots."""
+"""The diagnosis report: printed text, JSON (``to_dict``, written by ``write_json``) and plots."""
 
 from __future__ import annotations
 

@@ -138,7 +138,8 @@ def diagnose(trials: Sequence, system: str = "ix", add: Sequence[str | Effect] =
         report.after_model = after.model
         report.series["residual_after"] = after.residual
     if replay:
-        report.replay = replay_tracking(trials, report.model, getattr(report, "after_model", report.suggested_model))
+        after_model = report.after_model if report.after_model is not None else report.suggested_model
+        report.replay = replay_tracking(trials, report.model, after_model)
     return report
 
 

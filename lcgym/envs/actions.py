@@ -22,13 +22,14 @@ def checked_action(action, shape: tuple[int, ...], env: str, step: int, what: st
     a = np.asarray(action)
     if a.dtype.kind not in NUMERIC_KINDS:
         raise ValueError(
-            f"{env}: action at step {step} must be real numbers, {what}; got dtype {a.dtype}: {_short(action)}"
+            f"{env}: action at step {step} must be real numbers, {what}; got dtype {a.dtype}: {short_repr(action)}"
         )
     if a.shape != shape:
         raise ValueError(f"{env}: action at step {step} must have shape {shape}, {what}; got shape {a.shape}")
     return a
 
 
-def _short(action) -> str:
-    text = repr(action)
-    return text if len(text) <= 80 else text[:77] + "..."
+def short_repr(value, width: int = 80) -> str:
+    """``repr(value)`` on one line (numpy's line breaks folded) and at most ``width`` characters."""
+    text = " ".join(repr(value).split())
+    return text if len(text) <= width else text[: width - 3] + "..."

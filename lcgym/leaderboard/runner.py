@@ -29,6 +29,7 @@ import signal
 import subprocess
 import threading
 import time
+import traceback
 import uuid
 from collections.abc import Sequence
 from contextlib import contextmanager
@@ -44,6 +45,7 @@ from tqdm.auto import tqdm
 from .. import __version__
 from ..baselines import CONTROLLERS, Cost, load_method
 from ..data import atomic_write
+from ..envs.actions import short_repr
 from .store import append_rows, completed_cells
 from .systems import BENCH_SYSTEMS
 
@@ -209,9 +211,9 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_th
                         controller.learn(bench.plant, r)
                         learn_seconds += time.perf_counter() - t1
                     stage[0] = f"feedforward of {r.name}"
-                    ffs.append(_checked(controller.feedforward(r), r, "feedforward"))
+                    ffs.append(_checked(controller.feedforward(r), r, "feedforward", bench.axes))
                     offset = getattr(controller, "reference_offset", lambda _: None)(r)
-                    offsets.append(None if offset is None else _checked(offset, r, "reference_offset"))
+                    offsets.append(None if offset is None else _checked(offset, r, "reference_offset", bench.axes))
                     if hasattr(controller, "nn_contribution"):
                         nn.append(controller.nn_contribution(r))
                 stage[0] = f"the plant runs of the {set_name} references"
@@ -229,24 +231,34 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_th
                            fit_seconds=round(learn_seconds + cost.cached_seconds, 3), status="ok", error="")
             return rows, trace
     except Exception as exc:  # a method's failure is a result, not a crash of the benchmark
-        return [{**key, "status": "failed", "error": f"{type(exc).__name__}: {exc}"[:500]}], None
+        return [{**key, "status": "failed", "error": _failure(exc, stage[0])[:500]}], None
 
 
-def _checked(values, reference, what: str) -> np.ndarray:
+def _failure(exc: Exception, stage: str) -> str:
+    """One line for a failed cell: the exception, the stage of the cell, and the innermost place
+    in the code where it was raised (file name and line), so that a user's own method's bug is
+    found without a traceback. A time limit names its stage itself."""
+    if isinstance(exc, CellTimeout):
+        return f"{type(exc).__name__}: {exc}"
+    frames = traceback.extract_tb(exc.__traceback__)
+    place = f" at {Path(frames[-1].filename).name}:{frames[-1].lineno}" if frames else ""
+    return f"{type(exc).__name__} in {stage}{place}: {' '.join(str(exc).split())}"
+
+
+def _checked(values, reference, what: str, axes: Sequence[str]) -> np.ndarray:
     """A method's signal for ``reference`` as a float array, or a clear error: real numbers, the
     reference's shape, finite (the error names the first bad sample and axis)."""
     f = np.asarray(values)
     if f.dtype.kind not in "fiu":
-        shown = repr(values) if len(repr(values)) <= 60 else repr(values)[:57] + "..."
-        raise ValueError(f"{what} for {reference.name} must be real numbers, got dtype {f.dtype}: {shown}")
+        raise ValueError(f"{what} for {reference.name} must be real numbers, got dtype {f.dtype}: {short_repr(values)}")
     if f.shape != reference.positions.shape:
         raise ValueError(f"{what} for {reference.name} has shape {f.shape}, expected {reference.positions.shape}")
     f = f.astype(float, copy=False)
     bad = np.argwhere(~np.isfinite(f))
     if len(bad):
         sample, axis = bad[0]
-        raise ValueError(f"{what} for {reference.name} contains NaN or inf, first at sample {sample}, axis {axis}: "
-                         f"{f[sample, axis]}")
+        raise ValueError(f"{what} for {reference.name} contains NaN or inf, first at sample {sample}, axis "
+                         f"{axes[axis]}: {f[sample, axis]}")
     return f
 
 
