@@ -60,6 +60,10 @@ BAD_CONTROLLERS = textwrap.dedent("""
         def feedforward(self, reference):
             return None
 
+    class NumpyRaises(Good):
+        def feedforward(self, reference):
+            return np.linalg.inv(reference.positions)  # raised inside numpy's Python code
+
     class Complex(Good):
         def feedforward(self, reference):
             return np.zeros(reference.positions.shape, dtype=complex)
@@ -107,7 +111,8 @@ def test_user_controllers_failures_are_recorded_and_others_run(tmp_path, monkeyp
 @pytest.mark.bad_input
 @pytest.mark.parametrize(("method", "message"), [
     ("my_ctrl:Raises", "RuntimeError in fit at my_ctrl.py:7: my controller is broken"),
-    ("my_ctrl:WrongShape", "has shape (3,), expected"),
+    ("my_ctrl:WrongShape", "ValueError in feedforward of train-0-0: feedforward for train-0-0 has shape (3,), expected"),
+    ("my_ctrl:NumpyRaises", "LinAlgError in feedforward of train-0-0 at my_ctrl.py:"),  # the user's line, not numpy's
     ("my_ctrl:NaNs", "contains NaN or inf, first at sample"),
     ("my_ctrl:WrongDtype", "feedforward for train-0-0 must be real numbers, got dtype <U5"),
     ("my_ctrl:ReturnsNone", "feedforward for train-0-0 must be real numbers, got dtype object: None"),

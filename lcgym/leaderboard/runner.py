@@ -27,6 +27,7 @@ import hashlib
 import json
 import signal
 import subprocess
+import sysconfig
 import threading
 import time
 import traceback
@@ -235,12 +236,15 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_th
 
 
 def _failure(exc: Exception, stage: str) -> str:
-    """One line for a failed cell: the exception, the stage of the cell, and the innermost place
-    in the code where it was raised (file name and line), so that a user's own method's bug is
-    found without a traceback. A time limit names its stage itself."""
+    """One line for a failed cell: the exception, the stage of the cell, and the innermost line of
+    the method's own code that raised it (file name and line; not a line of numpy or another
+    installed package, nor of this runner, whose checks say what they refused), so that a user's
+    bug is found without a traceback. A time limit names its stage itself."""
     if isinstance(exc, CellTimeout):
         return f"{type(exc).__name__}: {exc}"
-    frames = traceback.extract_tb(exc.__traceback__)
+    library = (sysconfig.get_paths()["stdlib"], sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"])
+    frames = [f for f in traceback.extract_tb(exc.__traceback__)
+              if f.filename != __file__ and not f.filename.startswith(library)]
     place = f" at {Path(frames[-1].filename).name}:{frames[-1].lineno}" if frames else ""
     return f"{type(exc).__name__} in {stage}{place}: {' '.join(str(exc).split())}"
 
