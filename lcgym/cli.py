@@ -2,8 +2,14 @@
 
     lcgym bench [--systems ix,flexarm] [--methods feedback,physical] [--seeds 0,1,2] [--quick]
                 [--out results.csv] [--jobs N] [--dask ADDRESS] [--resume] [--timeout SECONDS]
-    lcgym leaderboard [results.csv] [--markdown OUT.md] [--html OUT.html]
-    lcgym simulate --system ix --controller feedback,physical --out run.csv --plot run.png
+    lcgym leaderboard [results.csv] [--reference-set SET] [--config HASH] [--markdown OUT.md] [--html OUT.html]
+    lcgym simulate [--system ix|flexarm] [--controller feedback,physical] [--out run.csv] [--plot run.png]
+    lcgym diagnose DATA --system MACHINE [--add EFFECT@AXIS ...] [--kinematics reference|measured]
+                   [--resample HZ] [--json OUT.json] [--plots DIR] [--replay]
+    lcgym effects [--system MACHINE] [--data DATA]
+
+MACHINE: a built-in machine (ix, flexarm), a URDF file (robot.urdf: its joints named in the data
+are the axes, the others are locked), or module:attr naming a ``lcgym.systems.System``.
 """
 
 from __future__ import annotations
@@ -15,7 +21,7 @@ import tempfile
 import warnings
 from pathlib import Path
 
-SIMULATE_SYSTEMS = ("ix",)  # lcgym simulate; bench and diagnose take both systems
+SIMULATE_SYSTEMS = ("ix", "flexarm")  # the built-in machines: lcgym simulate needs a plant
 
 
 def _controllers(text: str) -> list[str]:
@@ -27,6 +33,13 @@ def _controllers(text: str) -> list[str]:
         raise argparse.ArgumentTypeError(f"unknown controller {', '.join(bad)}; choose from "
                                          f"{', '.join(SIMULATE_CONTROLLERS)} (the others run in lcgym bench)")
     return names
+
+
+def _rate(text: str) -> float:
+    v = _number(text, float, "a sample rate in Hz")
+    if not v > 0 or v == float("inf"):
+        raise argparse.ArgumentTypeError(f"must be > 0 and finite, got {text}")
+    return v
 
 
 def _names(text: str) -> tuple[str, ...]:
@@ -135,19 +148,21 @@ def build_parser() -> argparse.ArgumentParser:
     sim = sub.add_parser("simulate", help="fit controllers on training runs and simulate validation references")
     sim.add_argument("--system", choices=SIMULATE_SYSTEMS, default="ix")
     sim.add_argument("--controller", type=_controllers, default=["feedback", "physical"],
-                     help="controller name or comma-separated list (feedback, physical, pgnn, pgnn-ls)")
+                     help="controller name or comma-separated list (feedback, physical, pgnn, pgnn-ls; basic on flexarm)")
     sim.add_argument("--seed", type=_nonnegative, default=0)
     sim.add_argument("--n-train", type=_positive, default=8, help="training references")
     sim.add_argument("--n-validation", type=_positive, default=4, help="validation references")
     sim.add_argument("--duration", type=_duration, default=40.0,
-                     help="moving time of each reference [s]; a final rest of a few seconds follows")
+                     help="moving time of each IX reference [s]; a final rest of a few seconds follows (an arm "
+                          "reference is one TCP line out and back)")
     sim.add_argument("--out", type=_file_of(".csv", ".parquet", ".pq"),
                      help="measurement file (.csv or .parquet) of the validation runs")
     sim.add_argument("--plot", type=_file_of(".png", ".pdf", ".svg"),
                      help="PNG (or PDF, SVG) of tracking errors with the scaled reference velocity")
     diag = sub.add_parser("diagnose", help="compare the physical model with measurements; find the missing effect")
     diag.add_argument("data", type=Path, help="measurement file (.csv or .parquet; README, 'Measurement files')")
-    diag.add_argument("--system", choices=("ix", "flexarm"), required=True)
+    diag.add_argument("--system", required=True, metavar="MACHINE",
+                      help="ix, flexarm, a URDF file (the data's pos_<joint> columns name its axes) or module:attr")
     diag.add_argument("--add", action="append", default=[], metavar="EFFECT@AXIS",
                       help="add this effect to the model, refit, show before/after (repeatable)")
     diag.add_argument("--json", type=_writable, metavar="OUT.json", help="write the report as JSON")
@@ -155,8 +170,14 @@ def build_parser() -> argparse.ArgumentParser:
     diag.add_argument("--replay", action="store_true",
                       help="re-run the plant the data were simulated on with the model before/after (lcgym data only)")
     diag.add_argument("--min-explained", type=float, default=0.1, help="significance: share of residual energy (default 0.1)")
+    diag.add_argument("--kinematics", choices=("reference", "measured"), default="reference",
+                      help="velocity and acceleration from the reference corrected by the measured error (default; "
+                           "a file without ref_ columns uses the measured position) or from the measured position")
+    diag.add_argument("--resample", type=_rate, metavar="HZ",
+                      help="put a log with non-uniform time stamps on a uniform grid at HZ (linear interpolation)")
     eff = sub.add_parser("effects", help="list the effects diagnose can rank and add")
-    eff.add_argument("--system", choices=("ix", "flexarm"), default="ix")
+    eff.add_argument("--system", default="ix", metavar="MACHINE", help="ix, flexarm, a URDF file or module:attr")
+    eff.add_argument("--data", type=Path, help="a measurement file whose pos_<joint> columns name a URDF's axes")
     return parser
 
 
@@ -173,9 +194,10 @@ def cmd_diagnose(args) -> int:
             os.rmdir(tempfile.mkdtemp(prefix=".lcgym-check-", dir=existing))
         except OSError as exc:
             raise ValueError(f"--plots {args.plots}: cannot make a folder in {existing} ({exc.strerror})") from None
-    trials = read_trials(args.data, system=args.system, min_samples=100)
+    system = _machine(args.system, args.data)
+    trials = read_trials(args.data, axes=system, min_samples=100, resample=args.resample)
     try:
-        report = diagnose(trials, system=args.system, add=args.add, replay=args.replay,
+        report = diagnose(trials, system=system, add=args.add, replay=args.replay, kinematics=args.kinematics,
                           min_explained=args.min_explained, progress=sys.stderr.isatty())
     except DataTooShort as exc:
         raise MeasurementFileError(f"{args.data}: column 't': {exc}") from None
@@ -188,19 +210,27 @@ def cmd_diagnose(args) -> int:
     return 0
 
 
-def cmd_effects(args) -> int:
-    from .data import SYSTEM_AXES
-    from .diagnose.candidates import candidates_for
-    from .physics.registry import MODELS
+def _machine(spec: str, data: Path | None):
+    """The machine of ``--system``; a URDF's axes are the joints the data file names."""
+    from . import systems
+    from .data import file_axes
 
-    print(f"effects diagnose ranks and --add accepts on {args.system} (axes: {', '.join(SYSTEM_AXES[args.system])}):")
-    for cand in candidates_for(args.system):
+    joints = file_axes(data) if data is not None and str(spec).lower().endswith(".urdf") else None
+    return systems.get(spec, joints=joints)
+
+
+def cmd_effects(args) -> int:
+    from .diagnose.candidates import candidates_for
+
+    system = _machine(args.system, args.data)
+    print(f"effects diagnose ranks and --add accepts on {system.name} (axes: {', '.join(system.axis_names)}):")
+    for cand in candidates_for(system):
         name = cand.name
         doc = " ".join((cand.effect.__doc__ or "").strip().split("\n\n")[0].split())
         doc = doc if len(doc) <= 100 else doc[:97] + "..."
         searched = [*cand.grid, *([cand.period] if cand.period else [])]
         print(f"  {name:30s} [{cand.family}] {doc}" + (f" (searched: {', '.join(searched)})" if searched else ""))
-    print(f"the model already has: {', '.join(MODELS[args.system].for_diagnosis(fs=1.0).parts())}")
+    print(f"the model already has: {', '.join(system.diagnosis_model(fs=1.0).parts())}")
     return 0
 
 
@@ -211,11 +241,11 @@ def cmd_simulate(args) -> int:
     from .leaderboard.plots import plot_tracking_errors
     from .simulate import metric_table, simulate
 
-    results = simulate(args.controller, seed=args.seed, n_train=args.n_train, n_validation=args.n_validation,
-                       duration=args.duration)
+    results = simulate(args.controller, system=args.system, seed=args.seed, n_train=args.n_train,
+                       n_validation=args.n_validation, duration=args.duration)
     table = metric_table(results)
     with pd.option_context("display.float_format", "{:.4f}".format, "display.width", 120):
-        print(f"IX, {args.n_validation} validation references (seed {args.seed}), norms of eqs. (34)-(36):")
+        print(f"{args.system}, {args.n_validation} validation references (seed {args.seed}), norms of eqs. (34)-(36):")
         print(table.to_string(index=False))
     if args.out:
         trials = [t for r in results for t in r.trials]

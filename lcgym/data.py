@@ -1,18 +1,22 @@
 """Trials (one measured run) and the measurement-file format of lcgym.
 
-A ``Trial`` holds uniformly sampled signals of one run, per axis: reference ``ref`` [rad],
-measured position ``pos`` [rad], total input ``u`` (IX: V; arm: N m), and where known the
-feedforward part ``ff`` and the feedback part ``fb = u - ff``. Extra sensors (accelerometer,
-motor angles, true load angle of a simulation) live in ``extra``; free metadata in ``meta``.
+A ``Trial`` holds uniformly sampled signals of one run, per axis: reference ``ref`` [rad or m;
+None when the log has none], measured position ``pos`` [rad or m], total input ``u`` (IX: V;
+arm: N m; a prismatic axis: N), and where known the feedforward part ``ff`` and the feedback part
+``fb = u - ff``. Extra sensors (accelerometer, motor angles, true load angle of a simulation) live
+in ``extra``; free metadata in ``meta``.
 
-Files: one row per sample, CSV or Parquet, columns ``t``, optional ``trial``, and per axis
-``ref_<axis>``, ``pos_<axis>``, ``u_<axis>``, optional ``ff_<axis>``; other columns are kept
-as extras. An optional JSON sidecar ``<file>.json`` carries metadata. Reading is strict: a
-missing required column, a non-numeric, NaN or inf value, a non-increasing or non-uniform time
-column, or too few samples raises ``MeasurementFileError`` naming the file, the column and the
-first offending data row (1 = first row after the header). Files are read in chunks, so a
-large file needs memory for its numbers, not for a table of the file. Writing goes to a
-temporary file that is renamed into place, so an existing file is never left half-written.
+Files: one row per sample, CSV or Parquet, columns ``t`` [s], optional ``trial``, and per axis
+``pos_<axis>``, ``u_<axis>``, optional ``ref_<axis>`` (all axes or none) and ``ff_<axis>``;
+other columns are kept as extras. Axes are named as the machine's joints. An optional JSON
+sidecar ``<file>.json`` carries metadata. Reading is strict: a missing required column, a
+non-numeric, NaN or inf value, a non-increasing or non-uniform time column, or too few samples
+raises ``MeasurementFileError`` naming the file, the column and the first offending data row (1 =
+first row after the header). A log with jitter can instead be put on a uniform grid
+(``read_trials(..., resample=HZ)``: every column interpolated linearly; a gap longer than
+``MAX_GAP_STEPS`` nominal steps is refused, naming its row). Files are read in chunks, so a large
+file needs memory for its numbers, not for a table of the file. Writing goes to a temporary file
+that is renamed into place, so an existing file is never left half-written.
 """
 
 from __future__ import annotations
@@ -31,11 +35,8 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-SYSTEM_AXES = {
-    "ix": ("propeller", "roll"),
-    "flexarm": ("j1", "j2", "j3", "j4", "j5", "j6"),
-}
 UNIFORM_TOLERANCE = 1e-3  # relative deviation of a time step from the file's step
+MAX_GAP_STEPS = 5.0  # resampling: the longest gap, in nominal steps, that interpolation may bridge
 CHUNK_ROWS = 50_000  # rows read at a time: memory holds the trials and one chunk, not the file
 
 
@@ -48,7 +49,7 @@ class Trial:
     """One uniformly sampled run. Arrays are (T,) for ``t`` and (T, n_axes) per signal."""
 
     t: np.ndarray
-    ref: np.ndarray
+    ref: np.ndarray | None
     pos: np.ndarray
     u: np.ndarray
     axes: tuple[str, ...]
@@ -79,7 +80,9 @@ class Trial:
 
     @property
     def error(self) -> np.ndarray:
-        """Tracking error e = ref - pos [rad]."""
+        """Tracking error e = ref - pos [rad or m]."""
+        if self.ref is None:
+            raise ValueError("this trial has no reference: its tracking error is unknown")
         return self.ref - self.pos
 
     @property
@@ -153,25 +156,29 @@ def _jsonable(obj):
     return obj
 
 
-def read_trials(path: str | Path, system: str | None = None, min_samples: int = 3) -> list[Trial]:
+def read_trials(path: str | Path, axes=None, min_samples: int = 3, resample: float | None = None) -> list[Trial]:
     """Read a measurement file (CSV or Parquet) into trials, enforcing the reading rules.
 
-    ``system`` ("ix" or "flexarm") fixes the expected axes; without it the axes are taken from
-    the ``ref_<axis>`` columns present. The file is streamed in chunks of ``CHUNK_ROWS`` rows
-    into arrays sized once from a count of the file's lines: memory holds the trials' arrays and
-    one chunk, never the whole file as a table, and a bad value stops the reading at its chunk.
+    ``axes``: the expected axis names (a sequence, or a machine: anything with ``axis_names``);
+    without them the axes are taken from the ``pos_<axis>`` columns present. ``resample`` [Hz]:
+    put every trial on a uniform grid at that rate instead of refusing a non-uniform time column
+    (``resample_trial``; each trial's ``meta["resampled"]`` says so, with the largest gap). The file
+    is streamed in chunks of ``CHUNK_ROWS`` rows into arrays sized once from a count of the file's
+    lines: memory holds the trials' arrays and one chunk, never the whole file as a table, and a
+    bad value stops the reading at its chunk.
     """
     path = Path(path)
     where = str(path)
     if not path.exists():
         raise MeasurementFileError(f"{where}: file not found")
-    if system is not None and system not in SYSTEM_AXES:
-        raise ValueError(f"unknown system {system!r}; choose one of {sorted(SYSTEM_AXES)}")
+    axes = tuple(getattr(axes, "axis_names", axes) or ())
+    if resample is not None and not (np.isfinite(resample) and resample > 0):
+        raise ValueError(f"resample must be a sample rate > 0 Hz, got {resample}")
 
     table: _Table | None = None
     for chunk in _chunks(path, where):
         if table is None:  # the first chunk: check the header, size the arrays
-            table = _Table(list(chunk.columns), SYSTEM_AXES.get(system, ()), _row_bound(path), where)
+            table = _Table(list(chunk.columns), axes, _row_bound(path), where)
         table.append(chunk)
     if table is None or table.n == 0:
         raise MeasurementFileError(f"{where}: file has a header but no data rows")
@@ -196,10 +203,10 @@ def read_trials(path: str | Path, system: str | None = None, min_samples: int = 
                 f"need at least {need}"
             )
         t = table.t[rows]
-        _check_time(t, file_rows, trial_where)
-        sig = {p: table.signals[p][rows] for p in ("ref", "pos", "u")}
+        _check_time(t, file_rows, trial_where, resample)
+        sig = {p: table.signals[p][rows] if p in table.signals else None for p in ("ref", "pos", "u")}
         for p in ("ref", "pos"):
-            for i, ax in enumerate(table.axes):
+            for i, ax in enumerate(table.axes if sig[p] is not None else ()):
                 peak = float(np.max(np.abs(sig[p][:, i])))
                 if peak > 2 * np.pi:
                     warnings.warn(
@@ -213,21 +220,66 @@ def read_trials(path: str | Path, system: str | None = None, min_samples: int = 
             tm.update(trial_meta[gi])
         tm["source"] = where
         extra = {c: v[rows] for c, v in extras.items()}
-        trials.append(Trial(t=t, axes=table.axes, ff=ff, extra=extra, meta=tm, **sig))
+        trial = Trial(t=t, axes=table.axes, ff=ff, extra=extra, meta=tm, **sig)
+        trials.append(trial if resample is None else resample_trial(trial, resample, file_rows, trial_where))
     return trials
+
+
+def resample_trial(trial: Trial, fs: float, rows: np.ndarray | None = None, where: str = "trial") -> Trial:
+    """``trial`` on the uniform grid t0, t0 + 1/fs, ... <= t_end: every signal and extra column
+    interpolated linearly in time. A gap between samples longer than ``MAX_GAP_STEPS`` steps of the
+    log's median step is refused (``MeasurementFileError`` naming the row: ``rows`` are the trial's
+    0-based data rows of the file). ``meta["resampled"]`` records the rate and the largest gap [s]."""
+    t = trial.t
+    dt = np.diff(t)
+    step = float(np.median(dt))
+    k = int(np.argmax(dt))
+    if dt[k] > MAX_GAP_STEPS * step:
+        row = (int(rows[k + 1]) + 1) if rows is not None else k + 1
+        raise MeasurementFileError(
+            f"{where}: column 't', row {row}: a gap of {dt[k]:.6g} s ({dt[k] / step:.1f} of the log's {step:.6g} s steps) "
+            f"is too long to resample (at most {MAX_GAP_STEPS:g} steps); split the log into trials there")
+    grid = t[0] + np.arange(int(np.floor((t[-1] - t[0]) * fs + 1e-9)) + 1) / fs
+    if grid.size < 3:
+        raise MeasurementFileError(f"{where}: column 't': only {grid.size} samples at {fs:g} Hz")
+
+    def interp(a):
+        a = np.asarray(a, dtype=float)
+        if a.ndim == 1:
+            return np.interp(grid, t, a)
+        return np.column_stack([np.interp(grid, t, a[:, i]) for i in range(a.shape[1])])
+
+    extra = {}
+    for name, values in trial.extra.items():
+        v = np.asarray(values)
+        extra[name] = interp(v) if v.dtype.kind in "fiu" and v.shape[:1] == t.shape else v
+    meta = {**trial.meta, "resampled": {"fs": float(fs), "largest_gap": float(dt[k]), "log_step": step}}
+    return Trial(t=grid, ref=None if trial.ref is None else interp(trial.ref), pos=interp(trial.pos), u=interp(trial.u),
+                 axes=trial.axes, ff=None if trial.ff is None else interp(trial.ff), extra=extra, meta=meta)
+
+
+def file_axes(path: str | Path) -> tuple[str, ...]:
+    """The axes a measurement file names (its ``pos_<axis>`` columns, in order), from its header only."""
+    path = Path(path)
+    where = str(path)
+    if not path.exists():
+        raise MeasurementFileError(f"{where}: file not found")
+    for chunk in _chunks(path, where):
+        return _check_header(list(chunk.columns), (), where)
+    raise MeasurementFileError(f"{where}: file is empty (no header row)")
 
 
 class _Table:
     """The file's checked numbers, filled chunk by chunk into preallocated arrays.
 
-    ``t`` (N,), ``signals[p]`` (N, n_axes) for p in ref, pos, u and (when every axis has one) ff,
+    ``t`` (N,), ``signals[p]`` (N, n_axes) for p in pos, u and (when every axis has one) ref and ff,
     ``labels`` (N,) of the ``trial`` column or None; the other columns are extras, kept as read.
     """
 
     def __init__(self, names: list[str], axes: tuple[str, ...], capacity: int, where: str):
         self.where = where
         self.axes = _check_header(names, axes, where)
-        prefixes = ["ref", "pos", "u"] + (["ff"] if all(f"ff_{ax}" in names for ax in self.axes) else [])
+        prefixes = ["pos", "u"] + [p for p in ("ref", "ff") if all(f"{p}_{ax}" in names for ax in self.axes)]
         self.t = np.empty(capacity)
         self.signals = {p: np.empty((capacity, len(self.axes))) for p in prefixes}
         self.labels = np.empty(capacity) if "trial" in names else None
@@ -236,6 +288,10 @@ class _Table:
         stored = {"t", "trial", *self._signal_of}
         # an ff column of only some axes is checked like the others and kept as an extra
         self._checked = {c for c in names if c in stored or c.startswith("ff_") and c[3:] in self.axes}
+        partial = [f"ref_{ax}" for ax in self.axes if f"ref_{ax}" not in names]
+        if "ref" not in prefixes and len(partial) < len(self.axes):
+            raise MeasurementFileError(f"{where}: reference column {partial[0]!r} missing (give a ref_<axis> column "
+                                       "for every axis, or none)")
         self._extras: dict[str, list[np.ndarray]] = {c: [] for c in names if c not in stored}
 
     def append(self, chunk: pd.DataFrame) -> None:
@@ -335,17 +391,17 @@ def _check_header(names: list[str], axes: tuple[str, ...], where: str) -> tuple[
         raise MeasurementFileError(f"{where}: the header is one column {names[0][:60]!r}: lcgym reads "
                                    "comma-separated files; convert the file (e.g. pandas.read_csv(path, sep=';'))")
     if not axes:
-        axes = tuple(c[4:] for c in names if c.startswith("ref_"))
+        axes = tuple(c[4:] for c in names if c.startswith("pos_"))
         if not axes:
-            raise MeasurementFileError(f"{where}: column 'ref_<axis>' missing (no reference column found)")
-    required = ["t"] + [f"{p}_{ax}" for p in ("ref", "pos", "u") for ax in axes]
+            raise MeasurementFileError(f"{where}: column 'pos_<axis>' missing (no position column found)")
+    required = ["t"] + [f"{p}_{ax}" for p in ("pos", "u") for ax in axes]
     for col in required:
         if col not in names:
             near = difflib.get_close_matches(col, [n for n in names if n not in required], n=3, cutoff=0.6)
             hint = f"; did you mean {' or '.join(map(repr, near))}?" if near else ""
-            others = [n[4:] for n in names if n.startswith("ref_") and n[4:] not in axes]
+            others = [n[4:] for n in names if n.startswith("pos_") and n[4:] not in axes]
             if others and not near:
-                hint = f"; the file's axes are {', '.join(others)}: is it a file of another system?"
+                hint = f"; the file's axes are {', '.join(others)}: is it a file of another machine?"
             raise MeasurementFileError(f"{where}: required column {col!r} missing{hint}")
     return axes
 
@@ -369,7 +425,8 @@ def _numeric_column(col: pd.Series, where: str, name: str) -> pd.Series:
     return values.astype(float)
 
 
-def _check_time(t: np.ndarray, rows: np.ndarray, where: str) -> None:
+def _check_time(t: np.ndarray, rows: np.ndarray, where: str, resample: float | None = None) -> None:
+    """Strictly increasing, and (unless it is to be resampled) uniform up to ``UNIFORM_TOLERANCE``."""
     dt = np.diff(t)
     nonpos = np.flatnonzero(dt <= 0)
     if nonpos.size:
@@ -377,10 +434,13 @@ def _check_time(t: np.ndarray, rows: np.ndarray, where: str) -> None:
         a, b = t[nonpos[0]], t[nonpos[0] + 1]
         hint = " (several runs in one file? give each run its own number in a 'trial' column)" if b < a else ""
         raise MeasurementFileError(f"{where}: column 't', row {r}: time not strictly increasing ({a} -> {b}){hint}")
+    if resample is not None:
+        return
     step = float(np.median(dt))
     off = np.flatnonzero(np.abs(dt - step) > UNIFORM_TOLERANCE * step)
     if off.size:
         r = int(rows[off[0] + 1]) + 1
         raise MeasurementFileError(
-            f"{where}: column 't', row {r}: non-uniform sampling (step {dt[off[0]]:.6g} s, file step {step:.6g} s)"
+            f"{where}: column 't', row {r}: non-uniform sampling (step {dt[off[0]]:.6g} s, file step {step:.6g} s); "
+            f"to put the log on a uniform grid, resample it (lcgym diagnose --resample {1 / step:.6g})"
         )

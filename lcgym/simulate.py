@@ -1,12 +1,14 @@
-"""Simulate feedforward controllers on the IX: collect training data, fit, run validation references.
+"""Simulate feedforward controllers on a built-in machine: collect training data, fit, run validation
+references.
 
 This is what ``lcgym simulate`` does, as a library function:
 
-1. Training experiment: the plant runs the training references with feedback only (as a
+1. Training experiment: the machine's plant runs the training references with feedback only (as a
    calibration run on a real machine would), giving measured trials.
 2. Each controller is fitted on those trials (feedback only: nothing to fit).
-3. Each controller's feedforward is applied on the validation references; the resulting trials
-   carry the reference, measured position, input and feedforward.
+3. Each controller's feedforward (and, on the FlexArm, its reference offset) is applied on the
+   validation references; the resulting trials carry the reference, measured position, input and
+   feedforward; ``metric_table`` gives the norms the benchmark scores (``System.bench``).
 """
 
 from __future__ import annotations
@@ -18,16 +20,18 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
+from . import systems
 from .baselines import CONTROLLERS
 from .data import Trial
-from .envs.ix import IXPlant
-from .envs.references import reference_set
-from .leaderboard.metrics import input_residual_table, tracking_error_table
 
-# fitted on the training trials alone and run on the IX; the methods that learn on the plant
-# itself (ILC, the RBF expert, RL) or belong to the FlexArm run in ``lcgym bench``
-SIMULATE_CONTROLLERS = {name: c for name, c in CONTROLLERS.items()
-                        if "ix" in getattr(c, "systems", ("ix",)) and not getattr(c, "uses_plant", False)}
+# fitted on the training trials alone; the methods that learn on the plant itself (ILC, the RBF
+# expert, RL) run in ``lcgym bench``
+SIMULATE_CONTROLLERS = {name: c for name, c in CONTROLLERS.items() if not getattr(c, "uses_plant", False)}
+
+
+def controllers_for(system: str) -> list[str]:
+    """The controllers ``simulate`` runs on a built-in machine (a method's ``systems`` limits it)."""
+    return [n for n, c in SIMULATE_CONTROLLERS.items() if system in (getattr(c, "systems", None) or (system,))]
 
 
 @dataclass
@@ -35,24 +39,33 @@ class SimulationResult:
     controller: str
     trials: list[Trial]
     feedforward: list[np.ndarray]
+    bench: object = None  # the machine's bench (what it scores, ``tables`` and ``trace``)
 
 
 def simulate(
-    controllers: Sequence[str], seed: int = 0, n_train: int = 8, n_validation: int = 4, duration: float = 40.0,
-    plant: IXPlant | None = None, progress: bool = True,
+    controllers: Sequence[str], system: str = "ix", seed: int = 0, n_train: int = 8, n_validation: int = 4,
+    duration: float = 40.0, plant=None, progress: bool = True,
 ) -> list[SimulationResult]:
-    """Fit each named controller on seeded training references and run it on validation ones."""
-    unknown = [c for c in controllers if c not in SIMULATE_CONTROLLERS]
+    """Fit each named controller on seeded training references of a built-in machine and run it on
+    validation ones. ``duration`` [s]: moving time of an IX reference (an arm reference is one TCP
+    line out and back); ``plant``: the machine's plant (default its benchmark plant)."""
+    machine = systems.get(system)
+    if machine.bench is None:
+        raise ValueError(f"simulate needs a built-in machine with a plant ({', '.join(systems.BUILT_IN)}), not {system}")
+    available = controllers_for(machine.name)
+    unknown = [c for c in controllers if c not in available]
     if unknown:
-        raise ValueError(f"unknown controller(s) {unknown}; choose from {sorted(SIMULATE_CONTROLLERS)} "
+        raise ValueError(f"unknown controller {', '.join(unknown)} on {machine.name}; choose from {', '.join(available)} "
                          "(the others run in lcgym bench)")
-    plant = plant if plant is not None else IXPlant()
+    bench = machine.bench()
+    if plant is not None:
+        bench.plant = plant
     # a context manager: a failure closes the bar before its message is printed, not after
     with tqdm(total=2 + 2 * len(controllers), desc="simulate", disable=not progress, leave=False) as steps:
-        train_refs = reference_set("train", seed, n_train, duration, plant.fs)
-        val_refs = reference_set("validation", seed, n_validation, duration, plant.fs)
+        train_refs = bench.references("train", seed, n_train, duration)
+        val_refs = bench.references("validation", seed, n_validation, duration)
         steps.set_postfix_str("training experiment (feedback only)")
-        train_trials = plant.run(train_refs)
+        train_trials = bench.run(train_refs)
         steps.update(2)
         results = []
         for name in controllers:
@@ -61,18 +74,20 @@ def simulate(
             steps.update()
             steps.set_postfix_str(f"run {name}")
             ff = [ctrl.feedforward(r) for r in val_refs]
-            trials = plant.run(val_refs, ff)
+            offsets = [getattr(ctrl, "reference_offset", lambda _: None)(r) for r in val_refs]
+            trials = bench.run(val_refs, ff, offsets)
             for t in trials:
                 t.meta.update(controller=name, seed=seed, reference_set="validation")
-            results.append(SimulationResult(name, trials, ff))
+            results.append(SimulationResult(name, trials, ff, bench))
             steps.update()
     return results
 
 
 def metric_table(results: Sequence[SimulationResult]) -> pd.DataFrame:
-    """Tracking-error [deg] and input-residual [V] norms per controller and axis (Tables II-V)."""
+    """The norms the machine's benchmark scores per controller and axis (IX: tracking error [deg] and
+    input residual [V], Tables II-V; arm: also the TCP error [mm])."""
     parts = []
     for r in results:
-        parts.append(tracking_error_table(r.trials, r.controller))
-        parts.append(input_residual_table(r.trials, r.feedforward, r.controller))
+        for table in r.bench.tables(r.trials, r.feedforward):
+            parts.append(table.assign(label=r.controller))
     return pd.concat(parts, ignore_index=True).rename(columns={"label": "controller"})

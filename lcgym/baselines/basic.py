@@ -1,31 +1,37 @@
-"""FlexArm only: paper 002's "Basic", the nominal feedforward structure of its Fig. 1 with the
-nominal parameters, no fit (``physics.arm_nominal.BasicFeedforward``: F1 and r_q,0 as the motor
-reference offset, tau_ff,0 = tau_ln + tau_nl,0 as the motor torque). The reference that the
-paper's learning methods improve on."""
+"""Paper 002's "Basic": a machine's nominal feedforward structure with the nominal parameters, no
+fit (the FlexArm's ``systems.flexarm.nominal.BasicFeedforward``: F1 and r_q,0 as the motor reference
+offset, tau_ff,0 = tau_ln + tau_nl,0 as the motor torque). The reference that the paper's
+learning methods improve on; it runs on the machines that have such a structure (``systems``)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..physics.arm_nominal import BasicFeedforward
+from .. import systems as machines
 from .protocol import Controller, Cost
 
 
 class BasicArmFeedforward(Controller):
-    """Method ``basic``: nothing to fit; feedforward and reference offset of the nominal structure."""
+    """Method ``basic``: nothing to fit; feedforward and reference offset of the nominal structure
+    (``nominal``, default the trials' machine's ``System.nominal``)."""
 
     name = "basic"
-    systems = ("flexarm",)
+    systems = ("flexarm",)  # the machines with a nominal structure
 
-    def __init__(self, nominal: BasicFeedforward | None = None):
+    def __init__(self, nominal=None):
         self.nominal = nominal
 
     def fit(self, trials) -> BasicArmFeedforward:
+        self.nominal_ = self.nominal if self.nominal is not None else machines.of_trials(trials).nominal
+        if self.nominal_ is None:
+            raise ValueError("basic: the machine has no nominal feedforward structure (System.nominal)")
         self.cost_ = Cost()
         return self
 
     def _parts(self, reference) -> dict:
-        return (self.nominal or BasicFeedforward()).compute(reference.positions, reference.fs)
+        if not hasattr(self, "nominal_"):
+            raise RuntimeError("basic: call fit(trials) before feedforward()")
+        return self.nominal_.compute(reference.positions, reference.fs)
 
     def feedforward(self, reference) -> np.ndarray:
         """tau_ff,0 (T, 6) [N m, motor side]."""

@@ -7,26 +7,27 @@ The update of trial j to j + 1, per axis, is plant-inversion ILC with a robustne
 computed on the whole trial in the frequency domain (FFT over the trial, zero-padded to twice its
 length so that the circular wrap of the non-causal filters falls in the padding):
 
-* IX (paper 000's machine): e = reference - measured angle [rad]; L = (P S)^-1, the inverse of the
-  process sensitivity of the nominal closed loop of each axis (``ix_process_sensitivity``): the
-  rigid axis P(s) = 1 / (J s^2 + D s) [rad/V] with J the diagonal of the nominal mass matrix at the
-  reference's mean pose and D the nominal viscous coefficient, discretized with a zero-order hold
-  and the plant's one-sample computation delay, and the plant's own PD + low-pass feedback C(z)
-  (``envs.ix.FeedbackGains``). The trial's error is e_j = S r - P S f_j (plus what the model
-  lacks), so with Q = 1 and an exact model e_{j+1} = e_j - P S L e_j = 0; Q < 1 restricts the
-  learning to the frequencies where the model holds.
-* FlexArm (paper 002, eq. 16, the "LCS" of section 5.3): the nonlinear torque tau_nl is updated
-  with e = e_pl, the model-following error estimated from the accelerometer
-  (``envs.flexarm.run_basic``), and L = P_lu^-1, the inverse of the nominal linear model from motor
-  torque to load acceleration (``physics.arm_nominal.BasicFeedforward.load_model``).
-  One iteration by default, as in the paper.
+* A machine without a nominal feedforward structure (``System.nominal`` is None: the IX, paper
+  000's machine) starts from its physical model fitted on the training trials; e = reference -
+  measured angle [rad]; L = (P S)^-1, the inverse of the process sensitivity of the nominal closed
+  loop of each axis (``plant.process_sensitivity``; the IX: the rigid axis P(s) = 1 / (J s^2 + D s)
+  [rad/V] with J the diagonal of the nominal mass matrix at the reference's mean pose and D the
+  nominal viscous coefficient, discretized with a zero-order hold and the plant's one-sample
+  computation delay, and the plant's own PD + low-pass feedback C(z)). The trial's error is e_j =
+  S r - P S f_j (plus what the model lacks), so with Q = 1 and an exact model e_{j+1} = e_j - P S L
+  e_j = 0; Q < 1 restricts the learning to the frequencies where the model holds.
+* A machine with one (the FlexArm's Basic, paper 002, eq. 16, the "LCS" of section 5.3): the
+  nonlinear torque tau_nl is updated with e = e_pl, the model-following error estimated from the
+  accelerometer (``nominal.run``), and L = P_lu^-1, the inverse of the nominal linear model from
+  motor torque to load acceleration (``nominal.load_response``). One iteration by default, as in
+  the paper.
 
 Q is zero phase: the magnitude |B(w)|^2 of a Butterworth low-pass of order ``q_order`` with corner
 ``q_hz`` (the same filter as ``filtfilt`` would apply twice). ``q_hz`` trades the bandwidth of
 what is learned against the model error at high frequency: the IX's drivetrain modes (15-34 Hz)
 are not in its nominal model; the paper sets 20 Hz for the arm.
 
-Two details the IX needs, both measured (``studies/ilc_ix.py``, 12 references x 30 trials):
+Two details the tracking-error ILC needs on the IX, both measured (``studies/ilc_ix.py``, 12 references x 30 trials):
 the learned error passes a deadzone of half an encoder count (``deadzone``: the propeller's
 quantization, 0.019 deg RMS, is otherwise learned as error and the feedforward wanders, up to
 1.5x the best trial), and the update fades in over the first 0.25 s (the plant holds the first
@@ -42,14 +43,12 @@ history instead of returning garbage (as does a trial that drives the plant out 
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
 
-from ..envs.ix import SimulationDiverged
-from ..physics import ix
+from .. import systems
+from ..systems import SimulationDiverged
 from .protocol import Controller, Cost
 
 
@@ -90,61 +89,20 @@ def frequency_update(f: np.ndarray, e: np.ndarray, inverse: np.ndarray, q: np.nd
     return np.fft.irfft(q[:, None] * (F + gain * inverse * E), n=2 * T, axis=0)[:T]
 
 
-def ix_process_sensitivity(n: int, fs: float, positions: np.ndarray, gains=None,
-                           params: ix.IXParameters | None = None) -> np.ndarray:
-    """P S (e^{i w Ts}) (n_freq, 2) [rad/V] of the nominal IX closed loop per axis on the rfft grid
-    of n samples (module docstring)."""
-    from ..envs.ix import FeedbackGains
-
-    gains = gains or FeedbackGains()
-    p = (params or ix.IXParameters()).to_vector()
-    q_mean = np.asarray(positions, dtype=float).mean(axis=0)
-    J = np.diag(ix.mass_matrix(p, q_mean[None, :])[0])
-    D = p[[ix.D2, ix.D3]]
-    ts = 1.0 / fs
-    z = np.exp(1j * 2 * math.pi * np.fft.rfftfreq(n, ts) * ts)
-    out = np.empty((z.size, 2), dtype=complex)
-    for a in range(2):
-        num, den, _ = signal.cont2discrete(([1.0], [J[a], D[a], 0.0]), ts, method="zoh")
-        num = np.trim_zeros(np.ravel(num), "f")
-        # P_d(z) = z^-1 num(z) / den(z): the ZOH plant and the one-sample computation delay
-        pn, pd = np.polyval(num, z), z * np.polyval(den, z)
-        alpha = math.exp(-2 * math.pi * gains.f_lp[a] / fs)
-        c = (1 - alpha) * (gains.kp[a] + gains.kd[a] * (1 - 1 / z) / ts) / (1 - alpha / z)
-        out[:, a] = pn / (pd + pn * c)  # P / (1 + P C), finite at z = 1 (P has a pole there)
-    return out
-
-
-def arm_load_response(n: int, fs: float) -> np.ndarray:
-    """P_lu (e^{i w Ts}) (n_freq, 6) [rad/s^2 per N m]: the nominal linear model from motor torque to
-    load acceleration per joint (``BasicFeedforward.load_model``), discretized with a zero-order hold."""
-    from ..physics.arm_nominal import BasicFeedforward
-
-    nominal = BasicFeedforward()
-    ts = 1.0 / fs
-    z = np.exp(1j * 2 * math.pi * np.fft.rfftfreq(n, ts) * ts)
-    out = np.empty((z.size, 6), dtype=complex)
-    for i in range(6):
-        A, B, C = nominal.load_model(i)
-        Ad, Bd, Cd, Dd, _ = signal.cont2discrete((A, B, C, np.zeros((1, 1))), ts, method="zoh")
-        eye = np.eye(A.shape[0])
-        out[:, i] = [(Cd @ np.linalg.solve(zk * eye - Ad, Bd))[0, 0] + Dd[0, 0] for zk in z]
-    return out
-
-
-def ix_learning_filters(plant, reference, config: ILCConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def learning_filters(plant, reference, config: ILCConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """L = (P S)^-1 and Q on the rfft grid of 2 T samples, and the fade-in (T, 1) of the update, for
-    learning on the IX reference ``reference`` (module docstring)."""
+    tracking-error learning on ``reference`` (module docstring)."""
     T = reference.n_samples
-    inverse = 1.0 / ix_process_sensitivity(2 * T, plant.fs, reference.positions, plant.gains)
+    inverse = 1.0 / plant.process_sensitivity(2 * T, reference.positions)
     fade = np.clip(np.arange(T) / (FADE_IN * plant.fs), 0.0, 1.0)[:, None]
     return inverse, q_filter(2 * T, plant.fs, config.q_hz, config.q_order), fade
 
 
-def arm_tau_nl_update(tau_nl: np.ndarray, e_pl: np.ndarray, fs: float, config: ILCConfig) -> np.ndarray:
-    """Eq. (16) (and eq. (17) with a predicted e_pl): Q_u [tau_nl + P_lu^-1 e_pl] (T, 6) [N m]."""
+def nominal_update(nominal, tau_nl: np.ndarray, e_pl: np.ndarray, fs: float, config: ILCConfig) -> np.ndarray:
+    """Eq. (16) (and eq. (17) with a predicted e_pl): Q_u [tau_nl + P_lu^-1 e_pl] (T, n_axes) [N m],
+    P_lu the ``nominal`` structure's load response."""
     T = tau_nl.shape[0]
-    inverse = 1.0 / arm_load_response(2 * T, fs)
+    inverse = 1.0 / nominal.load_response(2 * T, fs)
     return frequency_update(tau_nl, e_pl, inverse, q_filter(2 * T, fs, config.arm_q_hz, config.q_order), config.arm_gain)
 
 
@@ -160,7 +118,7 @@ def _rms(e: np.ndarray) -> np.ndarray:
     return np.sqrt(np.mean(np.square(e), axis=0))
 
 
-FADE_IN = 0.25  # s: the IX update's fade-in at the start of a trial (``_learn_ix``)
+FADE_IN = 0.25  # s: the tracking-error update's fade-in at the start of a trial (``_learn_tracking``)
 GROWTH = 1.01  # a trial counts as worse when its error RMS exceeds the previous one's by 1 %
 NOISE_BAND = 1.5  # ... and the run diverges only once it is also this far above its best trial
 
@@ -178,11 +136,11 @@ def _check_divergence(history: list[np.ndarray], name: str) -> None:
 
 class IterativeLearningControl(Controller):
     """Method ``ilc``: learns on each evaluation reference itself (``learn``), starting from the
-    system's physical model fitted on the training trials (IX) or from Basic (FlexArm, tau_nl
-    update of eq. 16). ``history_[name]``: (trials, n_axes) error RMS per trial and axis, trial 0
-    the start (IX: tracking error as measured [rad]; arm: e_pl from the accelerometer [rad/s^2]);
-    ``true_history_[name]``: the same for the simulation's true load-side error where the trials
-    carry it (IX: ``load_<axis>``; arm: ``e_pl_true_<joint>``)."""
+    machine's physical model fitted on the training trials (the IX) or from its nominal structure
+    (the FlexArm's Basic, tau_nl update of eq. 16). ``history_[name]``: (trials, n_axes) error RMS
+    per trial and axis, trial 0 the start (IX: tracking error as measured [rad]; arm: e_pl from the
+    accelerometer [rad/s^2]); ``true_history_[name]``: the same for the simulation's true load-side
+    error where the trials carry it (IX: ``load_<axis>``; arm: ``e_pl_true_<joint>``)."""
 
     name = "ilc"
     uses_plant = True
@@ -197,8 +155,9 @@ class IterativeLearningControl(Controller):
     def fit(self, trials) -> IterativeLearningControl:
         from .physical import PhysicalFeedforward
 
-        self.system_ = trials[0].meta.get("system", "ix")
-        self.start_ = PhysicalFeedforward().fit(trials) if self.system_ == "ix" else None
+        self.system_ = systems.of_trials(trials)
+        self.nominal_ = self.system_.nominal
+        self.start_ = PhysicalFeedforward(system=self.system_).fit(trials) if self.nominal_ is None else None
         self.learned_, self.history_, self.true_history_ = {}, {}, {}
         self.cost_ = Cost()
         return self
@@ -206,21 +165,22 @@ class IterativeLearningControl(Controller):
     def learn(self, plant, reference) -> IterativeLearningControl:
         if not hasattr(self, "learned_"):
             raise RuntimeError("ILC: call fit(trials) before learn()")
-        learn = self._learn_arm if self.system_ == "flexarm" else self._learn_ix
+        learn = self._learn_tracking if self.nominal_ is None else self._learn_model_following
         learned, history, true_history, used = learn(plant, reference)
         self.learned_[reference.name] = learned
         self.history_[reference.name], self.true_history_[reference.name] = np.array(history), np.array(true_history)
         self.cost_.plant_trials += used
         return self
 
-    def _learn_ix(self, plant, reference):
+    def _learn_tracking(self, plant, reference):
+        """Plant-inversion ILC on the measured tracking error, from the fitted physical model."""
         cfg = self.config_
         f0 = np.asarray(self.start_.feedforward(reference), dtype=float)
         f = f0
         # the plant holds the first sample's feedforward through its pre-roll: a learned change there
         # would move the initial state, which L's linear model does not describe (the error at the
         # start then alternates from trial to trial); the update fades in over FADE_IN seconds
-        inverse, q, fade = ix_learning_filters(plant, reference, cfg)
+        inverse, q, fade = learning_filters(plant, reference, cfg)
         history, true_history = [], []
         for j in range(cfg.trials + 1):  # the last trial measures the learned feedforward
             try:
@@ -236,22 +196,20 @@ class IterativeLearningControl(Controller):
                 f = f0 + fade * (frequency_update(f, e, inverse, q, cfg.gain) - f0)
         return {"feedforward": f}, history, true_history, cfg.trials + 1
 
-    def _learn_arm(self, plant, reference):
-        from ..envs.flexarm import run_basic
-        from ..physics.arm_nominal import BasicFeedforward
-
-        cfg = self.config_
-        basic = BasicFeedforward().compute(reference.positions, reference.fs)
-        update = np.zeros((reference.n_samples, 6))
+    def _learn_model_following(self, plant, reference):
+        """Paper 002's LCS: the nominal structure's tau_nl updated with the model-following error."""
+        cfg, nominal = self.config_, self.nominal_
+        basic = nominal.compute(reference.positions, reference.fs)
+        update = np.zeros(reference.positions.shape)
         history, true_history = [], []
         for _ in range(cfg.arm_trials):
-            trial = run_basic(plant, reference, update)
+            trial = nominal.run(plant, reference, update)
             e_pl = np.column_stack([trial.extra[f"e_pl_{a}"] for a in trial.axes])
             history.append(_rms(e_pl))
             true_history.append(_rms(np.column_stack([trial.extra[f"e_pl_true_{a}"] for a in trial.axes])))
             _check_divergence(history, reference.name)
             # eq. (16): tau_nl,k+1 = Q_u [tau_nl,k + P_lu^-1 e_pl,k]; tau_nl,0 is Basic's
-            update = arm_tau_nl_update(basic["tau_nl"] + update, e_pl, plant.fs, cfg) - basic["tau_nl"]
+            update = nominal_update(nominal, basic["tau_nl"] + update, e_pl, plant.fs, cfg) - basic["tau_nl"]
         return {"feedforward": basic["tau_ff"] + update, "offset": basic["reference_offset"]}, history, true_history, \
             cfg.arm_trials
 
@@ -278,12 +236,9 @@ class ILCTransfer(IterativeLearningControl):
 
     def fit(self, trials) -> ILCTransfer:
         super().fit(trials)
-        from ..envs.references import Reference
-        from ..physics.kinematics import reference_kinematics
+        from ..references import references_of
 
-        tr = trials[0]
-        q, qd, qdd = reference_kinematics(tr.ref, tr.fs)
-        self.source_ = Reference(tr.meta.get("reference", "training-0"), tr.fs, tr.ref, qd, qdd, axes=tuple(tr.axes))
+        self.source_ = references_of(trials[:1])[0]
         return self
 
     def learn(self, plant, reference) -> ILCTransfer:
@@ -293,10 +248,8 @@ class ILCTransfer(IterativeLearningControl):
         return self
 
     def _start(self, reference) -> np.ndarray:
-        if self.system_ == "flexarm":
-            from ..physics.arm_nominal import BasicFeedforward
-
-            return BasicFeedforward().compute(reference.positions, reference.fs)["tau_ff"]
+        if self.nominal_ is not None:
+            return self.nominal_.compute(reference.positions, reference.fs)["tau_ff"]
         return np.asarray(self.start_.feedforward(reference), dtype=float)
 
     def feedforward(self, reference) -> np.ndarray:
@@ -307,8 +260,4 @@ class ILCTransfer(IterativeLearningControl):
         return self._start(reference) + fitted
 
     def reference_offset(self, reference) -> np.ndarray | None:
-        if self.system_ != "flexarm":
-            return None
-        from ..physics.arm_nominal import BasicFeedforward
-
-        return BasicFeedforward().compute(reference.positions, reference.fs)["reference_offset"]
+        return None if self.nominal_ is None else self.nominal_.reference_offset(reference)

@@ -12,8 +12,8 @@ from dataclasses import replace
 
 import numpy as np
 
+from .. import systems
 from ..pgnn import PGNN, PGNNConfig
-from ..physics.registry import system_of
 from .protocol import Controller, Cost
 
 
@@ -27,7 +27,7 @@ class PGNNFeedforward(Controller):
         self.config = config
 
     def fit(self, trials: Sequence) -> PGNNFeedforward:
-        cfg = self.config or replace(PGNNConfig.for_system(system_of(trials)), threads=1)
+        cfg = self.config or replace(PGNNConfig.for_system(systems.of_trials(trials)), threads=1)
         cfg = replace(cfg, regularize=self.regularize)
         self.pgnn_ = PGNN(cfg, fs=trials[0].fs).fit(trials)
         self.cost_ = Cost()

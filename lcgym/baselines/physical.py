@@ -1,6 +1,6 @@
-"""Physical-model feedforward: the system's physical model fitted by least squares (IX: the rigid
-body of paper 000, eq. 9; FlexArm: the motor-side rigid-joint model of ``physics.arm_model``, with
-its joint-torsion reference offset)."""
+"""Physical-model feedforward: the machine's physical model fitted by least squares (IX: the rigid
+body of paper 000, eq. 9; FlexArm: the motor-side rigid-joint model of ``systems.flexarm.model``,
+with its joint-torsion reference offset; any other machine: its ``System.physical_model``)."""
 
 from __future__ import annotations
 
@@ -8,23 +8,28 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from .. import systems
 from ..physics.model import PhysicalModel
-from ..physics.registry import MODELS, system_of
 from .protocol import Controller, Cost
 
 
 class PhysicalFeedforward(Controller):
-    """``fit`` identifies the physical model of the trials' system (or the ``model`` given) on
-    training trials; ``feedforward`` evaluates it on a reference, ``reference_offset`` gives the
-    model's reference offset where it has one (the arm), else None."""
+    """``fit`` identifies the physical model of the trials' machine (``system``, default the built-in
+    machine named in the trials' metadata; or the ``model`` given) on training trials;
+    ``feedforward`` evaluates it on a reference, ``reference_offset`` gives the model's reference
+    offset where it has one (the arm), else None."""
 
     name = "physical"
 
-    def __init__(self, model: PhysicalModel | None = None):
+    def __init__(self, model: PhysicalModel | None = None, system: systems.System | None = None):
         self.model = model
+        self.system = system
 
     def fit(self, trials: Sequence) -> PhysicalFeedforward:
-        model = self.model if self.model is not None else MODELS[system_of(trials)](fs=trials[0].fs)
+        if self.model is not None:
+            model = self.model
+        else:
+            model = (self.system or systems.of_trials(trials)).physical_model(fs=trials[0].fs)
         self.model_ = model.fit(trials)
         self.cost_ = Cost()
         return self

@@ -3,10 +3,11 @@
 The agent acts in the system's Gymnasium env (``lcgym/IX-v0``, ``lcgym/FlexArm-v0``) over the
 cell's training references: one action per control sample, the feedback loop inside the env.
 
-* **Residual** (default, ``RLConfig.residual``): the action is added to the physical model's
-  feedforward, bounded (IX: the cell's fitted ``PhysicalModel``, +-1 V; FlexArm: the nominal
-  structure Basic, tau_nl update +-2 N m, with Basic's motor reference offset). ``residual=False``:
-  from scratch, the action is the whole feedforward (IX +-5 V; arm +-u_max, no offset).
+* **Residual** (default, ``RLConfig.residual``): the action is added to the machine's starting
+  feedforward, bounded: its nominal structure where it has one (``System.nominal``: the FlexArm's
+  Basic, tau_nl update +-2 N m, with Basic's motor reference offset), else the cell's fitted
+  physical model (the IX, +-1 V). ``residual=False``: from scratch, the action is the whole
+  feedforward (IX +-5 V; arm +-u_max, no offset).
 * **Budget**: ``passes`` x the training references' samples env steps (``RLConfig.passes`` per
   system; ``total_steps`` overrides). Defaults: IX 3 passes (about 5.5e5 steps on the bench's 8
   training references, about 1 min here), FlexArm 1 pass (about 5e4 steps, about 20 s); the
@@ -49,10 +50,11 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
+from .. import systems
+from ..provenance import source_hash
 from .protocol import Controller, Cost
 
 ALGORITHMS = ("ppo", "sac", "td3")
-ERROR_COLUMNS = {"ix": slice(34, 36), "flexarm": slice(30, 36)}  # the tracking error in each env's observation
 
 # One documented place for the hyperparameters (stable-baselines3 keyword arguments).
 # PPO: 8 envs x 1024 steps per update (one update per 8192 samples, 16 s of IX motion), 10 epochs;
@@ -81,8 +83,9 @@ class RLConfig:
 
     algorithm: "ppo", "sac" or "td3"; residual: act on top of the physical model (else from
     scratch); observe_error: the policy sees the tracking error; passes: env steps per training
-    sample, per system; total_steps: a fixed budget instead; num_envs: parallel envs (IX: one
-    compiled batch; FlexArm: ``DummyVecEnv`` copies); hyperparameters: overrides of
+    sample, per machine name; total_steps: a fixed budget instead; num_envs: parallel envs per
+    machine name (one compiled batch where the env has a vector entry point, the IX's; else
+    ``DummyVecEnv`` copies, the FlexArm's); hyperparameters: overrides of
     ``HYPERPARAMETERS[algorithm]``; seed: of the agent and its envs; cache: save trained models
     and reuse them (``cache_dir``, default ``default_cache_dir()``); progress: a progress bar of
     the training (env steps, last episode's RMS tracking error).
@@ -115,23 +118,28 @@ class RLConfig:
         return {**HYPERPARAMETERS[self.algorithm], **self.hyperparameters}
 
 
-def _vec_env(system: str, references, plant, base, config: RLConfig):
-    """The stable-baselines3 vector env of the training references."""
+def _vec_env(system: systems.System, references, plant, base, config: RLConfig):
+    """The stable-baselines3 vector env of the training references: the env's own compiled batch
+    where it has a vector entry point, else copies of the env in SB3's ``DummyVecEnv``."""
+    import gymnasium as gym
+    from stable_baselines3.common.monitor import Monitor
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from ..envs.sb3 import HideError, make_sb3_vec_env, monitored_flexarm
+    from ..envs import make_env
+    from ..envs.sb3 import HideError, make_sb3_vec_env
 
-    if system == "ix":
-        venv = make_sb3_vec_env("lcgym/IX-v0", num_envs=config.num_envs["ix"], references=references,
-                                base_feedforward=base, plant=plant)
+    env_id, n = system.env_id, config.num_envs[system.name]
+    kwargs = dict(references=references, base_feedforward=base, plant=plant)
+    if gym.spec(env_id).vector_entry_point is not None:
+        venv = make_sb3_vec_env(env_id, num_envs=n, **kwargs)
     else:
-        venv = DummyVecEnv([lambda: monitored_flexarm(references=references, base_feedforward=base, plant=plant)]
-                           * config.num_envs["flexarm"])
-    return venv if config.observe_error else HideError(venv, ERROR_COLUMNS[system])
+        venv = DummyVecEnv([lambda: Monitor(make_env(env_id, **kwargs))] * n)
+    return venv if config.observe_error else HideError(venv, system.observation_error)
 
 
 class RLFeedforward(Controller):
-    """``fit(trials)`` keeps the training references (and fits the IX's physical model);
+    """``fit(trials)`` keeps the training references (and fits the physical model where the machine
+    has no nominal structure);
     ``learn(plant, reference)`` trains (or loads from the cache) on the first call, then rolls the
     policy out deterministically on ``reference``; ``feedforward(reference)`` returns that
     rollout's feedforward. Learned: ``model_`` (the SB3 agent), ``curve_`` (training curve),
@@ -146,15 +154,15 @@ class RLFeedforward(Controller):
 
     # --- fit: what the training data gives -------------------------------------------------
     def fit(self, trials) -> RLFeedforward:
-        from ..envs.references import references_of
+        from ..references import references_of
 
-        self.system_ = trials[0].meta.get("system", "ix")
+        self.system_ = systems.of_trials(trials)
         cfg = self._config()
         self.base_ = None
-        if cfg.residual and self.system_ == "ix":
+        if cfg.residual and self.system_.nominal is None:
             from .physical import PhysicalFeedforward
 
-            self.base_ = PhysicalFeedforward().fit(trials).model_
+            self.base_ = PhysicalFeedforward(system=self.system_).fit(trials).model_
         self.training_ = references_of(trials)
         self.cost_ = Cost()
         self.rollouts_: dict = {}
@@ -167,16 +175,16 @@ class RLFeedforward(Controller):
         """The env's ``base_feedforward`` argument."""
         if not self._config().residual:
             return "none"
-        return self.base_ if self.system_ == "ix" else "basic"
+        return self.base_ if self.system_.nominal is None else self.system_.nominal.name
 
     def budget(self) -> int:
         """Env steps of training: ``total_steps`` or passes x training samples."""
         cfg = self._config()
         if cfg.total_steps is not None:
             return int(cfg.total_steps)
-        if self.system_ not in cfg.passes:
-            raise ValueError(f"rl: RLConfig.passes has no entry for {self.system_!r}: {cfg.passes}")
-        return int(round(cfg.passes[self.system_] * sum(r.n_samples for r in self.training_)))
+        if self.system_.name not in cfg.passes:
+            raise ValueError(f"rl: RLConfig.passes has no entry for {self.system_.name!r}: {cfg.passes}")
+        return int(round(cfg.passes[self.system_.name] * sum(r.n_samples for r in self.training_)))
 
     # --- learn: train once, then one rollout per reference ----------------------------------
     def learn(self, plant, reference) -> RLFeedforward:
@@ -192,11 +200,9 @@ class RLFeedforward(Controller):
         import stable_baselines3
         import torch
 
-        from ..leaderboard.runner import source_hash
-
         config = {k: v for k, v in asdict(self._config()).items() if k not in ("cache", "cache_dir", "progress")}
         h = hashlib.sha256()
-        h.update(json.dumps({"config": config, "system": self.system_, "budget": self.budget(), "plant": repr(plant),
+        h.update(json.dumps({"config": config, "system": self.system_.name, "budget": self.budget(), "plant": repr(plant),
                              "lcgym": source_hash(), "sb3": stable_baselines3.__version__,
                              "torch": torch.__version__}, sort_keys=True, default=str).encode())
         for r in self.training_:  # the references, and the base feedforward the residual adds to
@@ -220,7 +226,7 @@ class RLFeedforward(Controller):
             record = self._train(plant)
             record["key"] = key
             if cfg.cache:
-                _write_cached(folder, key, self.model_, self.curve_, record, self.system_)
+                _write_cached(folder, key, self.model_, self.curve_, record, self.system_.name)
         self.record_ = record
         self.cost_.env_steps += record["env_steps"]
         self.cost_.plant_trials += record["episodes"]
@@ -232,9 +238,10 @@ class RLFeedforward(Controller):
         algorithm = _algorithm_class(cfg.algorithm)
         venv = _vec_env(self.system_, self.training_, plant, self._base(), cfg)
         rows: list[dict] = []
-        axes = _scored_axes(self.system_, self.training_[0].axes)
+        scored = self.system_.bench.scored
+        axes = tuple(a for i, a in enumerate(self.training_[0].axes) if scored is None or i in scored)
 
-        bar = tqdm(total=self.budget(), desc=f"rl {cfg.algorithm} on {self.system_}", unit="step",
+        bar = tqdm(total=self.budget(), desc=f"rl {cfg.algorithm} on {self.system_.name}", unit="step",
                    disable=not cfg.progress, leave=False)
 
         class TrainingCurve(BaseCallback):
@@ -271,16 +278,11 @@ class RLFeedforward(Controller):
         The residual of the first sample is zero: the env settles the plant at the start with the
         base feedforward, a replay (``plant.run``) with the feedforward's first sample; equal
         first samples make the replay equal to the rollout (tested)."""
+        from ..envs import make_env
+
         cfg = self._config()
-        if self.system_ == "ix":
-            from ..envs.ix_env import IXEnv
-
-            env = IXEnv(references=[reference], base_feedforward=self._base(), plant=plant)
-        else:
-            from ..envs.flexarm_env import FlexArmEnv
-
-            env = FlexArmEnv(references=[reference], base_feedforward=self._base(), plant=plant)
-        hide = ERROR_COLUMNS[self.system_]
+        env = make_env(self.system_.env_id, references=[reference], base_feedforward=self._base(), plant=plant)
+        hide = self.system_.observation_error
         act = deterministic_actor(self.model_)
         obs, _ = env.reset(seed=cfg.seed, options={"reference": 0})
         action = np.zeros(env.action_space.shape)  # at the first sample: the base alone, see below
@@ -305,11 +307,9 @@ class RLFeedforward(Controller):
         return np.asarray(self.rollouts_[reference.name].ff, dtype=float)
 
     def reference_offset(self, reference) -> np.ndarray | None:
-        if self.system_ != "flexarm" or not self._config().residual:
+        if self.system_.nominal is None or not self._config().residual:
             return None
-        from ..physics.arm_nominal import BasicFeedforward
-
-        return BasicFeedforward().compute(reference.positions, reference.fs)["reference_offset"]
+        return self.system_.nominal.reference_offset(reference)
 
     def load_model(self, path: str | Path, _verified: str | None = None):
         """Load a stable-baselines3 zip of this configuration's algorithm. It unpickles Python
@@ -325,7 +325,7 @@ class RLFeedforward(Controller):
 
     def plot_curve(self, path: str | Path) -> Path:
         """Save the training curve (episode RMS tracking error per axis vs env steps) as a PNG."""
-        return plot_training_curve(self.curve_, path, title=f"{self._config().algorithm} on {self.system_}")
+        return plot_training_curve(self.curve_, path, title=f"{self._config().algorithm} on {self.system_.name}")
 
 
 @contextmanager
@@ -388,14 +388,6 @@ def _algorithm_class(name: str):
     from stable_baselines3 import PPO, SAC, TD3
 
     return {"ppo": PPO, "sac": SAC, "td3": TD3}[name]
-
-
-def _scored_axes(system: str, axes) -> tuple[str, ...]:
-    if system == "flexarm":
-        from ..envs.arm_references import MOVING
-
-        return tuple(axes[i] for i in MOVING)
-    return tuple(axes)
 
 
 def plot_training_curve(curve: pd.DataFrame, path: str | Path, title: str = "") -> Path:

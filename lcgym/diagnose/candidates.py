@@ -1,74 +1,31 @@
-"""Candidate effects: what the diagnosis tries to add to a model, with the grids of their
-nonlinear parameters, and the registry users add their own effects to.
+"""Candidate effects of a diagnosis on a machine, and the registry users add their own effects to.
 
-A candidate is an ``Effect`` class of ``physics.effects`` (or a user's) plus, for each of its
-nonlinear parameters, the values the search tries. Grids are given in physical units, either
-as fixed values or as a function of the data (``Data``: e.g. cable-spring onsets at quantiles of
-the axis's measured angles). Periodic effects take their period from the peaks of the
-residual's spectrum over the axis angle (``diagnose.search``), not from a fixed grid: a period
-must be known to a fraction of a percent to fit a harmonic over tens of cycles.
+A candidate (``physics.candidates.Candidate``) is an ``Effect`` class plus the grids of its
+nonlinear parameters. A machine's candidates are the library's (``physics.candidates.LIBRARY``),
+its own (``System.candidates``: the IX's guidance friction, the FlexArm's payload) and the ones
+users register here (``register_effect``), limited to ``System.candidate_names`` where the machine
+sets them and to the effects whose formula applies to the axis kind (``Effect.applies_to``).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
-from collections.abc import Callable
-from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..data import SYSTEM_AXES
 from ..physics import effects as fx
-
-DEG = math.pi / 180.0
-
-
-@dataclass(frozen=True)
-class Candidate:
-    """An effect family member the diagnosis can add: ``effect`` (an Effect subclass),
-    ``family`` (friction, spring, inertia, periodic, gravity, user) and ``grid``: for each
-    nonlinear parameter, a tuple of values or a function ``(q, qd, axis_index) -> values``.
-    ``period``: the name of a nonlinear parameter that is a period over the axis angle [rad],
-    found from the spectrum of the residual (not gridded), or None."""
-
-    effect: type[fx.Effect]
-    family: str
-    grid: dict[str, tuple | Callable] = field(default_factory=dict)
-    period: str | None = None
-
-    @property
-    def name(self) -> str:
-        return self.effect.name
-
-    @property
-    def n_params(self) -> int:
-        """Linear plus searched nonlinear parameters: the tie-break prefers fewer."""
-        return len(self.effect.linear) + len(self.grid) + (self.period is not None)
-
-    def settings(self, q: np.ndarray, qd: np.ndarray, index: int) -> list[dict]:
-        """Every combination of grid values for an axis (the data give data-dependent grids)."""
-        combos = [{}]
-        for name, values in self.grid.items():
-            vals = values(q, qd, index) if callable(values) else values
-            combos = [{**c, name: float(v)} for c in combos for v in vals]
-        return combos
-
-    def build(self, axis: str, **nonlinear) -> fx.Effect:
-        return self.effect(axis=axis, **nonlinear)
-
-
-def _angle_quantiles(q, qd, i, n=9):
-    """Onsets of a one-sided spring: quantiles 5 %..95 % of the axis angle [rad]."""
-    return np.quantile(q[:, i], np.linspace(0.05, 0.95, n))
-
+from ..physics.candidates import LIBRARY, Candidate
 
 CANDIDATES: dict[str, Candidate] = {}
+"""The effects users registered (``register_effect``), by name."""
 
 
-def candidates_for(system: str) -> list[Candidate]:
-    """The registered candidates whose effect applies to ``system`` (``Effect.systems``)."""
-    return [c for c in CANDIDATES.values() if system in c.effect.systems]
+def candidates_for(system) -> list[Candidate]:
+    """The candidates the diagnosis tries on ``system`` (a ``systems.System``; module docstring)."""
+    pool = {c.name: c for c in (*LIBRARY, *system.candidates, *CANDIDATES.values())}
+    if system.candidate_names is not None:
+        pool = {n: c for n, c in pool.items() if n in system.candidate_names or n in CANDIDATES}
+    return [c for c in pool.values() if any(c.effect.applies_to(a) for a in system.axes)]
 
 
 def register_effect(effect, family: str = "user", grid: dict | None = None, period: str | None = None,
@@ -80,8 +37,8 @@ def register_effect(effect, family: str = "user", grid: dict | None = None, peri
     a plain function ``f(q, qd, qdd, **nonlinear) -> (T, n_coefficients)`` of the axis's own
     angle [rad], velocity [rad/s] and acceleration [rad/s^2] returning basis functions [input
     unit per coefficient]; a function needs ``name``. ``grid`` gives values to try for nonlinear
-    parameters; ``period`` names one that is a period over the axis angle [rad]. It is also registered in the effect
-    vocabulary, so that ``--add NAME@AXIS`` and ``PhysicalModel.with_effect`` accept it.
+    parameters; ``period`` names one that is a period over the axis position. It is also registered in the effect
+    vocabulary, so that ``--add NAME@AXIS`` and ``PhysicalModel.with_effect`` accept it on every machine.
     """
     grid = dict(grid or {})
     if not isinstance(effect, type):
@@ -105,7 +62,7 @@ def _function_effect(function, name: str, n_coefficients: int, nonlinear: tuple[
     """An Effect subclass whose columns are ``function`` of the axis's own kinematics."""
 
     def _columns(self, q, qd, qdd, base):
-        i = self.index
+        i = self._i()
         kw = {p: getattr(self, p) for p in nonlinear}
         cols = np.asarray(function(q[..., i], qd[..., i], qdd[..., i], **kw), dtype=float)
         cols = cols.reshape(q.shape[0], -1)
@@ -115,22 +72,5 @@ def _function_effect(function, name: str, n_coefficients: int, nonlinear: tuple[
 
     linear = tuple(f"c{k}" for k in range(n_coefficients))
     fields = [(p, float, dataclasses.field(default=0.0)) for p in linear + nonlinear]
-    namespace = {"name": name, "linear": linear, "nonlinear": nonlinear, "_columns": _columns,
-                 "systems": tuple(SYSTEM_AXES)}  # a function of the axis's own kinematics fits any system
+    namespace = {"name": name, "linear": linear, "nonlinear": nonlinear, "_columns": _columns}
     return dataclasses.make_dataclass(f"UserEffect_{name}", fields, bases=(fx.Effect,), frozen=True, namespace=namespace)
-
-
-for _cand in (
-    Candidate(fx.CoulombFriction, "friction", {"eps": tuple(np.array([0.05, 0.2, 0.5, 1.0, 2.0]) * DEG)}),
-    # Stribeck velocities stop at 8 deg/s: a wider bump is Coulomb friction over the IX's speed range
-    Candidate(fx.StribeckFriction, "friction", {"vs": tuple(np.geomspace(0.1, 8.0, 20) * DEG),
-                                                "eps": (0.05 * DEG, 0.2 * DEG)}),
-    Candidate(fx.PositionDependentFriction, "friction", {"eps": tuple(np.array([0.05, 0.5, 2.0]) * DEG)}),
-    Candidate(fx.CableSpring, "spring", {"q0": _angle_quantiles, "width": (1 * DEG, 5 * DEG), "side": (-1.0, 1.0)}),
-    Candidate(fx.CableInertia, "inertia", {"q0": lambda q, qd, i: _angle_quantiles(q, qd, i, 5), "width": (5 * DEG, 15 * DEG)}),
-    Candidate(fx.GearHarmonic, "periodic", period="period"),
-    Candidate(fx.TorqueRipple, "periodic", period="period"),
-    Candidate(fx.CableDrape, "gravity"),
-    Candidate(fx.Payload, "inertia"),
-):
-    CANDIDATES[_cand.name] = _cand

@@ -7,7 +7,8 @@ kinematics the model was fitted with, per axis:
   (within ``window`` s of a change of the velocity's sign or of a start from standstill),
   moving forward / backward, slow (below 25 % of top speed) and fast (above 60 %);
 - acceleration phases: accelerating (|qdd| above 20 % of its top, qdd qd > 0) and decelerating;
-- position: quartiles of each axis's angle (a range of roll angles can matter for the propeller);
+- position: quartiles of each moving axis's position (a range of roll angles can matter for the
+  propeller);
 - time: quarters of the recording (slow drifts, warm-up).
 
 For each region: its share of the samples, the residual RMS inside it, that RMS over the axis's
@@ -22,21 +23,20 @@ import math
 
 import numpy as np
 
-DEG = math.pi / 180.0
-
 
 def region_masks(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, trial: np.ndarray, fs_rows: float,
-                 axes: tuple[str, ...], window: float = 0.3,
-                 still_range: float = 1.0 * DEG) -> dict[str, list[tuple[str, np.ndarray]]]:
+                 axes: tuple, window: float = 0.3) -> dict[str, list[tuple[str, np.ndarray]]]:
     """Boolean masks (R,) per axis: {axis: [(description, mask), ...]}. q, qd, qdd are (R, A)
-    at the reduced rows, ``trial`` (R,) the trial of each row, ``fs_rows`` their rate [Hz].
-    Axes that stand still (angle range below ``still_range``) get no regions and split no others."""
+    at the reduced rows, ``trial`` (R,) the trial of each row, ``fs_rows`` their rate [Hz];
+    ``axes`` the machine's ``systems.Axis`` (names, units of the descriptions: deg or mm).
+    Axes that stand still (range below their ``min_travel``) get no regions and split no others."""
     out = {}
     n = q.shape[0]
     quarter = np.minimum((np.arange(n) * 4) // max(n, 1), 3)
-    moving = [i for i in range(len(axes)) if np.ptp(q[:, i]) >= still_range]
+    moving = [i for i in range(len(axes)) if np.ptp(q[:, i]) >= axes[i].min_travel]
     for i in moving:
-        ax = axes[i]
+        ax = axes[i].name
+        f, unit = axes[i].display
         v, a = qd[:, i], qdd[:, i]
         vmax = max(float(np.abs(v).max()), 1e-12)
         amax = max(float(np.abs(a).max()), 1e-12)
@@ -50,18 +50,19 @@ def region_masks(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, trial: np.ndarr
             (f"velocity reversal or start (within {window:g} s)", near),
             ("moving forward", v > 0.02 * vmax),
             ("moving backward", v < -0.02 * vmax),
-            (f"slow (|velocity| < {0.25 * vmax / DEG:.1f} deg/s)", ~still & (np.abs(v) < 0.25 * vmax)),
-            (f"fast (|velocity| > {0.6 * vmax / DEG:.1f} deg/s)", np.abs(v) > 0.6 * vmax),
+            (f"slow (|velocity| < {0.25 * vmax * f:.1f} {unit}/s)", ~still & (np.abs(v) < 0.25 * vmax)),
+            (f"fast (|velocity| > {0.6 * vmax * f:.1f} {unit}/s)", np.abs(v) > 0.6 * vmax),
             ("accelerating", (np.abs(a) > 0.2 * amax) & (a * v > 0)),
             ("decelerating", (np.abs(a) > 0.2 * amax) & (a * v < 0)),
         ]
         for j in moving:
-            other = axes[j]
+            other, (fj, uj) = axes[j].name, axes[j].display
+            what = "angle" if axes[j].revolute else "position"
             edges = np.quantile(q[:, j], [0, 0.25, 0.5, 0.75, 1.0])
             for k in range(4):
                 lo, hi = edges[k], edges[k + 1]
                 m = (q[:, j] >= lo) & ((q[:, j] < hi) if k < 3 else (q[:, j] <= hi))
-                regions.append((f"{other} angle in [{lo / DEG:.1f}, {hi / DEG:.1f}] deg", m))
+                regions.append((f"{other} {what} in [{lo * fj:.1f}, {hi * fj:.1f}] {uj}", m))
         regions += [(f"time: quarter {k + 1} of the recording", quarter == k) for k in range(4)]
         out[ax] = regions
     return out

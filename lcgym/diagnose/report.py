@@ -22,7 +22,11 @@ class Diagnosis:
     by their share alone); ``after`` / ``replay`` with ``add`` / ``replay``. ``model`` is the
     fitted nominal model, ``suggested_model`` the model refitted with the selected effects,
     ``found`` every candidate effect (``name@axis``) with the nonlinear parameters the search
-    chose, ready for ``model.with_effect``. ``series`` holds the reduced signals for plots."""
+    chose, ready for ``model.with_effect``. ``series`` holds the reduced signals for plots.
+    ``min_rms`` {axis: noise floor [input unit]}; ``kinematics``: where the fit's kinematics came
+    from; ``identified``: (rank, number) of the free linear parameters, the combinations the data
+    identified (a rank-deficient regressor's base parameters); ``displays`` {axis: (factor, unit)}
+    of positions in reports (deg, mm); ``resampled``: how the log was put on a uniform grid, or None."""
 
     system: str
     axes: tuple[str, ...]
@@ -34,7 +38,11 @@ class Diagnosis:
     regions: list[dict]
     candidates: list[dict]
     min_explained: float
-    min_rms: float
+    min_rms: dict
+    kinematics: str = ""
+    identified: tuple[int, int] | None = None
+    displays: dict = field(default_factory=dict)
+    resampled: str | None = None
     model: object = field(repr=False, default=None)
     suggested_model: object = field(repr=False, default=None)
     series: dict = field(repr=False, default_factory=dict)
@@ -50,8 +58,12 @@ class Diagnosis:
 
     def to_dict(self) -> dict:
         out = {"system": self.system, "model_effects": self.model_effects, "n_samples": self.n_samples, "fs": self.fs,
+               "kinematics": self.kinematics, "resampled": self.resampled,
+               "identified": None if self.identified is None else {"rank": self.identified[0],
+                                                                    "parameters": self.identified[1]},
                "residual": self.residual, "regions": self.regions, "candidates": self.candidates,
-               "significance": {"min_explained": self.min_explained, "min_rms": self.min_rms, "unit": self.unit,
+               "significance": {"min_explained": self.min_explained, "min_rms": self.min_rms,
+                                "unit": {ax: r["unit"] for ax, r in self.residual.items()},
                              "order": "greedy forward selection (selected: true), then the other passing "
                                       "candidates by explained; explained and RMS_after: the effect alone, held-out; "
                                       "explained_at_selection: share of the residual left at its greedy step"}}
@@ -68,42 +80,54 @@ class Diagnosis:
 
     def text(self, n_regions: int = 4) -> str:
         """The printed report."""
-        u = self.unit
+        unit = {ax: r["unit"] for ax, r in self.residual.items()}
+        one_unit = len(set(unit.values())) == 1
+        head = f" [{self.unit}]" if one_unit else ""
+        col = "" if one_unit else " unit"
         lines = [f"lcgym diagnose: system {self.system}, {self.n_samples} samples at {self.fs:g} Hz",
                  f"model: {', '.join(self.model_effects)} (least squares; residual = u - f after a 5 Hz zero-phase low-pass)",
-                 "", f"residual [{u}]:", f"  {'axis':12s} {'MA':>8s} {'RMS':>8s} {'Inf':>8s}"]
+                 f"kinematics: {self.kinematics}" if self.kinematics else None,
+                 f"data: {self.resampled}" if self.resampled else None,
+                 (f"identified: {self.identified[0]} combinations of the {self.identified[1]} free rigid-body parameters "
+                  "(the rest keep their nominal values)") if self.identified and self.identified[0] < self.identified[1]
+                 else None,
+                 "", f"residual{head}:", f"  {'axis':12s} {'MA':>8s} {'RMS':>8s} {'Inf':>8s}{col}"]
+        lines = [x for x in lines if x is not None]
         for ax in self.axes:
             r = self.residual[ax]
-            lines.append(f"  {ax:12s} {r['MA']:8.4f} {r['RMS']:8.4f} {r['Inf']:8.4f}")
+            lines.append(f"  {ax:12s} {r['MA']:8.4f} {r['RMS']:8.4f} {r['Inf']:8.4f}" + ("" if one_unit else f" {r['unit']}"))
         lines += ["", "where the model fails worst (residual RMS there / overall):"]
         for ax in self.axes:
             for reg in [r for r in self.regions if r["axis"] == ax][:n_regions]:
-                lines.append(f"  {ax:10s} {reg['where']:44s} RMS {reg['RMS']:.4f} {u} ({reg['ratio']:.2f}x, "
+                lines.append(f"  {ax:10s} {reg['where']:44s} RMS {reg['RMS']:.4f} {unit[ax]} ({reg['ratio']:.2f}x, "
                              f"{100 * reg['samples']:.0f}% of samples)")
         lines += ["", "candidate missing effects (share of the axis's residual energy each removes alone on held-out"
                   " data; selected ones in the order of greedy forward selection):"]
         if not self.candidates:
+            floors = sorted({f"{v:.3g} {unit[ax]}" for ax, v in self.min_rms.items()})
             lines.append(f"  {NOTHING_FOUND} (none removes {100 * self.min_explained:.0f}% with at least "
-                         f"{self.min_rms:g} {u} RMS)")
+                         f"{' / '.join(floors)} RMS)")
         for k, c in enumerate(self.candidates, 1):
             how = (f"selected: {100 * c['explained_at_selection']:.0f}% of what was left at its turn" if c["selected"]
                    else "not needed once the selected ones are in")
-            params = ", ".join(f"{n}={_fmt(n, v)}" for n, v in c["parameters"].items())
+            display = self.displays.get(c["axis"], (180 / math.pi, "deg"))
+            params = ", ".join(f"{n}={_fmt(n, v, display)}" for n, v in c["parameters"].items())
             lines.append(f"  {k}. {c['effect']}@{c['axis']} [{c['family']}]: {100 * c['explained']:.0f}%, "
-                         f"held-out RMS {c['RMS_before']:.4f} -> {c['RMS_after']:.4f} {u} "
+                         f"held-out RMS {c['RMS_before']:.4f} -> {c['RMS_after']:.4f} {c['unit']} "
                          f"({how}{'; ' + params if params else ''})")
         if self.candidates:
             lines.append(f"  add the selected ones: lcgym diagnose DATA --system {self.system} "
                          + " ".join(f"--add {m}" for m in self.missing))
         if self.after is not None:
-            lines += ["", f"after adding {', '.join(self.after['added'])} and refitting, residual RMS [{u}]:",
+            lines += ["", f"after adding {', '.join(self.after['added'])} and refitting, residual RMS{head}:",
                       f"  {'axis':12s} {'before':>8s} {'after':>8s} {'change':>8s}"]
             for ax in self.axes:
                 b, a = self.residual[ax]["RMS"], self.after["residual"][ax]["RMS"]
-                lines.append(f"  {ax:12s} {b:8.4f} {a:8.4f} {100 * (a - b) / b:+7.0f}%")
+                change = f"{100 * (a - b) / b:+7.0f}%" if b > 0 else "       -"
+                lines.append(f"  {ax:12s} {b:8.4f} {a:8.4f} {change}" + ("" if one_unit else f" {unit[ax]}"))
         if self.replay is not None:
-            lines += ["", "replay on the plant, tracking-error RMS [deg] with the model's feedforward:",
-                      f"  {'axis':12s} {'before':>8s} {'after':>8s}"]
+            lines += ["", f"replay on the plant, tracking-error RMS [{self.replay.get('unit', 'deg')}] with the model's "
+                      "feedforward:", f"  {'axis':12s} {'before':>8s} {'after':>8s}"]
             for ax in self.axes:
                 lines.append(f"  {ax:12s} {self.replay['before'][ax]:8.4f} {self.replay['after'][ax]:8.4f}")
         return "\n".join(lines)
@@ -125,16 +149,17 @@ class Diagnosis:
         fig, axs = plt.subplots(1, n, figsize=(5.5 * n, 4.2), squeeze=False)
         for i, ax_name in enumerate(self.axes):
             ax = axs[0, i]
-            q, v, r = np.degrees(s["q"][:, i]), np.degrees(s["qd"][:, i]), s["residual"][:, i]
+            f, pos_unit = self.displays.get(ax_name, (180 / math.pi, "deg"))
+            q, v, r = f * s["q"][:, i], f * s["qd"][:, i], s["residual"][:, i]
             qe, ve = np.linspace(q.min(), q.max() + 1e-9, 31), np.linspace(v.min(), v.max() + 1e-9, 21)
             total, _, _ = np.histogram2d(q, v, [qe, ve], weights=r)
             count, _, _ = np.histogram2d(q, v, [qe, ve])
             mean = np.where(count > 0, total / np.maximum(count, 1), np.nan)
             lim = np.nanmax(np.abs(mean)) if np.isfinite(mean).any() else 1.0
             im = ax.pcolormesh(qe, ve, mean.T, cmap="coolwarm", vmin=-lim, vmax=lim)
-            fig.colorbar(im, ax=ax, label=f"mean residual [{self.unit}]")
-            ax.set_xlabel(f"{ax_name} angle [deg]")
-            ax.set_ylabel(f"{ax_name} velocity [deg/s]")
+            fig.colorbar(im, ax=ax, label=f"mean residual [{self.residual[ax_name]['unit']}]")
+            ax.set_xlabel(f"{ax_name} position [{pos_unit}]")
+            ax.set_ylabel(f"{ax_name} velocity [{pos_unit}/s]")
         fig.suptitle("Where the model fails: residual over (position, velocity)")
         fig.tight_layout()
         figs.append((fig, folder / "residual_map.png"))
@@ -164,13 +189,14 @@ class Diagnosis:
             ax = axs[i, 0]
             for key, label in series:
                 r = s[key][:, i]
-                ax.plot(s["t"], r, lw=0.7, label=f"{label} (RMS {np.sqrt(np.mean(r ** 2)):.4f} {self.unit})")
+                ax.plot(s["t"], r, lw=0.7, label=f"{label} (RMS {np.sqrt(np.mean(r ** 2)):.4f} "
+                        f"{self.residual[ax_name]['unit']})")
             v = s["ref_velocity"][:, i]
             if velocity and np.abs(v).max() > 0:
                 r = s[series[0][0]][:, i]
                 ax.plot(s["t"], v / np.abs(v).max() * np.abs(r).max(), "k--", lw=0.6, alpha=0.6,
                         label="reference velocity (scaled)")
-            ax.set_ylabel(f"{ax_name} [{self.unit}]")
+            ax.set_ylabel(f"{ax_name} [{self.residual[ax_name]['unit']}]")
             ax.legend(loc="upper right", fontsize=8)
             ax.grid(alpha=0.3)
         axs[-1, 0].set_xlabel("time over all trials [s]")
@@ -178,10 +204,12 @@ class Diagnosis:
         return fig
 
 
-def _fmt(name: str, value: float) -> str:
-    """Nonlinear parameters in readable units: angles and speeds in deg (deg/s)."""
+def _fmt(name: str, value: float, display: tuple[float, str] = (180 / math.pi, "deg")) -> str:
+    """Nonlinear parameters in readable units: positions and speeds in the axis's display unit
+    (``display`` = (factor, unit): deg and deg/s, or mm and mm/s)."""
+    f, unit = display
     if name in ("q0", "width", "period"):
-        return f"{value / DEG:.3g} deg"
+        return f"{value * f:.3g} {unit}"
     if name in ("eps", "vs", "v_ref"):
-        return f"{value / DEG:.3g} deg/s"
+        return f"{value * f:.3g} {unit}/s"
     return f"{value:.3g}"

@@ -17,8 +17,9 @@ be judged on configurations that only a few trials visit. A flexible candidate t
 gains nothing held-out.
 
 Periods of periodic candidates come from the spectrum of the training fold's residual over the
-axis angle, |sum_k r_k w_k exp(-2 pi i q_k / P)|^2 (w = 1, or the model torque for torque
-ripple), at the frequency resolution the angle range allows; the strongest peaks are tried.
+axis position, |sum_k r_k w_k exp(-2 pi i q_k / P)|^2 (w = 1, or the model torque for torque
+ripple), at the frequency resolution the position range allows; the strongest peaks are tried
+(periods from 1 % of the axis's position scale up: 1 deg on the IX).
 
 Greedy forward selection: the passing candidate that removes the most held-out residual energy
 (in the input's unit, so that axes compare by what matters, not by the share of a residual that
@@ -28,8 +29,8 @@ its axis's held-out error (the pick is then undone). A candidate passes when, at
 removes at least ``min_explained`` of its axis's held-out residual energy *at that step*, at least
 ``LATE_FACTOR`` x ``min_explained`` of the *baseline* one (the model alone: a late pick must still
 matter against the original error, not only chase the structure that is left), and the removed
-part has an RMS of at least ``min_rms`` (the noise floor: a nearly perfect model otherwise makes a
-few millivolts of quantization structure look like a large share). A large effect can hide a
+part has an RMS of at least ``min_rms`` of its axis (the noise floor: a nearly perfect model
+otherwise makes a few millivolts of quantization structure look like a large share). A large effect can hide a
 second one on the same axis until it is in: the FlexArm's payload hides its joints' Coulomb
 friction, which then removes 78-79 % of what is left, 9.7-10 % of the original error. The second
 condition keeps out what chases structure no static effect explains: on the IX after the true
@@ -182,17 +183,17 @@ class Scorer:
 
 def period_peaks(r: np.ndarray, q: np.ndarray, weight: np.ndarray | None, n_peaks: int = 3,
                  shortest: float = 1 * DEG) -> list[float]:
-    """Periods [rad] of the strongest peaks of |sum_k r_k w_k exp(-2 pi i q_k / P)|^2.
+    """Periods [rad or m] of the strongest peaks of |sum_k r_k w_k exp(-2 pi i q_k / P)|^2.
 
-    Frequencies (cycles per rad) on a grid of 1/(4 x angle range), from the longest period that
-    repeats three times within the range (at least 3 deg) to ``shortest``; each peak refined by
-    parabolic interpolation.
+    Frequencies (cycles per rad or m) on a grid of 1/(4 x position range), from the longest period
+    that repeats three times within the range (at least 3 x ``shortest``) to ``shortest``; each
+    peak refined by parabolic interpolation.
     """
     travel = float(np.ptp(q))
     if travel < 3 * shortest:
         return []
     df = 1.0 / (4.0 * travel)
-    freqs = np.arange(1.0 / max(3 * DEG, travel / 3), 1.0 / shortest, df)
+    freqs = np.arange(1.0 / max(3 * shortest, travel / 3), 1.0 / shortest, df)
     x = r * (weight if weight is not None else 1.0)
     x = x - x.mean()
     power = np.zeros(freqs.size)
@@ -237,7 +238,7 @@ class ColumnCache:
     def __call__(self, cand: Candidate, axis: int, params: dict) -> np.ndarray:
         key = (cand.name, axis, tuple(sorted(params.items())), cand.effect.needs_base_torque)
         if key not in self.store:
-            eff = cand.build(self.axes[axis], **params)
+            eff = cand.build(self.axes[axis], **params).bound(self.axes)
             q, qd, qdd = self.prep.kin
             base = self.prep.rigid_torque[:, axis] if eff.needs_base_torque else None
             cols = eff.columns(q, qd, qdd, base=base)
@@ -245,12 +246,15 @@ class ColumnCache:
         return self.store[key]
 
 
-def score_candidate(scorer: Scorer, cand: Candidate, axis: int, prep: Prepared, cache: ColumnCache) -> Score | None:
+def score_candidate(scorer: Scorer, cand: Candidate, axis: int, prep: Prepared, cache: ColumnCache,
+                    scale: dict) -> Score | None:
     """Nested choice of the nonlinear parameters: per fold, the grid value with the smallest
     training SSE, scored on the held-out fold; the reported parameters minimize the SSE on all
-    data (summed training SSE of both folds)."""
+    data (summed training SSE of both folds). ``scale``: the axis's {"speed", "position"} scales of
+    the grids (``physics.candidates.Scaled``; the shortest period searched is 1 % of "position")."""
     q_full = prep.kin[0]
-    grid = cand.settings(q_full, prep.kin[1], axis)
+    grid = cand.settings(q_full, prep.kin[1], axis, scale)
+    shortest = 0.01 * scale["position"]
     q_red = q_full[prep.rows, axis]
     weight = prep.rigid_torque[prep.rows, axis] if cand.effect.needs_base_torque else None
 
@@ -261,10 +265,12 @@ def score_candidate(scorer: Scorer, cand: Candidate, axis: int, prep: Prepared, 
             periods = set()
             for g in (0, 1):
                 P = scorer.parts[g]
-                periods.update(period_peaks(P["resid_tr"][:, axis], q_red[P["tr"]], None if weight is None else weight[P["tr"]]))
+                periods.update(period_peaks(P["resid_tr"][:, axis], q_red[P["tr"]],
+                                            None if weight is None else weight[P["tr"]], shortest=shortest))
         else:
             P = scorer.parts[f]
-            periods = period_peaks(P["resid_tr"][:, axis], q_red[P["tr"]], None if weight is None else weight[P["tr"]])
+            periods = period_peaks(P["resid_tr"][:, axis], q_red[P["tr"]], None if weight is None else weight[P["tr"]],
+                                   shortest=shortest)
         return [{**g, cand.period: float(p)} for g in grid for p in periods]
 
     held_out = 0.0
@@ -285,7 +291,7 @@ class Ranking:
     """Outcome of the search: ``baseline`` held-out SSE per axis of the model alone;
     ``alone`` every candidate's Score against the model alone; ``selected`` the greedy picks
     as (Score, share of the baseline removed at that step); ``model`` the model refitted with
-    the selected effects."""
+    the selected effects; ``min_rms`` (n_axes,) the noise floor per axis."""
 
     baseline: np.ndarray
     n_rows: int
@@ -293,7 +299,7 @@ class Ranking:
     selected: list[tuple[Score, float]]
     model: PhysicalModel
     min_explained: float
-    min_rms: float
+    min_rms: np.ndarray
 
     def explained(self, s: Score) -> float:
         return max(0.0, 1.0 - s.held_out_sse / self.baseline[s.axis]) if self.baseline[s.axis] > 0 else 0.0
@@ -302,25 +308,33 @@ class Ranking:
         return math.sqrt(max(self.baseline[s.axis] - s.held_out_sse, 0.0) / self.n_rows)
 
     def passes_alone(self, s: Score) -> bool:
-        return self.explained(s) >= self.min_explained and self.removed_rms(s) >= self.min_rms
+        return self.explained(s) >= self.min_explained and self.removed_rms(s) >= self.min_rms[s.axis]
 
 
 def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes: Sequence[str],
-         min_explained: float = 0.1, min_rms: float = 0.004, tie: float = 0.01, max_steps: int = 4,
-         block_seconds: float = 4.0, progress=None, search_axes: Sequence[int] | None = None) -> Ranking:
+         min_explained: float = 0.1, min_rms: float | Sequence[float] = 0.004, tie: float = 0.01, max_steps: int = 4,
+         block_seconds: float = 4.0, progress=None, search_axes: Sequence[int] | None = None,
+         scales: Sequence[dict] | None = None, kinds: Sequence | None = None) -> Ranking:
     """Score every candidate on every axis, then select greedily (module docstring). After each
     pick the model is refitted with it (centres of mass included) before the rest are rescored.
 
     The pass rule at every step (module docstring): the candidate removes at least
     ``min_explained`` of its axis's current held-out residual energy, ``LATE_FACTOR`` times that
-    share of the baseline one, with a removed RMS of at least ``min_rms``. ``search_axes``:
-    the axis indices candidates are tried on (default all).
+    share of the baseline one, with a removed RMS of at least ``min_rms`` (one value, or one per
+    axis). ``search_axes``: the axis indices candidates are tried on (default all); ``scales``:
+    each axis's grid scales (``score_candidate``; default the IX's 20 deg/s and 100 deg); ``kinds``:
+    the ``systems.Axis`` of each axis, where a candidate whose formula does not apply to the axis
+    (``Effect.applies_to``) is skipped.
     """
+    min_rms = np.broadcast_to(np.asarray(min_rms, dtype=float), (len(axes),))
+    if scales is None:
+        scales = [{"speed": 20 * DEG, "position": 100 * DEG}] * len(axes)
     cache = ColumnCache(prep, axes)
     scorer = Scorer(prep.design, prep.u, prep.fold)
     baseline = scorer.test_sse.copy()
     n_rows = prep.u.shape[0]
-    pairs = [(c, a) for a in (range(len(axes)) if search_axes is None else search_axes) for c in candidates]
+    pairs = [(c, a) for a in (range(len(axes)) if search_axes is None else search_axes) for c in candidates
+             if kinds is None or c.effect.applies_to(kinds[a])]
     alone, selected, model = [], [], prep.model
     for step in range(max_steps):
         current = scorer.test_sse
@@ -331,7 +345,7 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
         for cand, a in pairs:
             if any(s.candidate.name == cand.name and s.axis == a for s, _ in selected):
                 continue
-            s = score_candidate(scorer, cand, a, prep, cache)
+            s = score_candidate(scorer, cand, a, prep, cache, scales[a])
             if progress is not None:
                 progress.update()
             if s is not None:
@@ -344,7 +358,7 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
             share = removed / current[s.axis] if current[s.axis] > 0 else 0.0
             of_baseline = removed / baseline[s.axis] if baseline[s.axis] > 0 else 0.0
             if (share >= min_explained and of_baseline >= LATE_FACTOR * min_explained
-                    and math.sqrt(max(removed, 0.0) / n_rows) >= min_rms):
+                    and math.sqrt(max(removed, 0.0) / n_rows) >= min_rms[s.axis]):
                 passing.append((s, share, removed))
         if not passing:
             break

@@ -1,87 +1,97 @@
-"""``diagnose(trials)``: compare the model with measurements, see where it fails, find the
-missing effect, add it and watch the error fall. The steps, in order:
+"""``diagnose(trials, system)``: compare the model with measurements, see where it fails, find the
+missing effect, add it and watch the error fall, on any machine (``systems.System``: a built-in
+one, a URDF, a user's Python class). The steps, in order:
 
-1. Compare: the system's nominal physical model (``for_diagnosis``: IX rigid body + viscous
-   friction; FlexArm CAD rigid body + fitted motor inertia and viscous friction) is fitted to the
-   trials by least squares (``positions="measured"``: the motion the machine made, see
-   ``physics/model.py``); residual = u - f_model after the model's own
-   low-pass and decimation (5 Hz zero phase, so the quantization noise that the feedback puts
-   into u above that is not counted). MA, RMS, Inf per axis in the input's unit.
+1. Compare: the machine's nominal physical model (``System.diagnosis_model``: IX rigid body +
+   viscous friction; FlexArm CAD rigid body + fitted motor inertia and viscous friction; a URDF
+   or user machine: its rigid body + viscous friction on every axis) is fitted to the trials by
+   least squares, on the motion the machine made (``kinematics="reference"``: the reference
+   corrected by the measured tracking error, see ``physics/model.py``; ``"measured"``, or a log
+   without a reference: the measured position, low-passed and differentiated); residual = u -
+   f_model after the model's own low-pass and decimation (5 Hz zero phase, so the quantization
+   noise that the feedback puts into u above that is not counted). MA, RMS, Inf per axis in the
+   axis's input unit.
 2. Where it fails: the residual by operating region (``regions.py``).
-3. What is missing: every candidate effect on every axis, scored on held-out data, greedy
+3. What is missing: every candidate effect on every moving axis, scored on held-out data, greedy
    forward selection (``search.py``); candidates that pass the significance rule, best first.
 4. Add it: ``add=["coulomb_friction@roll", ...]`` refits the model with those effects (their
    nonlinear parameters as the search found them for the effect alone, step 3) and gives the
    residual after, computed the same way;
-   ``replay`` re-runs the plant the data came from with the feedforward of the model before and
-   after and compares the tracking errors.
+   ``replay`` re-runs the plant the data came from (a built-in machine's simulated data) with the
+   feedforward of the model before and after and compares the tracking errors.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from contextlib import nullcontext
 
 import numpy as np
 from tqdm.auto import tqdm
 
-from ..leaderboard.metrics import norms as metric_norms
-from ..physics import arm_motor
-from ..physics.effects import Effect, make_effect
-from ..physics.kinematics import reference_kinematics
+from .. import systems
+from ..metrics import norms as metric_norms
+from ..physics.effects import Effect, parse_key
+from ..physics.kinematics import lowpass_zero_phase, reference_kinematics
 from ..physics.model import PhysicalModel
-from ..physics.registry import MODELS
-from ..physics.system import SYSTEMS
 from .candidates import Candidate, candidates_for
 from .regions import region_masks, region_table
 from .report import Diagnosis
 from .search import check_length, prepare, rank
 
 DEG = math.pi / 180.0
+NOISE_SHARE = 0.005  # a machine without its own noise_rms: 0.5 % of each axis's low-passed input RMS
+KINEMATICS = {"reference": "measured", "measured": "position"}  # option -> PhysicalModel.positions
 
 
-def norms(x: np.ndarray, axes: Sequence[str], unit: str) -> dict:
+def norms(x: np.ndarray, axes: Sequence[str], units: Sequence[str]) -> dict:
     """{axis: {MA, RMS, Inf, unit}} of a residual (R, A)."""
     n = metric_norms(x)
-    return {ax: {**{k: float(v[i]) for k, v in n.items()}, "unit": unit} for i, ax in enumerate(axes)}
+    return {ax: {**{k: float(v[i]) for k, v in n.items()}, "unit": units[i]} for i, ax in enumerate(axes)}
 
 
-def _check_trials(trials, system) -> None:
+def _check_trials(trials, system: systems.System) -> None:
     if not trials:
         raise ValueError("diagnose: no trials given")
     for k, tr in enumerate(trials):
-        if tuple(tr.axes) != tuple(system.axes):
-            raise ValueError(f"diagnose: trial {k} has axes {tr.axes}, system {system.name} has {system.axes}")
+        if tuple(tr.axes) != system.axis_names:
+            raise ValueError(f"diagnose: trial {k} has axes {', '.join(tr.axes)}; machine {system.name} has "
+                             f"{', '.join(system.axis_names)}")
         if abs(tr.fs - trials[0].fs) > 1e-6 * trials[0].fs:
             raise ValueError(f"diagnose: trial {k} is sampled at {tr.fs:g} Hz, trial 0 at {trials[0].fs:g} Hz")
 
 
-@arm_motor.cached_regressors()  # the arm's model, its effects and its refits share their regressors
-def diagnose(trials: Sequence, system: str = "ix", add: Sequence[str | Effect] = (), replay: bool = False,
-             candidates: Sequence[Candidate] | None = None, model: PhysicalModel | None = None,
+def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequence[str | Effect] = (),
+             replay: bool = False, candidates: Sequence[Candidate] | None = None, model: PhysicalModel | None = None,
              min_explained: float = 0.1, min_rms: float | None = None, block_seconds: float = 4.0,
-             max_steps: int | None = None, progress: bool = False) -> Diagnosis:
-    """Run the workflow of this module on measured ``trials`` of ``system``.
+             max_steps: int | None = None, kinematics: str = "reference", progress: bool = False) -> Diagnosis:
+    """Run the workflow of this module on measured ``trials`` of ``system`` (a ``systems.System`` or
+    what ``systems.get`` accepts).
 
-    model: the physical model to diagnose (unfitted; default the system's nominal one).
-    candidates: effects to try (default every registered one, ``candidates.CANDIDATES``).
+    model: the physical model to diagnose (unfitted; default the machine's nominal one).
+    candidates: effects to try (default ``candidates.candidates_for(system)``).
     min_explained, min_rms [input unit]: the significance rule (``search.py``); min_rms
-    defaults to the system's ``noise_rms``. add: effects (``name@axis`` or Effect objects)
-    to add after the search. replay: re-run the plant recorded in the trials' metadata.
-    Candidates are tried on the axes that move (reference range above ``MIN_TRAVEL``: a joint that
-    stands still shows neither friction nor inertia); max_steps: most effects selected (default
-    two per moving axis).
+    defaults to the machine's ``noise_rms``, else to ``NOISE_SHARE`` of each axis's low-passed
+    input RMS. add: effects (``name@axis`` or Effect objects) to add after the search. replay:
+    re-run the plant recorded in the trials' metadata. kinematics: "reference" (the reference
+    corrected by the measured error; a trial without a reference uses its measured position) or
+    "measured" (the measured position, low-passed and differentiated). Candidates are tried on the
+    axes that move (reference range above the axis's ``min_travel``: a joint that stands still shows
+    neither friction nor inertia); max_steps: most effects selected (default two per moving axis).
     """
-    if system not in SYSTEMS:
-        raise ValueError(f"unknown system {system!r}; choose one of {sorted(SYSTEMS)}")
-    sysd = SYSTEMS[system]
-    _check_trials(trials, sysd)
+    system = systems.get(system)
+    _check_trials(trials, system)
     if not 0.0 < min_explained < 1.0:
         raise ValueError(f"min_explained must be in (0, 1), got {min_explained}")
-    axes, unit = tuple(sysd.axes), sysd.input_unit
-    min_rms = sysd.noise_rms if min_rms is None else float(min_rms)
+    if kinematics not in KINEMATICS:
+        raise ValueError(f"kinematics must be 'reference' or 'measured', got {kinematics!r}")
+    axes, units = system.axis_names, system.input_units
     fs = trials[0].fs
-    model = model if model is not None else MODELS[system].for_diagnosis(fs)
+    if model is None:
+        model = system.diagnosis_model(fs)
+        if kinematics == "measured":
+            model.positions = KINEMATICS[kinematics]
     cands = candidates_for(system) if candidates is None else list(candidates)
     added = [_parse_add(a, model, system) for a in add]  # every check before the work
     keys = [e.key for e in added]
@@ -89,109 +99,164 @@ def diagnose(trials: Sequence, system: str = "ix", add: Sequence[str | Effect] =
         raise ValueError(f"an effect is added twice: {keys}")
     if replay and not isinstance(trials[0].meta.get("plant"), dict):
         raise ValueError("--replay needs data simulated by lcgym: the file's sidecar has no 'plant' record")
+    if replay and system.bench is None:
+        raise ValueError(f"--replay needs a built-in machine with a plant; {system.name} has none")
     check_length(trials, block_seconds)
-    moving = moving_axes(trials)
+    moving = moving_axes(trials, system)
     if not moving:
-        raise ValueError(f"diagnose: no axis moves more than {np.degrees(MIN_TRAVEL):g} deg in the data")
+        raise ValueError("diagnose: no axis moves more than its minimum travel (1 deg, 1 mm) in the data")
     max_steps = 2 * len(moving) if max_steps is None else max_steps
 
-    bar = tqdm(total=2, desc="diagnose", disable=not progress, leave=False)
-    bar.set_postfix_str("fit nominal model")
-    ref_velocity = np.concatenate([reference_kinematics(tr.ref, fs)[1] for tr in trials])
-    prep = prepare(trials, model, block_seconds)
-    bar.update()
-    residual = prep.residual
-    q, qd, qdd = (k[prep.rows] for k in prep.kin)
-    fs_rows = fs / max(1, prep.model.decimate)
-    regions = region_table(residual, region_masks(q, qd, qdd, prep.trial, fs_rows, axes), axes)
-    bar.update()
-    bar.set_postfix_str("candidates")
-    ranking = rank(prep, trials, cands, axes, min_explained=min_explained, min_rms=min_rms,
-                   block_seconds=block_seconds, max_steps=max_steps, progress=bar, search_axes=moving)
-    bar.close()
+    with system.caching() if system.caching is not None else nullcontext():
+        bar = tqdm(total=2, desc="diagnose", disable=not progress, leave=False)
+        bar.set_postfix_str("fit nominal model")
+        prep = prepare(trials, model, block_seconds)
+        bar.update()
+        residual = prep.residual
+        q, qd, qdd = (k[prep.rows] for k in prep.kin)
+        floor = _noise_floor(system, prep, min_rms)
+        scales = axis_scales(system, prep.kin[0], prep.kin[1])
+        fs_rows = fs / max(1, prep.model.decimate)
+        regions = region_table(residual, region_masks(q, qd, qdd, prep.trial, fs_rows, system.axes), axes)
+        bar.update()
+        bar.set_postfix_str("candidates")
+        ranking = rank(prep, trials, cands, axes, min_explained=min_explained, min_rms=floor,
+                       block_seconds=block_seconds, max_steps=max_steps, progress=bar, search_axes=moving,
+                       scales=scales, kinds=system.axes)
+        bar.close()
 
-    rows = []
-    alone = {(s.candidate.name, s.axis): s for s in ranking.alone}
-    for s, share in ranking.selected:  # explained and RMS_after of the effect alone, as for the rest
-        rows.append(_candidate_row(ranking, alone.get((s.candidate.name, s.axis), s), axes, unit, selected=True, step=share))
-    picked = {(s.candidate.name, s.axis) for s, _ in ranking.selected}
-    rest = [s for s in ranking.alone if (s.candidate.name, s.axis) not in picked and ranking.passes_alone(s)]
-    for s in sorted(rest, key=lambda s: -ranking.explained(s)):
-        rows.append(_candidate_row(ranking, s, axes, unit, selected=False, step=None))
+        rows = []
+        alone = {(s.candidate.name, s.axis): s for s in ranking.alone}
+        for s, share in ranking.selected:  # explained and RMS_after of the effect alone, as for the rest
+            rows.append(_candidate_row(ranking, alone.get((s.candidate.name, s.axis), s), axes, units, selected=True,
+                                       step=share))
+        picked = {(s.candidate.name, s.axis) for s, _ in ranking.selected}
+        rest = [s for s in ranking.alone if (s.candidate.name, s.axis) not in picked and ranking.passes_alone(s)]
+        for s in sorted(rest, key=lambda s: -ranking.explained(s)):
+            rows.append(_candidate_row(ranking, s, axes, units, selected=False, step=None))
 
-    report = Diagnosis(system=system, axes=axes, unit=unit, n_samples=sum(prep.lengths), fs=fs,
-                       model_effects=[*prep.model.parts(), *(e.key for e in prep.model.effects)],
-                       residual=norms(residual, axes, unit), regions=regions, candidates=rows,
-                       min_explained=min_explained, min_rms=min_rms, model=prep.model, suggested_model=ranking.model,
-                       series={"t": prep.rows / fs, "residual": residual, "q": q, "qd": qd,
-                               "ref_velocity": ref_velocity[prep.rows]})
-    report.found = {f"{s.candidate.name}@{axes[s.axis]}": s.candidate.build(axes[s.axis], **s.params)
-                    for s in ranking.alone}
-    if added:
-        effects = [report.found.get(e.key, e) if isinstance(a, str) else e for a, e in zip(add, added, strict=True)]
-        after_model = prep.model
-        for e in effects:
-            after_model = after_model.with_effect(e)
-        after = prepare(trials, after_model, block_seconds)
-        report.after = {"added": [e.key for e in effects], "residual": norms(after.residual, axes, unit),
-                        "effects": [_effect_params(e) for e in after.model.fitted_effects]}
-        report.after_model = after.model
-        report.series["residual_after"] = after.residual
-    if replay:
-        after_model = report.after_model if report.after_model is not None else report.suggested_model
-        report.replay = replay_tracking(trials, report.model, after_model)
+        info = prep.model.fit_info_
+        report = Diagnosis(system=system.name, axes=axes, unit=system.input_unit, n_samples=sum(prep.lengths), fs=fs,
+                           model_effects=[*prep.model.parts(), *(e.key for e in prep.model.effects)],
+                           residual=norms(residual, axes, units), regions=regions, candidates=rows,
+                           min_explained=min_explained, min_rms=dict(zip(axes, map(float, floor), strict=True)),
+                           model=prep.model, suggested_model=ranking.model,
+                           series={"t": prep.rows / fs, "residual": residual, "q": q, "qd": qd,
+                                   "ref_velocity": _velocity(trials, fs)[prep.rows]},
+                           kinematics=_kinematics_note(trials, prep.model), identified=(info["rank"], info["n_free"]),
+                           displays={a.name: a.display for a in system.axes},
+                           resampled=_resampled_note(trials))
+        report.found = {f"{s.candidate.name}@{axes[s.axis]}": s.candidate.build(axes[s.axis], **s.params)
+                        for s in ranking.alone}
+        if added:
+            effects = [report.found.get(e.key, e) if isinstance(a, str) else e for a, e in zip(add, added, strict=True)]
+            after_model = prep.model
+            for e in effects:
+                after_model = after_model.with_effect(e)
+            after = prepare(trials, after_model, block_seconds)
+            report.after = {"added": [e.key for e in effects], "residual": norms(after.residual, axes, units),
+                            "effects": [_effect_params(e) for e in after.model.fitted_effects]}
+            report.after_model = after.model
+            report.series["residual_after"] = after.residual
+        if replay:
+            after_model = report.after_model if report.after_model is not None else report.suggested_model
+            report.replay = replay_tracking(trials, report.model, after_model, system)
     return report
 
 
-MIN_TRAVEL = 1.0 * DEG  # rad: an axis whose reference spans less stands still
+def moving_axes(trials: Sequence, system: systems.System) -> list[int]:
+    """Indices of the axes whose reference (or, without one, measured position) spans at least the
+    axis's ``min_travel`` over the trials."""
+    x = np.concatenate([tr.ref if tr.ref is not None else tr.pos for tr in trials])
+    return [i for i, a in enumerate(system.axes) if np.ptp(x[:, i]) >= a.min_travel]
 
 
-def moving_axes(trials: Sequence) -> list[int]:
-    """Indices of the axes whose reference spans at least ``MIN_TRAVEL`` over the trials."""
-    ref = np.concatenate([tr.ref for tr in trials])
-    return [i for i in range(ref.shape[1]) if np.ptp(ref[:, i]) >= MIN_TRAVEL]
+def axis_scales(system: systems.System, q: np.ndarray, qd: np.ndarray) -> list[dict]:
+    """Per axis the {"speed", "position"} scales of the candidates' grids: the axis's declared ones,
+    else the data's (99th percentile of |velocity|, range of the position)."""
+    out = []
+    for i, a in enumerate(system.axes):
+        speed = a.speed_scale or float(np.quantile(np.abs(qd[:, i]), 0.99)) or 1.0
+        position = a.position_scale or float(np.ptp(q[:, i])) or 1.0
+        out.append({"speed": speed, "position": position})
+    return out
 
 
-def _parse_add(item, model: PhysicalModel, system: str) -> Effect:
-    """An effect to add: an Effect, or a ``name@axis`` label of a candidate."""
+def _noise_floor(system: systems.System, prep, min_rms: float | None) -> np.ndarray:
+    """min_rms per axis: given, the machine's noise_rms, or NOISE_SHARE of the low-passed input's RMS."""
+    if min_rms is not None:
+        return np.full(system.n_axes, float(min_rms))
+    if system.noise_rms is not None:
+        return np.full(system.n_axes, float(system.noise_rms))
+    return NOISE_SHARE * np.sqrt(np.mean(prep.u**2, axis=0))
+
+
+def _velocity(trials, fs) -> np.ndarray:
+    """Reference velocity (or, without a reference, the low-passed measured one), all trials (T, A)."""
+    return np.concatenate([reference_kinematics(tr.ref if tr.ref is not None else lowpass_zero_phase(tr.pos, fs, 5.0),
+                                                fs)[1] for tr in trials])
+
+
+def _kinematics_note(trials, model: PhysicalModel) -> str:
+    if model.positions == "position" or all(tr.ref is None for tr in trials):
+        return (f"measured position, {model.error_filter_hz:g} Hz zero-phase low-pass, then differentiated"
+                + (" (the data have no reference)" if model.positions != "position" else ""))
+    if model.positions == "measured":
+        return "reference corrected by the measured tracking error (low-passed), differentiated"
+    return "reference, differentiated"
+
+
+def _resampled_note(trials) -> str | None:
+    done = [tr.meta["resampled"] for tr in trials if isinstance(tr.meta.get("resampled"), dict)]
+    if not done:
+        return None
+    gap = max(d["largest_gap"] for d in done)
+    return f"resampled to {done[0]['fs']:g} Hz by linear interpolation (largest gap in the log {gap:.6g} s)"
+
+
+def _parse_add(item, model: PhysicalModel, system: systems.System) -> Effect:
+    """An effect to add, bound to the machine: an Effect, or a ``name@axis`` label of a candidate."""
     if isinstance(item, Effect):
-        return item
-    name = str(item).partition("@")[0]
+        return system.effect(item)
+    name, axis = parse_key(item)
     if name in model.parts():
         raise ValueError(f"cannot add {item}: the model already has {name}")
     available = [c.name for c in candidates_for(system)]
     if name not in available:
-        raise ValueError(f"cannot add {item}: {name!r} is not an effect diagnose can add on {system}; choose from "
-                         f"{', '.join(available)} (`lcgym effects --system {system}`)")
-    return make_effect(str(item))
+        raise ValueError(f"cannot add {item}: {name!r} is not an effect diagnose can add on {system.name}; choose from "
+                         f"{', '.join(available)} (`lcgym effects --system {system.name}`)")
+    return system.effect(item)
 
 
 def _effect_params(e: Effect) -> dict:
     return {"effect": e.key, **{n: float(getattr(e, n)) for n in (*e.linear, *e.nonlinear)}}
 
 
-def _candidate_row(ranking, s, axes, unit, selected: bool, step: float | None) -> dict:
+def _candidate_row(ranking, s, axes, units, selected: bool, step: float | None) -> dict:
     cand = s.candidate
     return {"effect": cand.name, "axis": axes[s.axis], "family": cand.family, "explained": ranking.explained(s),
             "RMS_before": math.sqrt(ranking.baseline[s.axis] / ranking.n_rows),
-            "RMS_after": math.sqrt(s.held_out_sse / ranking.n_rows), "unit": unit, "selected": selected,
+            "RMS_after": math.sqrt(s.held_out_sse / ranking.n_rows), "unit": units[s.axis], "selected": selected,
             "explained_at_selection": step, "parameters": {k: float(v) for k, v in s.params.items()}}
 
 
-def replay_tracking(trials: Sequence, before: PhysicalModel, after: PhysicalModel) -> dict:
-    """Re-run the plant recorded in the trials' metadata on their references with the
-    feedforward of ``before`` and of ``after``; tracking-error RMS per axis [deg]."""
-    from ..envs import plant_from_record
-
+def replay_tracking(trials: Sequence, before: PhysicalModel, after: PhysicalModel,
+                    system: systems.System | None = None) -> dict:
+    """Re-run the plant recorded in the trials' metadata (``System.bench.plant_from_record``) on
+    their references with the feedforward of ``before`` and of ``after``; tracking-error RMS per
+    axis in the axes' display unit (deg, mm)."""
+    system = before.system if system is None else system
     record = trials[0].meta.get("plant")
     if not isinstance(record, dict):
         raise ValueError("--replay needs data simulated by lcgym: the file's sidecar has no 'plant' record")
-    plant = plant_from_record(record)
+    if system.bench is None or not hasattr(system.bench, "plant_from_record"):
+        raise ValueError(f"--replay: machine {system.name} cannot rebuild a plant from a record")
+    plant = system.bench.plant_from_record(record)
     refs = [tr.ref for tr in trials]
     out = {}
     for label, m in (("before", before), ("after", after)):
         runs = plant.run(refs, [m.predict(r) for r in refs])
         e = np.concatenate([r.error for r in runs])
-        out[label] = {ax: float(np.degrees(np.sqrt(np.mean(e[:, i] ** 2)))) for i, ax in enumerate(trials[0].axes)}
-    out["unit"] = "deg"
+        out[label] = {a.name: float(a.display[0] * np.sqrt(np.mean(e[:, i] ** 2))) for i, a in enumerate(system.axes)}
+    out["unit"] = system.axes[0].display[1]
     return out

@@ -1,27 +1,21 @@
-"""Plants, reference generators and the Gymnasium environments (registered on import of lcgym)."""
+"""Gymnasium glue shared by the machines' environments: action checks (``actions.py``), the
+stable-baselines3 adapters (``sb3.py``) and ``make_env``. The environments themselves live with
+their machines (``systems/ix/env.py``, ``systems/flexarm/env.py``) and are registered on import of
+lcgym (``systems.register_envs``): ``gym.make("lcgym/IX-v0")``.
+"""
+
+from __future__ import annotations
 
 import gymnasium as gym
 
 
-def register_envs() -> None:
-    """Register ``lcgym/IX-v0`` (single and vector entry points) and ``lcgym/FlexArm-v0`` with
-    Gymnasium, once."""
-    if "lcgym/IX-v0" not in gym.registry:
-        gym.register(
-            id="lcgym/IX-v0",
-            entry_point="lcgym.envs.ix_env:IXEnv",
-            vector_entry_point="lcgym.envs.ix_env:IXVectorEnv",
-        )
-    if "lcgym/FlexArm-v0" not in gym.registry:
-        gym.register(id="lcgym/FlexArm-v0", entry_point="lcgym.envs.flexarm_env:FlexArmEnv")
+def make_env(env_id: str, **kwargs) -> gym.Env:
+    """The registered env ``env_id`` built from its entry point with ``kwargs``, without the wrappers
+    ``gym.make`` adds (the env checker, order enforcing): what the methods that train on an env use."""
+    spec = gym.spec(env_id)
+    entry = spec.entry_point
+    if isinstance(entry, str):
+        from gymnasium.envs.registration import load_env_creator
 
-
-def plant_from_record(record: dict):
-    """The plant a ``record()`` describes (stored in simulated measurement files' sidecars)."""
-    from .ix import IXPlant
-
-    plants = {"ix": IXPlant}
-    system = record.get("system") if isinstance(record, dict) else None
-    if system not in plants:
-        raise ValueError(f"plant record of unknown system {system!r}; known: {sorted(plants)}")
-    return plants[system].from_record(record)
+        entry = load_env_creator(entry)
+    return entry(**{**spec.kwargs, **kwargs})

@@ -1,4 +1,5 @@
-"""stable-baselines3 view of the IX vector env: one compiled batch instead of N Python envs.
+"""stable-baselines3 view of a machine's batched vector env (the IX's): one compiled batch instead of
+N Python envs.
 
 stable-baselines3's ``VecEnv`` resets a finished sub-env within the same step and hands the
 last observation over as ``info["terminal_observation"]``; ``IXVectorEnv`` does the same with
@@ -8,9 +9,10 @@ wall time ``t`` [s]: what stable-baselines3's ``Monitor`` reports, so its logger
 ``ep_rew_mean``) and ``tracking_rms``: the episode's RMS tracking error per axis [rad]. Build it
 with ``make_sb3_vec_env``.
 
-``monitored_flexarm``: a ``lcgym/FlexArm-v0`` env that reports the same two keys, for SB3's
-``DummyVecEnv``. ``HideError``: zeroes the tracking error in the observations (a policy that
-sees only the reference: a pure feedforward).
+An env without a vector entry point (``lcgym/FlexArm-v0``) goes into SB3's ``DummyVecEnv`` inside
+SB3's ``Monitor``, which reports ``episode``; that env reports ``tracking_rms`` itself at the
+episode's end. ``HideError``: zeroes the tracking error in the observations (a policy that sees
+only the reference: a pure feedforward).
 """
 
 from __future__ import annotations
@@ -20,12 +22,12 @@ import time
 import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AutoresetMode
-from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
 
 class SB3VecAdapter(VecEnv):
-    """Wraps an ``IXVectorEnv`` built with ``autoreset_mode=AutoresetMode.SAME_STEP``."""
+    """Wraps a vector env (``IXVectorEnv``) built with ``autoreset_mode=AutoresetMode.SAME_STEP``
+    whose step info carries the tracking ``error`` (N, n_axes)."""
 
     def __init__(self, venv):
         if venv.metadata.get("autoreset_mode") != AutoresetMode.SAME_STEP:
@@ -34,7 +36,7 @@ class SB3VecAdapter(VecEnv):
         super().__init__(venv.num_envs, venv.single_observation_space, venv.single_action_space)
         self._actions = None
         self._return, self._length = np.zeros(self.num_envs), np.zeros(self.num_envs, dtype=np.int64)
-        self._sq_error = np.zeros((self.num_envs, 2))  # running sums of the open episodes
+        self._sq_error = np.zeros((self.num_envs, venv.single_action_space.shape[0]))  # sums of the open episodes
         self._t0 = time.perf_counter()
 
     def _clear(self, mask: np.ndarray) -> None:
@@ -91,7 +93,7 @@ def make_sb3_vec_env(env_id: str = "lcgym/IX-v0", num_envs: int = 8, **kwargs) -
 
 
 class HideError(VecEnvWrapper):
-    """Zeroes the observation's tracking-error ``columns`` (IX: 34:36, FlexArm: 30:36) in every
+    """Zeroes the observation's tracking-error ``columns`` (``System.observation_error``) in every
     observation of an SB3 vector env, terminal ones included."""
 
     def __init__(self, venv: VecEnv, columns: slice):
@@ -110,28 +112,3 @@ class HideError(VecEnvWrapper):
             if "terminal_observation" in info:
                 info["terminal_observation"][self.columns] = 0.0
         return obs, reward, done, infos
-
-
-def arm_episode_rms(trial) -> np.ndarray:
-    """RMS load-side tracking error [rad] of the moving joints 2, 3, 5 (what the benchmark
-    scores) over a FlexArm trial."""
-    from .arm_references import MOVING
-    from .flexarm import load_error
-
-    return np.sqrt(np.mean(np.square(load_error(trial))[:, list(MOVING)], axis=0))
-
-
-class _ArmTrackingRMS(gym.Wrapper):
-    def step(self, action):
-        obs, reward, terminated, truncated, info = self.env.step(action)
-        if "trial" in info:
-            info["tracking_rms"] = arm_episode_rms(info["trial"])
-        return obs, reward, terminated, truncated, info
-
-
-def monitored_flexarm(**kwargs) -> Monitor:
-    """``FlexArmEnv(**kwargs)`` whose last step's info has ``episode`` (SB3's ``Monitor``) and
-    ``tracking_rms`` (``arm_episode_rms``)."""
-    from .flexarm_env import FlexArmEnv
-
-    return Monitor(_ArmTrackingRMS(FlexArmEnv(**kwargs)))

@@ -9,7 +9,7 @@ A cell (system, method, seed):
    plant (``uses_plant``) also get ``learn(plant, reference)`` before each evaluation reference;
 3. applies its feedforward (and, on the FlexArm, its reference offset) on the training and the
    validation references and computes MA, RMS and Inf of what the system scores
-   (``systems.py``: tracking error [deg] and input residual u - f per axis; on the arm also the
+   (``System.bench``, ``systems/<machine>/bench.py``: tracking error [deg] and input residual u - f per axis; on the arm also the
    TCP position error [mm]).
 
 Cells run in parallel through joblib (``jobs``; workers use one numba and one torch thread each),
@@ -26,7 +26,6 @@ import copy
 import hashlib
 import json
 import signal
-import subprocess
 import sysconfig
 import threading
 import time
@@ -36,19 +35,19 @@ from collections.abc import Sequence
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field, replace
 from datetime import UTC, datetime
-from functools import cache, lru_cache
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
-from .. import __version__
+from .. import __version__, systems
 from ..baselines import CONTROLLERS, Cost, load_method
 from ..data import atomic_write
 from ..envs.actions import short_repr
+from ..provenance import git_commit, source_hash
 from .store import append_rows, completed_cells
-from .systems import BENCH_SYSTEMS
 
 EVALUATED_SETS = ("train", "validation")
 
@@ -61,7 +60,7 @@ class BenchConfig:
     arm reference is one TCP line out and back; ``systems.FlexArmBench``).
     """
 
-    systems: tuple[str, ...] = tuple(BENCH_SYSTEMS)
+    systems: tuple[str, ...] = tuple(systems.BUILT_IN)
     methods: tuple[str, ...] = field(default_factory=lambda: tuple(CONTROLLERS))
     seeds: tuple[int, ...] = (0, 1, 2)
     n_train: int = 8
@@ -69,9 +68,10 @@ class BenchConfig:
     duration: float = 40.0
 
     def __post_init__(self):
-        unknown = [s for s in self.systems if s not in BENCH_SYSTEMS]
+        unknown = [s for s in self.systems if s not in systems.BUILT_IN]
         if unknown:
-            raise ValueError(f"unknown system(s) {unknown}; available: {', '.join(BENCH_SYSTEMS)}")
+            raise ValueError(f"unknown system(s) {unknown}; available: {', '.join(systems.BUILT_IN)} (the benchmark "
+                             "needs a machine with a plant)")
         for m in self.methods:
             where = getattr(load_method(m, CONTROLLERS), "systems", None)  # fails early with a clear message
             if where is not None and not set(where) & set(self.systems):
@@ -107,34 +107,6 @@ class BenchConfig:
                 if runs_on[m] is None or s in runs_on[m]]
 
 
-@cache
-def source_hash() -> str:
-    """Hash of every Python file of the installed lcgym package."""
-    root = Path(__file__).resolve().parents[1]
-    h = hashlib.sha256()
-    for path in sorted(root.rglob("*.py")):
-        h.update(path.relative_to(root).as_posix().encode())
-        h.update(path.read_bytes())
-    return h.hexdigest()[:12]
-
-
-@cache
-def git_commit() -> str:
-    """Commit of the lcgym checkout in use, "+dirty" when tracked files differ from it, or
-    "unknown" (an installed wheel has no git)."""
-    here = Path(__file__).parent
-    try:
-        out = subprocess.run(["git", "rev-parse", "--short=12", "HEAD"], cwd=here, capture_output=True, text=True,
-                             timeout=5)
-        if out.returncode != 0 or not out.stdout.strip():
-            return "unknown"
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", "."],
-                               cwd=here.parent, capture_output=True, text=True, timeout=5).stdout.strip()
-        return out.stdout.strip() + ("+dirty" if dirty else "")
-    except (OSError, subprocess.SubprocessError):
-        return "unknown"
-
-
 def _single_thread() -> None:
     import numba
     import torch
@@ -147,7 +119,7 @@ def _single_thread() -> None:
 def _training_trials(system: str, seed: int, config: BenchConfig) -> list:
     """The feedback-only runs of a cell's training references: the same for every method of a
     (system, seed, budget), so computed once per process (the plants are deterministic)."""
-    bench = BENCH_SYSTEMS[system]()
+    bench = systems.get(system).bench()
     return bench.run(bench.references("train", seed, config.n_train, config.duration))
 
 
@@ -190,7 +162,7 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_th
     if single_thread:
         _single_thread()
     key = {"system": system, "method": method, "seed": seed, "config_hash": config.config_hash()}
-    bench = BENCH_SYSTEMS[system]()
+    bench = systems.get(system).bench()
     refs = {name: bench.references(name, seed, n, config.duration)
             for name, n in (("train", config.n_train), ("validation", config.n_validation))}
     train_trials = copy.deepcopy(_training_trials(system, seed, config))  # a copy: a method may alter its trials

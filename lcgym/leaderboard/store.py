@@ -25,6 +25,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from .. import systems
 from ..data import atomic_write
 
 COLUMNS = (
@@ -32,11 +33,11 @@ COLUMNS = (
     "plant_trials", "env_steps", "fit_seconds", "nn_rms", "status", "error",
     "lcgym_version", "git_commit", "timestamp", "config_hash",
 )
-SYSTEMS = ("ix", "flexarm")
+SYSTEMS = tuple(systems.BUILT_IN)
 REFERENCE_SETS = ("train", "validation", "test")
 SIGNALS = {
     "tracking_error": "deg",
-    "input_residual": {"ix": "V", "flexarm": "N m"},
+    "input_residual": {name: systems.get(name).input_unit for name in systems.BUILT_IN},
     "model_following_error": "deg",
     "ee_acceleration_error": "m/s^2",
     "tcp_position_error": "mm",

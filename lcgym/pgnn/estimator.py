@@ -21,29 +21,31 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from .. import __version__
+from .. import __version__, systems
 from ..data import atomic_write
 from ..physics.kinematics import reference_kinematics, reference_positions
 from ..physics.model import PhysicalModel
-from ..physics.registry import MODELS, system_of
-from ..physics.system import SYSTEMS
 from .network import PGNNModule
 from .training import PGNNConfig, network_inputs, train, training_data
 
 
 class PGNN:
-    """Physics-guided neural network feedforward (paper 000). Constructor arguments are stored as
-    given; ``fit`` sets ``module_`` (the trained torch module), ``physical_`` (the least-squares
-    physical model it started from) and ``info_`` (training history, epochs, seconds).
+    """Physics-guided neural network feedforward (paper 000) on any machine. Constructor arguments
+    are stored as given; ``fit`` sets ``module_`` (the trained torch module), ``physical_`` (the
+    least-squares physical model it started from) and ``info_`` (training history, epochs, seconds).
 
-    A ``physical`` model passed in is fitted in place (its ``params_`` become zeta^0); it must
-    use the same sample rate ``fs`` [Hz] as the PGNN and the trials (checked). ``load`` restores
-    ``module_`` only: ``physical_`` and ``info_`` belong to the fit and are not saved."""
+    system: the machine (a ``systems.System``; default the built-in machine named in the trials'
+    metadata, ``meta["system"]``); config: default ``PGNNConfig.for_system(system)``. A ``physical``
+    model passed in is fitted in place (its ``params_`` become zeta^0); it must use the same sample
+    rate ``fs`` [Hz] as the PGNN and the trials (checked). ``load`` restores ``module_`` only:
+    ``physical_`` and ``info_`` belong to the fit and are not saved."""
 
-    def __init__(self, config: PGNNConfig | None = None, fs: float = 500.0, physical: PhysicalModel | None = None):
+    def __init__(self, config: PGNNConfig | None = None, fs: float = 500.0, physical: PhysicalModel | None = None,
+                 system: systems.System | None = None):
         self.config = config
         self.fs = fs
         self.physical = physical
+        self.system = system
         self.use_network = True
 
     @property
@@ -53,14 +55,14 @@ class PGNN:
         return getattr(self, "_system_config", PGNNConfig())
 
     def fit(self, trials, progress: bool = False) -> PGNN:
-        system_name = system_of(trials)
+        machine = self.system or (self.physical.system if self.physical is not None else systems.of_trials(trials))
         if self.config is None:
-            self._system_config = PGNNConfig.for_system(system_name)
+            self._system_config = PGNNConfig.for_system(machine)
         cfg = self.config_
         start = time.perf_counter()
         if self.physical is not None and abs(self.physical.fs - self.fs) > 1e-6 * self.fs:
             raise ValueError(f"physical model samples at {self.physical.fs} Hz, the PGNN at {self.fs} Hz")
-        self.physical_ = (self.physical or MODELS[system_name](fs=self.fs)).fit(trials)
+        self.physical_ = (self.physical or machine.physical_model(fs=self.fs)).fit(trials)
         system = self.physical_.system
         zeta0 = self.physical_.params_.to_vector()
         data = training_data(trials, system, cfg, zeta0[system.n_linear :])
@@ -76,8 +78,8 @@ class PGNN:
 
     @property
     def params_(self):
-        """The physical parameters zeta after training (the system's parameter dataclass)."""
-        return self.module_.system.parameters.from_vector(self.module_.zeta.detach().double().numpy())
+        """The physical parameters zeta after training (the machine's parameter class)."""
+        return self.module_.system.params_from_vector(self.module_.zeta.detach().double().numpy())
 
     def _parts(self, reference) -> tuple[np.ndarray, np.ndarray]:
         q, qd, qdd = reference_kinematics(reference_positions(reference), self.fs, self.config_.advance)
@@ -117,8 +119,9 @@ class PGNN:
         return path
 
     @classmethod
-    def load(cls, path: str | Path) -> PGNN:
-        """Load a file written by ``save`` (tensors only; nothing else is unpickled)."""
+    def load(cls, path: str | Path, system: systems.System | None = None) -> PGNN:
+        """Load a file written by ``save`` (tensors only; nothing else is unpickled). ``system``: the
+        machine it was trained on (default the built-in machine the file names)."""
         blob = torch.load(Path(path), weights_only=True)
         header = json.loads(bytes(blob["header"].tolist()).decode())
         cfg = header["config"]
@@ -126,8 +129,11 @@ class PGNN:
         cfg["periods"] = tuple((int(a), float(p)) for a, p in cfg["periods"])
         config = PGNNConfig(**cfg)
         state = {k[len("state.") :]: v for k, v in blob.items() if k.startswith("state.")}
-        self = cls(config, fs=header["fs"])
-        self.module_ = PGNNModule(SYSTEMS[header["system"]], state["zeta0"].numpy(), header["n_inputs"], config.hidden,
-                                  config.activation)
+        machine = system or systems.get(header["system"])
+        if machine.name != header["system"] or len(machine.param_names) != state["zeta0"].numel():
+            raise ValueError(f"{path}: a PGNN of machine {header['system']!r} ({state['zeta0'].numel()} parameters), "
+                             f"not of {machine.name!r} ({len(machine.param_names)})")
+        self = cls(config, fs=header["fs"], system=machine)
+        self.module_ = PGNNModule(machine, state["zeta0"].numpy(), header["n_inputs"], config.hidden, config.activation)
         self.module_.load_state_dict(state)
         return self

@@ -5,8 +5,8 @@
 
 ``PGNNModule`` holds the physical parameters zeta (for the IX the 16 of Table I) and the per-axis
 MLPs g_phi_i (Definition 3: affine layers with an elementwise activation, linear output). The
-physical part is the system's ``inverse_dynamics`` (``physics.system.RigidBodySystem``) evaluated
-with torch tensors, i.e. the same equations as the plant and the least-squares model.
+physical part is the machine's ``inverse_dynamics`` (``systems.System``) evaluated with torch
+tensors, i.e. the same equations as the plant and the least-squares model.
 
 Each axis's MLP sees the standardized (``input_mean``, ``input_std``) features of all axes plus
 any extra inputs (history, periods), and returns that axis's f_i^C.
@@ -24,7 +24,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from ..physics.system import RigidBodySystem
+from ..systems import System
 
 ACTIVATIONS = {"tanh": nn.Tanh, "relu": nn.ReLU, "sigmoid": nn.Sigmoid}
 
@@ -44,7 +44,7 @@ def mlp(n_in: int, hidden: Sequence[int], activation: str) -> nn.Sequential:
 class PGNNModule(nn.Module):
     """Physical model + per-axis networks. ``forward`` returns (f_M, f_C), each (B, n_axes)."""
 
-    def __init__(self, system: RigidBodySystem, zeta0: np.ndarray, n_inputs: int, hidden: Sequence[int] = (30, 30),
+    def __init__(self, system: System, zeta0: np.ndarray, n_inputs: int, hidden: Sequence[int] = (30, 30),
                  activation: str = "tanh", input_mean=None, input_std=None):
         super().__init__()
         self.system = system
@@ -80,7 +80,7 @@ class PGNNModule(nn.Module):
         return self.physical(q, qd, qdd, X), self.network(inputs)
 
 
-def physical_constraints(system: RigidBodySystem, zeta: torch.Tensor, q: torch.Tensor) -> torch.Tensor:
+def physical_constraints(system: System, zeta: torch.Tensor, q: torch.Tensor) -> torch.Tensor:
     """h of eqs. (31)-(33), each > 0 when satisfied: the parameters that are positive physically
     (IX: masses, inertias, viscous coefficients) and the smallest eigenvalue of M(theta) over the
     given configurations (evenly thinned to ``system.constraint_configs`` where set)."""
@@ -98,7 +98,7 @@ def min_eigenvalue(M: torch.Tensor) -> torch.Tensor:
     return torch.linalg.eigvalsh(M)[..., 0]
 
 
-def physics_penalty(system: RigidBodySystem, zeta: torch.Tensor, q: torch.Tensor) -> torch.Tensor:
+def physics_penalty(system: System, zeta: torch.Tensor, q: torch.Tensor) -> torch.Tensor:
     """R2 of eq. (30): sum_i max(0, exp(-h_i) - 1)."""
     h = physical_constraints(system, zeta, q)
     return torch.clamp(torch.exp(-h) - 1.0, min=0.0).sum()

@@ -41,7 +41,7 @@ import numpy as np
 import torch
 
 from ..physics.kinematics import lowpass_zero_phase, reference_kinematics, relay
-from ..physics.system import RigidBodySystem
+from ..systems import System
 from .network import PGNNModule, physics_penalty
 
 
@@ -62,7 +62,7 @@ class PGNNConfig:
     max_epochs: int = 300  # lcgym's safety cap; the paper stops by validation only
     split: tuple[float, float, float] = (0.8, 0.1, 0.1)
     seed: int = 0
-    advance: float = 1.5  # samples; as physics.model.PhysicalModel
+    advance: float = 1.5  # samples; as the physical model (``System.advance``; the IX's 1.5 by default)
     threads: int | None = None  # torch threads while training (None: leave as is)
     max_seconds: float | None = None  # lcgym's wall-time budget of the whole fit (see ``train``)
     # beyond the paper (both off by default): extra network inputs
@@ -70,12 +70,11 @@ class PGNNConfig:
     periods: tuple[tuple[int, float], ...] = ()  # (axis index, period [rad]): add sin, cos(2 pi q / period)
 
     @classmethod
-    def for_system(cls, system: str, **overrides) -> PGNNConfig:
-        """The defaults for a system: the paper's for the IX; for the FlexArm (1 kHz, moves of 1-2 s)
-        u low-passed at 5 Hz instead of 1 Hz, every 10th sample, kinematics half a sample ahead
-        (as ``physics.arm_model.ArmModel``)."""
-        base = {"flexarm": {"filter_hz": 5.0, "decimate": 10, "advance": 0.5}}.get(system, {})
-        return cls(**{**base, **overrides})
+    def for_system(cls, system: System, **overrides) -> PGNNConfig:
+        """The defaults for a machine: the paper's, with the kinematics ``system.advance`` samples
+        ahead (as its physical model), updated by the machine's ``hints["pgnn"]`` (the FlexArm, 1 kHz
+        and moves of 1-2 s: u low-passed at 5 Hz instead of 1 Hz, every 10th sample) and ``overrides``."""
+        return cls(**{"advance": system.advance, **system.hints.get("pgnn", {}), **overrides})
 
 
 @dataclass
@@ -107,12 +106,14 @@ def network_inputs(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, config: PGNNC
     return np.column_stack([cols, *extra])
 
 
-def training_data(trials, system: RigidBodySystem, config: PGNNConfig, zeta_n0: np.ndarray) -> TrainingData:
+def training_data(trials, system: System, config: PGNNConfig, zeta_n0: np.ndarray) -> TrainingData:
     """Kinematics of each trial's reference, network inputs, filtered input u, and the regressor
     X at zeta_n0, concatenated over trials (each trial's filter and relay run on its own, at the
     full rate, before ``config.decimate`` keeps every k-th sample)."""
     parts = []
     for tr in trials:
+        if tr.ref is None:
+            raise ValueError("PGNN: training trials need a reference (the paper's theta_d surrogate)")
         q, qd, qdd = reference_kinematics(tr.ref, tr.fs, config.advance)
         u = lowpass_zero_phase(tr.u, tr.fs, config.filter_hz) if config.filter_hz else np.asarray(tr.u, float)
         k = slice(None, None, max(1, config.decimate))

@@ -1,7 +1,6 @@
 """The effect library: physical effects beyond the rigid-body model, by canonical name.
 
-Each effect acts on one axis (``axis``) of the systems it names (``systems``: the IX's propeller
-and roll, the FlexArm's joints j1-j6) and is written once:
+Each effect acts on one axis (``axis``, by name) of a machine and is written once:
 
 * a *formula function* (module level, below) that computes its basis functions with numpy
   ufuncs on scalars or arrays, so that the compiled plant (numba, scalars) and the physical
@@ -12,41 +11,36 @@ and roll, the FlexArm's joints j1-j6) and is written once:
 * ``columns(q, qd, qdd)``: the regressor columns of the linear coefficients (model side), so
   that ``torque = columns @ coefficients``.
 
-Sign convention: ``torque`` is the input [V] the axis needs to overcome the effect, i.e. it is
-added to the right-hand side of tau = M qdd + H + D qd (eq. 2 of paper 000). All angles are in
-rad, velocities in rad/s, torques in the system's input unit (IX: V, 1 V = 100 N m; FlexArm: N m
-of the motor, for load-side angles).
+An effect is bound to a machine's axes before it computes anything (``System.effect`` or
+``effect.bound(axis_names)``: ``index``, the position of its axis); its formula reads the
+kinematics of its own axis. Effects that need a machine's geometry (the IX's guidance friction,
+the FlexArm's payload) live with that machine (``systems/<machine>/effects.py``).
+
+Sign convention: ``torque`` is the input the axis needs to overcome the effect, i.e. it is
+added to the right-hand side of tau = M qdd + H + D qd (eq. 2 of paper 000). Positions are in
+rad (revolute axes) or m (prismatic), velocities per second, torques in the axis's input unit
+(IX: V, 1 V = 100 N m; FlexArm: N m of the motor, for load-side angles; N on a prismatic axis).
 
 Effects marked ``plant_only`` have internal state or change the order of the system
 (stiction, drivetrain flexibility): they exist in plants but a static inverse model has no
 regressor for them.
 
-Names follow `spec/effects.md`; ``cable_drape`` (the weight of a hanging cable, a sinusoid in
-the axis angle) and ``payload`` (an unknown rigid body at the FlexArm's flange) are additions of
-lcgym to that vocabulary.
+Names are canonical snake_case: the same name means the same effect in a plant, in a model, in
+the diagnosis report and on the command line (``lcgym effects`` lists them per machine).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
 from numba.extending import register_jitable
 
-from ..data import SYSTEM_AXES
-
 DEG = math.pi / 180.0
-
-
-def axis_index(axis: str) -> int:
-    """Position of an axis among its system's axes (axis names are unique across systems)."""
-    for axes in SYSTEM_AXES.values():
-        if axis in axes:
-            return axes.index(axis)
-    raise ValueError(f"unknown axis {axis!r}")
 
 # ---------------------------------------------------------------------------------------------
 # Formula functions: numpy ufuncs only, valid on floats (numba) and arrays (numpy).
@@ -58,18 +52,6 @@ def axis_index(axis: str) -> int:
 def smooth_sign(v, eps):
     """sign(v) smoothed over |v| < eps [rad/s]: tanh(v / eps)."""
     return np.tanh(v / eps)
-
-
-@register_jitable
-def normal_force_basis(s2, c2, c3):
-    """Configuration dependence of a guidance's normal force: (|cos q2|, |cos q2| cos q3, |sin q2|).
-
-    Takes s2 = sin q2, c2 = cos q2, c3 = cos q3 (propeller and roll angles). The gravity load on
-    rollers scales with the magnitude of the gravity components through the guidance; the roll
-    body's offset CoM modulates it with the roll angle.
-    """
-    a2 = np.abs(c2)
-    return a2, a2 * c3, np.abs(s2)
 
 
 @register_jitable
@@ -147,21 +129,23 @@ def table_lookup(x, lo, hi, values):
 
 @dataclass(frozen=True)
 class Effect:
-    """Base class: an effect on one axis. Subclasses set ``name`` and the parameter lists."""
+    """Base class: an effect on one axis. Subclasses set ``name`` and the parameter lists.
+
+    ``index``: the position of ``axis`` among the machine's axes, set by ``bound`` (keyword only;
+    not part of the effect's identity)."""
 
     axis: str
+    index: int | None = field(default=None, kw_only=True, repr=False, compare=False)
     name: ClassVar[str] = ""
     linear: ClassVar[tuple[str, ...]] = ()  # coefficient attribute names (linear parameters)
     nonlinear: ClassVar[tuple[str, ...]] = ()  # nonlinear parameter attribute names
     plant_only: ClassVar[bool] = False
     needs_base_torque: ClassVar[bool] = False
-    systems: ClassVar[tuple[str, ...]] = ("ix",)  # where the effect's formula applies
+    revolute_only: ClassVar[bool] = False  # the formula is periodic in the angle (no meaning on a prismatic axis)
 
     def __post_init__(self):
-        allowed = [a for s in self.systems for a in SYSTEM_AXES[s]]
-        if self.axis not in allowed:
-            raise ValueError(f"{self.name}: unknown axis {self.axis!r} (the effect applies to {', '.join(self.systems)}); "
-                             f"choose one of {allowed}")
+        if not isinstance(self.axis, str) or not self.axis:
+            raise ValueError(f"{self.name}: the axis must be a name, got {self.axis!r}")
         for n in self.linear + self.nonlinear:
             v = getattr(self, n)
             if not np.isfinite(v):
@@ -172,9 +156,22 @@ class Effect:
         """Canonical ``name@axis`` label."""
         return f"{self.name}@{self.axis}"
 
-    @property
-    def index(self) -> int:
-        return axis_index(self.axis)
+    def bound(self, axis_names: Sequence[str]) -> Effect:
+        """This effect with ``index`` set to its axis's position among ``axis_names``."""
+        names = list(axis_names)
+        if self.axis not in names:
+            raise ValueError(f"{self.key}: unknown axis {self.axis!r}; choose one of {', '.join(names)}")
+        return dataclasses.replace(self, index=names.index(self.axis))
+
+    def applies_to(self, axis) -> bool:
+        """Whether the formula has a meaning on ``axis`` (a ``systems.Axis``)."""
+        return axis.revolute or not self.revolute_only
+
+    def _i(self) -> int:
+        if self.index is None:
+            raise ValueError(f"{self.key} is not bound to a machine's axes: build it with system.effect(...) "
+                             "or effect.bound(axis_names)")
+        return self.index
 
     def coefficients(self) -> np.ndarray:
         return np.array([getattr(self, n) for n in self.linear], dtype=float)
@@ -186,7 +183,8 @@ class Effect:
         return dataclasses.replace(self, **dict(zip(self.linear, map(float, values), strict=True)))
 
     def columns(self, q, qd, qdd, base=None) -> np.ndarray:
-        """Regressor columns (T, len(linear)) of this effect's torque on its own axis [input unit per unit]."""
+        """Regressor columns (T, len(linear)) of this effect's torque on its own axis [input unit per unit];
+        q, qd, qdd (T, n_axes) of the machine; ``base`` (T,): the model's torque on the axis (ripple)."""
         if self.plant_only:
             raise TypeError(f"{self.key} has internal dynamics and no static regressor (plant only)")
         cols = self._columns(np.asarray(q, float), np.asarray(qd, float), np.asarray(qdd, float), base)
@@ -195,17 +193,17 @@ class Effect:
     def torque(self, q, qd, qdd, base=None) -> np.ndarray:
         """Torque (T, n_axes) [input unit] this effect adds to the required input (zero on the other axes)."""
         out = np.zeros(np.shape(q), dtype=float)
-        out[..., self.index] = self.columns(q, qd, qdd, base) @ self.coefficients()
+        out[..., self._i()] = self.columns(q, qd, qdd, base) @ self.coefficients()
         return out
 
     def _columns(self, q, qd, qdd, base):  # pragma: no cover - abstract
         raise NotImplementedError
 
     def _v(self, qd):
-        return qd[..., self.index]
+        return qd[..., self._i()]
 
     def _q(self, q):
-        return q[..., self.index]
+        return q[..., self._i()]
 
 
 @dataclass(frozen=True)
@@ -215,7 +213,6 @@ class ViscousFriction(Effect):
     d: float = 0.0
     name: ClassVar[str] = "viscous_friction"
     linear: ClassVar[tuple[str, ...]] = ("d",)
-    systems: ClassVar[tuple[str, ...]] = ("ix", "flexarm")
 
     def _columns(self, q, qd, qdd, base):
         return (self._v(qd),)
@@ -230,7 +227,6 @@ class CoulombFriction(Effect):
     name: ClassVar[str] = "coulomb_friction"
     linear: ClassVar[tuple[str, ...]] = ("Fc",)
     nonlinear: ClassVar[tuple[str, ...]] = ("eps",)
-    systems: ClassVar[tuple[str, ...]] = ("ix", "flexarm")
 
     def _columns(self, q, qd, qdd, base):
         return (smooth_sign(self._v(qd), self.eps),)
@@ -250,34 +246,10 @@ class StribeckFriction(Effect):
     name: ClassVar[str] = "stribeck_friction"
     linear: ClassVar[tuple[str, ...]] = ("dF",)
     nonlinear: ClassVar[tuple[str, ...]] = ("vs", "eps")
-    systems: ClassVar[tuple[str, ...]] = ("ix", "flexarm")
 
     def _columns(self, q, qd, qdd, base):
         v = self._v(qd)
         return (stribeck_shape(v, self.vs) * smooth_sign(v, self.eps),)
-
-
-@dataclass(frozen=True)
-class PositionDependentFriction(Effect):
-    """Friction whose level follows the guidance's normal force:
-
-        (c_cos |cos q2| + c_cos_roll |cos q2| cos q3 + c_sin |sin q2|) tanh(qd / eps)
-
-    c_* [V] linear, eps [rad/s] nonlinear; q2, q3 are the propeller and roll angles.
-    """
-
-    c_cos: float = 0.0
-    c_cos_roll: float = 0.0
-    c_sin: float = 0.0
-    eps: float = 1e-3
-    name: ClassVar[str] = "position_dependent_friction"
-    linear: ClassVar[tuple[str, ...]] = ("c_cos", "c_cos_roll", "c_sin")
-    nonlinear: ClassVar[tuple[str, ...]] = ("eps",)
-
-    def _columns(self, q, qd, qdd, base):
-        sgn = smooth_sign(self._v(qd), self.eps)
-        basis = normal_force_basis(np.sin(q[..., 0]), np.cos(q[..., 0]), np.cos(q[..., 1]))
-        return tuple(b * sgn for b in basis)
 
 
 @dataclass(frozen=True)
@@ -334,7 +306,7 @@ class CableInertia(Effect):
     nonlinear: ClassVar[tuple[str, ...]] = ("q0", "width")
 
     def _columns(self, q, qd, qdd, base):
-        i = self.index
+        i = self._i()
         return (cable_inertia_basis(q[..., i], qd[..., i], qdd[..., i], self.q0, self.width)[1],)
 
 
@@ -407,6 +379,7 @@ class GearHarmonic(Effect):
 @dataclass(frozen=True)
 class CableDrape(Effect):
     """Weight of a hanging cable on an axis: s sin q + c cos q [V] (= A sin(q + phi)). s, c linear.
+    Revolute axes only.
 
     On the propeller it lies in the span of the rigid model's gravity terms, so a rigid-model fit
     absorbs it (with shifted mass parameters); on the roll axis it does not.
@@ -416,6 +389,7 @@ class CableDrape(Effect):
     c: float = 0.0
     name: ClassVar[str] = "cable_drape"
     linear: ClassVar[tuple[str, ...]] = ("s", "c")
+    revolute_only: ClassVar[bool] = True
 
     @classmethod
     def from_amplitude(cls, axis: str, amplitude: float, phase: float) -> CableDrape:
@@ -452,7 +426,7 @@ class TabulatedForce(Effect):
 
     ``variable`` "velocity" [rad/s] or "position" [rad]; ``values`` [V] on a uniform grid of
     ``len(values)`` points (2 to 1024) over [lo, hi], linear in between and held constant outside.
-    It is not part of the vocabulary of `spec/effects.md`: it makes plants whose hidden effects
+    It is no model of a physical effect: it makes plants whose hidden effects
     follow none of the library's formulas (a differently shaped friction curve, a spring that
     engages smoothly), the way a real machine does, to test the diagnosis on them.
     """
@@ -487,52 +461,29 @@ class TabulatedForce(Effect):
         return np.array([table_lookup(float(v), self.lo, self.hi, values) for v in np.ravel(x)]).reshape(np.shape(x))
 
 
-@dataclass(frozen=True)
-class Payload(Effect):
-    """FlexArm: an unknown rigid body fixed to the flange, seen in one joint's motor torque.
-
-    Its 10 standard inertial parameters in frame 6 (``physics.arm``: m [kg], m c [kg m], inertia
-    about the frame's origin [kg m^2]) add to link 6's; the torque is linear in them: the joint's
-    row of link 6's regressor columns (``physics.arm_motor.link_columns``, motor side).
-    Fitted per joint, each joint sees the payload through its own row (the shared 10 parameters
-    are what the benchmark's physical model identifies with all inertial parameters free).
-    """
-
-    m: float = 0.0
-    mx: float = 0.0
-    my: float = 0.0
-    mz: float = 0.0
-    Ixx: float = 0.0
-    Ixy: float = 0.0
-    Ixz: float = 0.0
-    Iyy: float = 0.0
-    Iyz: float = 0.0
-    Izz: float = 0.0
-    name: ClassVar[str] = "payload"
-    linear: ClassVar[tuple[str, ...]] = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz")
-    systems: ClassVar[tuple[str, ...]] = ("flexarm",)
-
-    def _columns(self, q, qd, qdd, base):
-        from .arm_motor import link_columns
-
-        return tuple(link_columns(5, q, qd, qdd)[:, self.index, :].T)
-
-
 EFFECTS: dict[str, type[Effect]] = {
     cls.name: cls
     for cls in (
-        ViscousFriction, CoulombFriction, StribeckFriction, PositionDependentFriction, Stiction,
+        ViscousFriction, CoulombFriction, StribeckFriction, Stiction,
         CableSpring, CableInertia, TorqueRipple, GearHarmonic, CableDrape, DrivetrainFlexibility,
-        TabulatedForce, Payload,
+        TabulatedForce,
     )
 }
 
 
-def make_effect(key: str, **params) -> Effect:
-    """Build an effect from its ``name@axis`` label, e.g. ``make_effect("coulomb_friction@roll", Fc=0.05)``."""
-    name, sep, axis = key.partition("@")
-    if not sep:
+def parse_key(key: str) -> tuple[str, str]:
+    """(name, axis) of a ``name@axis`` label."""
+    name, sep, axis = str(key).partition("@")
+    if not sep or not name or not axis:
         raise ValueError(f"effect {key!r}: write it as NAME@AXIS, e.g. coulomb_friction@roll")
+    return name, axis
+
+
+def make_effect(key: str, **params) -> Effect:
+    """An effect of the library from its ``name@axis`` label, unbound, e.g.
+    ``make_effect("coulomb_friction@roll", Fc=0.05)`` (``System.effect`` also knows the machine's
+    own effects and binds it)."""
+    name, axis = parse_key(key)
     if name not in EFFECTS:
         raise ValueError(f"unknown effect {name!r}; known: {', '.join(sorted(EFFECTS))}")
     return EFFECTS[name](axis=axis, **params)
@@ -540,13 +491,16 @@ def make_effect(key: str, **params) -> Effect:
 
 def effect_record(effect: Effect) -> dict:
     """A JSON-ready description of an effect: its ``name@axis`` label and every parameter."""
-    params = {f.name: getattr(effect, f.name) for f in dataclasses.fields(effect) if f.name != "axis"}
+    params = {f.name: getattr(effect, f.name) for f in dataclasses.fields(effect) if f.name not in ("axis", "index")}
     return {"effect": effect.key, **{k: list(v) if isinstance(v, tuple) else v for k, v in params.items()}}
 
 
-def effect_from_record(record: dict) -> Effect:
-    """Inverse of ``effect_record``."""
+def effect_from_record(record: dict, system=None) -> Effect:
+    """Inverse of ``effect_record``; with a ``system`` (``systems.System``) bound to its axes and
+    with the machine's own effects known."""
     params = {k: tuple(v) if isinstance(v, list) else v for k, v in record.items() if k != "effect"}
+    if system is not None:
+        return system.effect(record["effect"], **params)
     return make_effect(record["effect"], **params)
 
 

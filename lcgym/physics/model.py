@@ -1,10 +1,12 @@
-"""``PhysicalModel``: the IX rigid-body model plus a list of effects, fitted by least squares.
+"""``PhysicalModel``: a machine's rigid-body model plus a list of effects, fitted by least squares.
 
     f(k) = M(theta_d) thetadd_d + H(theta_d, thetad_d) + D thetad_d + sum_e tau_e(theta_d, ...)
 
-evaluated on the reference at t_k + advance / fs (paper 000, Definition 2, eq. 9). The model is
-linear in the rigid parameters zeta_l (Lemma 1) and in every effect's coefficients, and
-nonlinear in the centres of mass zeta_n and in the effects' shape parameters.
+evaluated on the reference at t_k + advance / fs (paper 000, Definition 2, eq. 9), for any
+``systems.System``: the IX of paper 000, the FlexArm (``systems.flexarm.model.ArmModel``), a URDF or
+a user's machine. The model is linear in the rigid parameters zeta_l (Lemma 1) and in every
+effect's coefficients, and may be nonlinear in zeta_n (the IX's centres of mass) and in the
+effects' shape parameters.
 
 Fit (``fit(trials)``):
 
@@ -13,12 +15,15 @@ Fit (``fit(trials)``):
    low-pass (``filter_hz``, order 2) per trial and are then decimated (``decimate``). Filtering
    both sides with one linear filter keeps the least-squares problem consistent while it removes
    the encoder-quantization noise that the feedback's derivative action puts into u.
-3. zeta_n (the 5 centre-of-mass coordinates) by variable projection: for each candidate zeta_n
+3. zeta_n (the IX: its 5 centre-of-mass coordinates), if the machine has any, by variable
+   projection: for each candidate zeta_n
    the linear parameters are eliminated by least squares and the remaining residual is
    minimized over zeta_n with ``scipy.optimize.least_squares``, starting at the given values.
 4. The linear parameters are solved as a correction to the given (nominal) values of minimum
    norm in column-scaled units: combinations the data cannot identify keep their nominal values
-   (e.g. the split between J2yy and J3yy + J3zz: their columns obey X_J2yy = X_J3yy + X_J3zz).
+   (e.g. the split between J2yy and J3yy + J3zz: their columns obey X_J2yy = X_J3yy + X_J3zz; on
+   a URDF robot, the standard inertial parameters beyond its base parameters). ``fit_info_``
+   states how many combinations the data identified (``rank``) of how many (``n_free``).
 
 ``positions="measured"`` (what the diagnosis uses) fits the motion the machine made rather than
 the one it was asked for: the reference's kinematics corrected by the measured tracking error
@@ -28,7 +33,9 @@ the encoder reading smoothed). With
 feedback only, the reference leads the axis by tenths of a degree and the input u pays for the
 actual motion: a reference-only fit leaves that lag in the residual, where it looks like
 low-speed friction. Differentiating the quantized encoder reading itself would bias the inertia
-fit; the low-passed error carries far less quantization noise (tested).
+fit; the low-passed error carries far less quantization noise (tested). A trial without a
+reference (a log of positions only), or ``positions="position"``, takes the kinematics of the
+measured position itself, low-passed at ``error_filter_hz`` (zero phase) and then differentiated.
 
 Effects' nonlinear parameters stay at the values the effect was built with (``diagnose``
 searches them). Ripple columns need the model's own torque: they are built from the rigid-body
@@ -39,53 +46,62 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
-from dataclasses import dataclass, field
-from typing import ClassVar
+from dataclasses import dataclass
+from typing import Any, ClassVar
 
 import numpy as np
 from scipy.optimize import least_squares
 
-from . import ix
-from .effects import Effect, make_effect
+from .effects import Effect
 from .kinematics import lowpass_zero_phase, reference_kinematics, reference_positions
-from .system import IX, RigidBodySystem
+
+POSITIONS = ("reference", "measured", "position")
 
 
 @dataclass
 class PhysicalModel:
-    """IX rigid body (eqs. 2-9) + effects; ``fit`` then ``predict`` (scikit-learn style).
+    """A machine's rigid body (the IX: eqs. 2-9) + effects; ``fit`` then ``predict`` (scikit-learn style).
 
-    Constructor arguments are stored as given; ``fit`` sets ``params_`` (IXParameters),
-    ``effects_`` (effects with fitted coefficients) and ``fit_info_``. Before ``fit``,
-    ``predict`` uses the given parameters (a nominal model is a working feedforward).
+    system: the machine (``systems.System``); params: its parameters (default its nominal ones);
+    effects: bound to its axes on construction; fs [Hz] and advance [samples]: default the
+    machine's. Constructor arguments are stored as given; ``fit`` sets ``params_``, ``effects_``
+    (effects with fitted coefficients) and ``fit_info_``. Before ``fit``, ``predict`` uses the
+    given parameters (a nominal model is a working feedforward).
     """
 
-    params: ix.IXParameters = field(default_factory=ix.IXParameters)
+    system: Any
+    params: Any = None
     effects: tuple[Effect, ...] = ()
-    fs: float = 500.0
-    advance: float = 1.5  # samples: one computation delay + half a hold interval
+    fs: float | None = None
+    advance: float | None = None  # samples; default the machine's (IX: one computation delay + half a hold)
     filter_hz: float | None = 5.0
     decimate: int = 10
     fit_nonlinear: bool = True
-    positions: str = "reference"  # kinematics of the fit: "reference" or "measured" (see above)
+    positions: str = "reference"  # kinematics of the fit: "reference", "measured" or "position" (see above)
     error_filter_hz: float = 5.0
-    system: ClassVar[RigidBodySystem] = IX  # the physics the learners (PGNN, diagnosis) share with it
     built_in: ClassVar[tuple[str, ...]] = ("rigid_body", "viscous_friction")  # what the model has without effects
+    rcond: ClassVar[float] = 1e-9  # relative singular-value cut of the linear solve (directions the data lacks)
 
     def __post_init__(self):
-        self.effects = tuple(self.effects)
-        if self.positions not in ("reference", "measured"):
-            raise ValueError(f"positions must be 'reference' or 'measured', got {self.positions!r}")
+        if self.params is None:
+            self.params = self.system.nominal_params()
+        if self.fs is None:
+            if self.system.fs is None:
+                raise ValueError(f"{self.system.name} has no sample rate of its own: give the model's fs [Hz]")
+            self.fs = self.system.fs
+        if self.advance is None:
+            self.advance = self.system.advance
+        if self.positions not in POSITIONS:
+            raise ValueError(f"positions must be one of {', '.join(POSITIONS)}, got {self.positions!r}")
         for e in self.effects:
             if e.plant_only:
                 raise ValueError(f"{e.key} has internal dynamics: it exists in plants only, not in a static model")
-            if e.axis not in self.system.axes:
-                raise ValueError(f"{e.key} is not an effect of the {self.system.name} model (axes {', '.join(self.system.axes)})")
+        self.effects = tuple(self.system.effect(e) for e in self.effects)
 
     @classmethod
-    def for_diagnosis(cls, fs: float) -> PhysicalModel:
+    def for_diagnosis(cls, system, fs: float) -> PhysicalModel:
         """The nominal model ``diagnose`` starts from: this one, fitted to the measured motion."""
-        return cls(fs=fs, positions="measured")
+        return cls(system=system, fs=fs, positions="measured")
 
     def parts(self) -> tuple[str, ...]:
         """What this model has without its effects (the diagnosis does not offer these again)."""
@@ -93,7 +109,7 @@ class PhysicalModel:
 
     # ------------------------------------------------------------------ evaluation
     @property
-    def fitted_params(self) -> ix.IXParameters:
+    def fitted_params(self):
         return getattr(self, "params_", self.params)
 
     @property
@@ -101,30 +117,33 @@ class PhysicalModel:
         return getattr(self, "effects_", self.effects)
 
     def torque(self, q, qd, qdd) -> np.ndarray:
-        """Model input [V], shape (T, 2), for given kinematics (rad, rad/s, rad/s^2)."""
+        """Model input (T, n_axes) [input unit] for given kinematics (rad or m, per s, per s^2)."""
         p = self.fitted_params.to_vector()
-        base = ix.inverse_dynamics(p, q, qd, qdd)
+        base = self.system.inverse_dynamics(p, q, qd, qdd)
         tau = base.copy()
         for e in self.fitted_effects:
             tau += e.torque(q, qd, qdd, base=base[:, e.index] if e.needs_base_torque else None)
         return tau
 
     def predict(self, reference) -> np.ndarray:
-        """Feedforward (T, 2) [V] for a reference: an array of positions (T, 2) [rad] sampled at
-        ``fs``, a Trial or a Reference."""
+        """Feedforward (T, n_axes) [input unit] for a reference: an array of positions (T, n_axes)
+        sampled at ``fs``, a Trial or a Reference."""
         q, qd, qdd = reference_kinematics(reference_positions(reference), self.fs, self.advance)
         return self.torque(q, qd, qdd)
 
     def with_effect(self, effect: Effect | str, **params) -> PhysicalModel:
         """A new, unfitted model with one more effect (an Effect or a ``name@axis`` label);
         it starts from this model's fitted rigid parameters."""
-        if isinstance(effect, str):
-            effect = make_effect(effect, **params)
+        effect = self.system.effect(effect, **params)
         if any(e.key == effect.key for e in self.effects):
             raise ValueError(f"model already has {effect.key}")
         return dataclasses.replace(self, params=self.fitted_params, effects=(*self.fitted_effects, effect))
 
     # ------------------------------------------------------------------ fitting
+    def free_mask(self) -> np.ndarray:
+        """Boolean mask (n_linear,) of the linear parameters a fit adjusts (here: all)."""
+        return np.ones(self.system.n_linear, dtype=bool)
+
     def free_design(self, kin, params=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """What a linear fit of the model adjusts, at ``params`` (default the fitted parameters): the
         columns of the free linear parameters (T, A, k), the torque of the parameters held fixed
@@ -132,7 +151,10 @@ class PhysicalModel:
         p = (params or self.fitted_params).to_vector()
         n = self.system.n_linear
         X = self.system.regressor(p[n:], *kin)
-        return X, np.zeros(X.shape[:2]), p[:n]
+        free = self.free_mask()
+        if free.all():
+            return X, np.zeros(X.shape[:2]), p[:n]
+        return X[:, :, free], X[:, :, ~free] @ p[:n][~free], p[:n][free]
 
     def _effect_columns(self, kin, base):
         """Regressor columns (T, A, n_effect_coefficients) of the effects (independent of zeta_n)."""
@@ -156,57 +178,101 @@ class PhysicalModel:
         return np.concatenate(out, axis=0)
 
     def kinematics(self, trials: Sequence) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], list[int]]:
-        """(q, qd, qdd) of the fit, each (sum of T, 2), and the trial lengths (see ``positions``)."""
+        """(q, qd, qdd) of the fit, each (sum of T, n_axes), and the trial lengths (see ``positions``;
+        a trial without a reference always takes its measured position's)."""
         if not trials:
             raise ValueError("PhysicalModel.fit: no trials given")
         kins, lengths = [], []
         for tr in trials:
             if abs(tr.fs - self.fs) > 1e-6 * self.fs:
                 raise ValueError(f"trial sampled at {tr.fs} Hz, model expects {self.fs} Hz")
-            q, qd, qdd = reference_kinematics(tr.ref, self.fs, self.advance)
-            if self.positions == "measured":
-                e = lowpass_zero_phase(tr.ref - tr.pos, self.fs, self.error_filter_hz)
-                e, ed, edd = reference_kinematics(e, self.fs, self.advance)
-                q, qd, qdd = q - e, qd - ed, qdd - edd
+            if self.positions == "position" or tr.ref is None:
+                q, qd, qdd = reference_kinematics(lowpass_zero_phase(tr.pos, self.fs, self.error_filter_hz), self.fs,
+                                                  self.advance)
+            else:
+                q, qd, qdd = reference_kinematics(tr.ref, self.fs, self.advance)
+                if self.positions == "measured":
+                    e = lowpass_zero_phase(tr.ref - tr.pos, self.fs, self.error_filter_hz)
+                    e, ed, edd = reference_kinematics(e, self.fs, self.advance)
+                    q, qd, qdd = q - e, qd - ed, qdd - edd
             kins.append((q, qd, qdd))
             lengths.append(tr.n_samples)
         return tuple(np.concatenate([k[i] for k in kins]) for i in range(3)), lengths
 
     def fit(self, trials: Sequence) -> PhysicalModel:
-        """Least-squares fit on measured trials (each with ``ref``, ``pos``, ``u`` and sample rate ``fs``)."""
+        """Least-squares fit on measured trials (each with ``ref`` (or None), ``pos``, ``u`` and sample
+        rate ``fs``): the free linear parameters, the effects' coefficients and, where the machine
+        has them and ``fit_nonlinear``, its nonlinear parameters zeta_n (module docstring)."""
         kin, lengths = self.kinematics(trials)
-        u_red = self.reduce(np.concatenate([tr.u for tr in trials]), lengths).reshape(-1)
-
-        p0 = self.params.to_vector()
-        theta0 = np.concatenate([p0[: ix.N_LINEAR], *[e.coefficients() for e in self.effects]])
-        zeta_n = p0[ix.N_LINEAR :].copy()
-        base = ix.inverse_dynamics(p0, *kin)  # rigid torque for ripple columns, refined per pass
-        n_pass = 2 if any(e.needs_base_torque for e in self.effects) else 1
-        for _ in range(n_pass):
-            rigid = _QuadraticDesign(lambda zn: self.system.regressor(zn, *kin), zeta_n.size, lambda A: self.reduce(A, lengths))
-            fixed = self.reduce(self._effect_columns(kin, base), lengths)
-            design = lambda zn, r=rigid, f=fixed: np.concatenate([r(zn), f], axis=2)  # noqa: E731
-            if self.fit_nonlinear:
-                sol = least_squares(
-                    lambda zn, d=design: solve_min_norm(d(zn), u_red, theta0)[1],
-                    zeta_n, x_scale=0.01, diff_step=1e-3, max_nfev=100,
-                )
-                zeta_n = sol.x
-            theta, resid = solve_min_norm(design(zeta_n), u_red, theta0)
-            p = np.concatenate([theta[: ix.N_LINEAR], zeta_n])
-            base = ix.inverse_dynamics(p, *kin)
-        self.params_ = ix.IXParameters.from_vector(p)
-        effects, i = [], ix.N_LINEAR
+        u = np.concatenate([tr.u for tr in trials])
+        if self.system.fully_linear:
+            theta, resid = self._fit_linear(kin, lengths, u)
+        else:
+            theta, resid = self._fit_variable_projection(kin, lengths, u)
+        n_free = theta.size - sum(len(e.linear) for e in self.effects)
+        effects, i = [], n_free
         for e in self.effects:
             effects.append(e.with_coefficients(theta[i : i + len(e.linear)]))
             i += len(e.linear)
         self.effects_ = tuple(effects)
-        self.fit_info_ = {
-            "residual_rms": float(np.sqrt(np.mean(resid**2))),
-            "n_samples": int(sum(lengths)),
-            "n_used": int(u_red.size // 2),
-        }
+        self.fit_info_ = {**self.fit_info_, "residual_rms": float(np.sqrt(np.mean(resid**2))),
+                          "n_samples": int(sum(lengths)), "n_used": int(resid.size // len(self.system.axes))}
         return self
+
+    def _fit_linear(self, kin, lengths, u):
+        """A machine linear in all its parameters: one minimum-norm least-squares solve of the free
+        parameters and the effects' coefficients, the fixed parameters' torque moved to u's side."""
+        free, fixed, theta_free = self.free_design(kin, self.params)  # a fit starts from the given values
+        base = free @ theta_free + fixed if any(e.needs_base_torque for e in self.effects) else fixed
+        X = self.reduce(np.concatenate([free, self._effect_columns(kin, base)], axis=2), lengths)
+        y = self.reduce(u - fixed, lengths).reshape(-1)
+        theta0 = np.concatenate([theta_free, *[e.coefficients() for e in self.effects]])
+        theta, resid = solve_min_norm(X, y, theta0, rcond=self.rcond)
+        vector = self.params.to_vector()
+        mask = self.free_mask()
+        vector[: self.system.n_linear][mask] = theta[: int(mask.sum())]
+        self.params_ = self.system.params_from_vector(vector)
+        self.fit_info_ = {"n_free": int(mask.sum()), "rank": _rank(X[:, :, : int(mask.sum())], self.rcond)}
+        return theta, resid
+
+    def _fit_variable_projection(self, kin, lengths, u):
+        """A machine with nonlinear parameters zeta_n (the IX): variable projection over zeta_n, the
+        linear parameters and the effects' coefficients eliminated by least squares at each step."""
+        u_red = self.reduce(u, lengths).reshape(-1)
+        n = self.system.n_linear
+        p0 = self.params.to_vector()
+        theta0 = np.concatenate([p0[:n], *[e.coefficients() for e in self.effects]])
+        zeta_n = p0[n:].copy()
+        base = self.system.inverse_dynamics(p0, *kin)  # rigid torque for ripple columns, refined per pass
+        n_pass = 2 if any(e.needs_base_torque for e in self.effects) else 1
+        evaluate = (_QuadraticDesign if self.system.quadratic_in_nonlinear else _Design)
+        for _ in range(n_pass):
+            rigid = evaluate(lambda zn: self.system.regressor(zn, *kin), zeta_n.size, lambda A: self.reduce(A, lengths))
+            fixed = self.reduce(self._effect_columns(kin, base), lengths)
+            design = lambda zn, r=rigid, f=fixed: np.concatenate([r(zn), f], axis=2)  # noqa: E731
+            if self.fit_nonlinear:
+                sol = least_squares(
+                    lambda zn, d=design: solve_min_norm(d(zn), u_red, theta0, rcond=self.rcond)[1],
+                    zeta_n, x_scale=0.01, diff_step=1e-3, max_nfev=100,
+                )
+                zeta_n = sol.x
+            theta, resid = solve_min_norm(design(zeta_n), u_red, theta0, rcond=self.rcond)
+            p = np.concatenate([theta[:n], zeta_n])
+            base = self.system.inverse_dynamics(p, *kin)
+        self.params_ = self.system.params_from_vector(p)
+        self.fit_info_ = {"n_free": n, "rank": _rank(rigid(zeta_n), self.rcond)}
+        return theta, resid
+
+
+def _rank(A: np.ndarray, rcond: float) -> int:
+    """Numerical rank of the column-scaled design A (R, A, k): the directions a fit identifies."""
+    A = A.reshape(-1, A.shape[-1])
+    scale = np.linalg.norm(A, axis=0)
+    used = scale > 1e-12 * scale.max(initial=0.0)
+    if not used.any():
+        return 0
+    s = np.linalg.svd(A[:, used] / scale[used], compute_uv=False)
+    return int((s > rcond * s[0]).sum())
 
 
 def solve_min_norm(A, u, theta0, rcond: float = 1e-9):
@@ -220,6 +286,16 @@ def solve_min_norm(A, u, theta0, rcond: float = 1e-9):
     delta, *_ = np.linalg.lstsq(np.where(used, A / scale, 0.0), y, rcond=rcond)
     theta = theta0 + delta / scale
     return theta, u - A @ theta
+
+
+class _Design:
+    """Reduced design matrix at any zeta_n, by evaluating the regressor there (any machine)."""
+
+    def __init__(self, evaluate, n, reduce=lambda A: A):
+        self._evaluate, self._reduce = evaluate, reduce
+
+    def __call__(self, z):
+        return self._reduce(self._evaluate(np.asarray(z, dtype=float)))
 
 
 class _QuadraticDesign:

@@ -15,10 +15,11 @@ from Table 1:
   do. ("The same way" is read from the references: the sign of the correlation of the two joints'
   velocities. A joint that does not move in the references is taken as turning the same way.)
 
-The axes are those of the arm at one pose (the paper uses its home pose, Fig. 4). For paper 002's
-robot and task (tool fixed, TCP along X) these rules give eq. (25), ``PAPER_PHI``; the FlexArm's
-lines give the same entries among the moving joints 2, 3, 5 (``tests/test_rbf_expert.py``).
-For the IX the two axes (propeller, roll) are perpendicular: Phi is the 2x2 identity.
+The axes are those of the machine at its reference pose (``System.joint_axes``; the paper uses the
+arm's home pose, Fig. 4). For paper 002's robot and task (tool fixed, TCP along X) these rules give
+eq. (25), ``PAPER_PHI``; the FlexArm's lines give the same entries among the moving joints 2, 3, 5
+(``tests/test_rbf_expert.py``). For the IX the two axes (propeller, roll) are perpendicular: Phi is
+the 2x2 identity.
 """
 
 from __future__ import annotations
@@ -27,8 +28,6 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-
-from ..physics import arm
 
 ALIGNED_DEG = 20.0  # axes within this angle (or of its opposite) count as aligned
 
@@ -40,13 +39,6 @@ PAPER_PHI = np.array([  # eq. (25)
     [0, 1, -1, 0, 1, 0],
     [1, 0, 0, 1, 0, 1],
 ], dtype=float)
-
-
-def joint_axes(q: np.ndarray, dh: arm.DH | None = None) -> np.ndarray:
-    """Unit rotation axis of each joint in the base frame (6, 3) at pose q (6,) [rad]: joint i
-    turns about z of DH frame i - 1 (the base's z for joint 1)."""
-    R, _ = arm.forward_kinematics((dh or arm.DH()).table(), np.asarray(q, dtype=float))
-    return np.vstack([[0.0, 0.0, 1.0], R[:-1, :, 2]])
 
 
 def rotation_directions(velocities: Sequence[np.ndarray], moving_tol: float = 1e-6) -> np.ndarray:
@@ -72,11 +64,12 @@ def influence_matrix(axes: np.ndarray, directions: np.ndarray, aligned_deg: floa
     return phi
 
 
-def arm_influence(references: Sequence, pose: np.ndarray | None = None, dh: arm.DH | None = None) -> np.ndarray:
-    """Phi of the FlexArm for the task the references describe: axes at ``pose`` (default the home
-    pose, as the paper), directions from the references' joint velocities."""
-    pose = arm.HOME if pose is None else pose
-    return influence_matrix(joint_axes(pose, dh), rotation_directions([r.velocities for r in references]))
+def task_influence(references: Sequence, axes: np.ndarray | None) -> np.ndarray:
+    """Phi for the task the references describe: the joint ``axes`` (n, 3) of the machine at its
+    reference pose (None: mutually perpendicular, Phi = I), directions from the references' velocities."""
+    if axes is None:
+        return np.eye(references[0].positions.shape[1])
+    return influence_matrix(axes, rotation_directions([r.velocities for r in references]))
 
 
 def motion_influence(phi: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray):

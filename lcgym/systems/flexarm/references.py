@@ -3,11 +3,11 @@
 accelerations. Joints 1, 4 and 6 stay at 0; the line lies in the arm's vertical plane, so only
 joints 2, 3 and 5 move, as in the paper.
 
-The TCP is the flange centre (origin of DH frame 6, ``physics.arm``), the tool points straight
+The TCP is the flange centre (origin of DH frame 6, ``systems.flexarm.dynamics``), the tool points straight
 down (frame 6's z axis along -Z of the base). Each reference: rest, a third-order (jerk-limited)
 move of the TCP along +X by the line's length, rest, the move back, rest. Cartesian profiles come
 from ``references.AxisProfile`` (the same third-order setpoints as the IX), joint angles from
-inverse kinematics solved by Newton's method on the forward kinematics of ``physics.arm``
+inverse kinematics solved by Newton's method on the forward kinematics of ``systems.flexarm.dynamics``
 (compiled, warm-started from the previous sample, to 1e-12 m), joint velocities and accelerations
 by central differences of the sampled angles.
 """
@@ -19,8 +19,8 @@ import math
 import numba
 import numpy as np
 
-from ..physics import arm
-from .references import AxisProfile, Reference, _stream
+from ...references import AxisProfile, Reference, stream
+from . import dynamics as arm
 
 TCP_HEIGHT = 0.50  # m above the base frame's origin: the height of the lines
 X_RANGE = (0.55, 1.55)  # m: where the lines lie (the TCP's reach at that height)
@@ -107,7 +107,7 @@ def _start(dh_table: np.ndarray, x: float) -> np.ndarray:
 
 def arm_reference_set(name: str, seed: int = 0, n_references: int | None = None, fs: float = 1000.0) -> list[Reference]:
     """Seeded set "train" (default 8 lines), "validation" (2) or "test" (2) of TCP lines."""
-    rng = _stream(name, seed)
+    rng = stream(name, seed)
     n = n_references if n_references is not None else {"train": 8, "validation": 2, "test": 2}.get(name, 0)
     if n < 1:
         raise ValueError(f"n_references must be >= 1 (set {name!r}), got {n}")

@@ -31,8 +31,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import arm
-from .kinematics import lowpass_zero_phase
+from ...physics.kinematics import lowpass_zero_phase
+from . import dynamics as arm
 
 
 def estimate_load_acceleration(trial, arm_params: arm.ArmParameters, drive: arm.DriveParameters,

@@ -16,20 +16,24 @@ From the load reference q_lr it gives (all nominal values):
 - tau_ff,0 = J_m qddbar_mr + D_m qdbar_mr + F_mc sgn(qdbar_mr) + tau_lr / N (eqs. 13, 15) and
   tau_nl,0 = tau_ff,0 - tau_ln (eq. 12).
 
-The plant (``envs.flexarm``) takes the motor-reference offset qbar_mr - N q_lr and the total
+The plant (``systems.flexarm.plant``) takes the motor-reference offset qbar_mr - N q_lr and the total
 feedforward tau_ff,0 = tau_ln + tau_nl,0. ``model_following_error`` gives e_pl = P_lu mu - qdd_l
-(eq. 16's error), with mu = u - tau_nl the inner plant's input.
+(eq. 16's error), with mu = u - tau_nl the inner plant's input; ``BasicFeedforward.run`` runs the
+plant with Basic and records e_pl, ``load_response`` is P_lu on a frequency grid (what the learning
+methods invert). ``FLEXARM.nominal`` is this structure: the start of the methods of paper 002.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 from scipy import signal
 
-from . import arm
-from .kinematics import reference_kinematics
+from ...physics.kinematics import lowpass_zero_phase, reference_kinematics
+from . import dynamics as arm
 
 HOME = arm.HOME  # where M_n is taken
 
@@ -44,6 +48,46 @@ class BasicFeedforward:
     arm_params: arm.ArmParameters = field(default_factory=arm.ArmParameters)
     drive: arm.DriveParameters = field(default_factory=arm.DriveParameters)
     eps: float = 0.01
+    name: ClassVar[str] = "basic"  # the FlexArm env's base_feedforward option for this structure
+
+    def reference_offset(self, reference) -> np.ndarray:
+        """The motor reference offset of F1 and r_q,0 as a load-side angle (T, 6) [rad] for a Reference."""
+        return self.compute(reference.positions, reference.fs)["reference_offset"]
+
+    def load_response(self, n: int, fs: float) -> np.ndarray:
+        """P_lu (e^{i w Ts}) (n_freq, 6) [rad/s^2 per N m] on the rfft grid of n samples: the nominal
+        linear model from motor torque to load acceleration per joint (``load_model``), discretized
+        with a zero-order hold."""
+        ts = 1.0 / fs
+        z = np.exp(1j * 2 * math.pi * np.fft.rfftfreq(n, ts) * ts)
+        out = np.empty((z.size, 6), dtype=complex)
+        for i in range(6):
+            A, B, C = self.load_model(i)
+            Ad, Bd, Cd, Dd, _ = signal.cont2discrete((A, B, C, np.zeros((1, 1))), ts, method="zoh")
+            eye = np.eye(A.shape[0])
+            out[:, i] = [(Cd @ np.linalg.solve(zk * eye - Ad, Bd))[0, 0] + Dd[0, 0] for zk in z]
+        return out
+
+    def run(self, plant, reference, tau_nl_update=None):
+        """Run ``reference`` on ``plant`` (a ``FlexArmPlant``) with this feedforward ("Basic", plus an
+        optional update of tau_nl (T, 6) [N m]) and add the model-following error to the trial's
+        extras: ``e_pl_<joint>`` [rad/s^2] from the accelerometer-based load acceleration (what the
+        paper's learning uses) and ``e_pl_true_<joint>`` from the simulation's true load acceleration."""
+        from .sensors import estimate_load_acceleration
+
+        basic = self.compute(reference.positions, reference.fs)
+        update = 0.0 if tau_nl_update is None else np.asarray(tau_nl_update, dtype=float)
+        trial = plant.run(reference, basic["tau_ff"] + update, basic["motor_offset"])
+        split = {**basic, "tau_nl": basic["tau_nl"] + update}
+        qdd_est = estimate_load_acceleration(trial, self.arm_params, self.drive, offset=plant.accel_offset)
+        ql = np.column_stack([trial.extra[f"load_{a}"] for a in trial.axes])
+        qdd_true = lowpass_zero_phase(np.gradient(np.gradient(ql, 1 / trial.fs, axis=0), 1 / trial.fs, axis=0),
+                                      trial.fs, 50.0)
+        for label, qdd in (("e_pl", qdd_est), ("e_pl_true", qdd_true)):
+            e = model_following_error(trial, split, self, qdd)
+            trial.extra.update({f"{label}_{a}": e[:, i] for i, a in enumerate(trial.axes)})
+        trial.meta["controller"] = "basic"
+        return trial
 
     @property
     def Mn(self) -> np.ndarray:  # noqa: N802 (the paper's name)

@@ -9,19 +9,19 @@ What one run does, per sample k (Ts = 1 ms):
 2. The PID of each joint (motor side, ``PIDGains``) acts on e = q_mr - q_m,measured with motor
    reference q_mr = N q_lr + ``motor_offset`` (q_lr the load-side reference); the derivative is
    low-passed (first order, ``f_d`` Hz). u = fb + feedforward, saturated at +-``u_max``.
-3. u is held over [t_k, t_{k+1}); the true flexible-joint dynamics (``physics.arm.
+3. u is held over [t_k, t_{k+1}); the true flexible-joint dynamics (``dynamics.
    flexible_derivatives``, eqs. 1-2, the same equations as the model) advance by ``substeps``
    classical RK4 steps (default 4: 0.25 ms, omega h below 0.3 for the stiffest default joint
    mode; tests/test_plant_flexarm.py shows the trajectory converging as the step shrinks).
 
 True versus nominal: the plant runs ``true_arm`` and ``true_drive``; controllers get the nominal
-``physics.arm.ArmParameters()`` and ``DriveParameters()``. ``default_true_arm`` and
+``dynamics.ArmParameters()`` and ``DriveParameters()``. ``default_true_arm`` and
 ``default_true_drive`` hold the hidden effects: an unmodelled 12 kg payload, joint stiffness 15 %
 lower and joint damping 40 % lower than nominal, motor and load Coulomb friction 30 % higher,
 motor inertia 5 % higher.
 
 Sensors recorded per sample: the quantized motor angles, an accelerometer fixed to the flange
-(``physics.arm.specific_force`` at ``accel_offset``, plus a constant bias and white noise), the
+(``dynamics.specific_force`` at ``accel_offset``, plus a constant bias and white noise), the
 TCP position (forward kinematics of the true load angles, ground truth) and the true load angles.
 The run starts in static balance: motors at the first reference sample, the load sagging by the
 joint torsion that gravity causes (what r_q of eq. 11 compensates, when given as ``motor_offset``),
@@ -36,10 +36,10 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from ..data import Trial
-from ..physics import arm
-from .ix import SimulationDiverged
-from .references import Reference
+from ...data import Trial
+from ...references import Reference
+from ..system import SimulationDiverged
+from . import dynamics as arm
 
 
 def default_true_arm() -> arm.ArmParameters:
@@ -161,30 +161,6 @@ def load_error(trial: Trial) -> np.ndarray:
     """q_lr - q_l (T, 6) [rad]: reference minus the true load angle of a FlexArm trial (what the
     benchmark scores; the encoders sit on the motors and cannot see it)."""
     return trial.ref - np.column_stack([trial.extra[f"load_{a}"] for a in trial.axes])
-
-
-def run_basic(plant: FlexArmPlant, reference: Reference, tau_nl_update=None) -> Trial:
-    """Run ``reference`` with the nominal feedforward of paper 002 Fig. 1 ("Basic", plus an optional
-    update of tau_nl (T, 6) [N m]) and add the model-following error to the trial's extras:
-    ``e_pl_<joint>`` [rad/s^2] from the accelerometer-based load acceleration (what the paper's
-    learning uses) and ``e_pl_true_<joint>`` from the simulation's true load acceleration."""
-    from ..physics.arm_nominal import BasicFeedforward, model_following_error
-    from ..physics.arm_sensors import estimate_load_acceleration
-    from ..physics.kinematics import lowpass_zero_phase
-
-    nominal = BasicFeedforward()
-    basic = nominal.compute(reference.positions, reference.fs)
-    update = 0.0 if tau_nl_update is None else np.asarray(tau_nl_update, dtype=float)
-    trial = plant.run(reference, basic["tau_ff"] + update, basic["motor_offset"])
-    split = {**basic, "tau_nl": basic["tau_nl"] + update}
-    qdd_est = estimate_load_acceleration(trial, nominal.arm_params, nominal.drive, offset=plant.accel_offset)
-    ql = np.column_stack([trial.extra[f"load_{a}"] for a in trial.axes])
-    qdd_true = lowpass_zero_phase(np.gradient(np.gradient(ql, 1 / trial.fs, axis=0), 1 / trial.fs, axis=0), trial.fs, 50.0)
-    for label, qdd in (("e_pl", qdd_est), ("e_pl_true", qdd_true)):
-        e = model_following_error(trial, split, nominal, qdd)
-        trial.extra.update({f"{label}_{a}": e[:, i] for i, a in enumerate(trial.axes)})
-    trial.meta["controller"] = "basic"
-    return trial
 
 
 # per-sample signals of the kernel

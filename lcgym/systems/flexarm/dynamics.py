@@ -163,6 +163,13 @@ class DriveParameters:
 # ---------------------------------------------------------------------------------------------
 
 
+def joint_axes(q: np.ndarray, dh: DH | None = None) -> np.ndarray:
+    """Unit rotation axis of each joint in the base frame (6, 3) at pose q (6,) [rad]: joint i
+    turns about z of DH frame i - 1 (the base's z for joint 1)."""
+    R, _ = forward_kinematics((dh or DH()).table(), np.asarray(q, dtype=float))
+    return np.vstack([[0.0, 0.0, 1.0], R[:-1, :, 2]])
+
+
 @register_jitable
 def joint_transforms(dh, q):
     """Rotation R_i (3x3, frame i in frame i-1) and origin p_i of frame i in frame i-1 (3,),

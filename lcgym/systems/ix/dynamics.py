@@ -3,7 +3,7 @@
     tau = M(theta) thetadd + H(theta, thetad) + D(thetad)                      (2)
 
 Units: angles in rad, torques in V at the joint (1 V = 100 N m, the amplifier input), so the
-"masses" and "inertias" below are in V s^2/rad-compatible units, as in `spec/ix-model.md`.
+"masses" and "inertias" below are in V s^2/rad-compatible units.
 
 The 16 parameters of Table I are held in one flat vector ``p`` ordered as ``PARAM_NAMES``:
 first the parameters the model is linear in (zeta_l of Lemma 1), then the centre-of-mass
@@ -51,7 +51,7 @@ class IXParameters:
 
     Masses m* are in V s^2/m^2-consistent units (1 V = 100 N m), inertias J* in V s^2/rad,
     CoM coordinates x*, y*, z* in m, viscous coefficients d* in V s/rad.
-    The default values are the invented but plausible set of `spec/ix-model.md`.
+    The default values are an invented but plausible set (the paper does not publish Table I's values).
     """
 
     m2: float = 1.5

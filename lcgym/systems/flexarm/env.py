@@ -1,14 +1,14 @@
 """Gymnasium tracking environment of the FlexArm: ``lcgym/FlexArm-v0`` (paper 002).
 
-One episode tracks one TCP-line reference (``envs/arm_references.py``) on the closed-loop plant of
-``envs/flexarm.py`` (1 kHz, motor-side PID, flexible joints, hidden payload and drive mismatch,
+One episode tracks one TCP-line reference (``systems/flexarm/references.py``) on the closed-loop plant of
+``systems/flexarm/plant.py`` (1 kHz, motor-side PID, flexible joints, hidden payload and drive mismatch,
 quantized motor encoders). The agent supplies the **nonlinear feedforward torque update**; the
 feedback loop runs inside the environment. One env step is one control sample (1 ms).
 
 Action (float32, shape (6,)): motor torque per joint [N m], added to the feedforward of the
     sample. ``base_feedforward="basic"`` (default): the plant runs the nominal structure of
     paper 002 Fig. 1 (motor reference with F1 and r_q,0, feedforward tau_ff,0;
-    ``physics/arm_nominal.py``) and the action is an update of tau_nl, bounds +-``ACTION_BOUND``
+    ``systems/flexarm/nominal.py``) and the action is an update of tau_nl, bounds +-``ACTION_BOUND``
     (2 N m; the largest nominal feedforward on the validation lines is about 7 N m).
     ``base_feedforward="none"``: feedback only plus the action, bounds +-``plant.u_max``.
     Out-of-bound actions are clipped and counted (``info["clipped_actions"]``); NaN, inf, a
@@ -31,7 +31,8 @@ Episode end: ``truncated`` after the last sample; ``terminated`` when the plant 
 
 Info: per step ``u`` (motor torques [N m]) and ``clipped_actions``; at the episode end ``trial``:
     the whole episode as a ``Trial`` (motor angles, accelerometer, TCP and true load angles as
-    extras, like ``FlexArmPlant.run``).
+    extras, like ``FlexArmPlant.run``) and ``tracking_rms``: the RMS load-side tracking error [rad]
+    of the joints the benchmark scores (2, 3, 5) over the episode.
 
 Reset: the reference is drawn with the env's seeded generator from the set, or chosen with
     ``options={"reference": i}``; the plant starts in static balance, held for ``plant.preroll`` s.
@@ -50,11 +51,11 @@ import math
 import gymnasium as gym
 import numpy as np
 
-from ..data import Trial
-from . import flexarm as F
-from .actions import checked_action
-from .arm_references import arm_reference_set
-from .references import Reference
+from ...data import Trial
+from ...envs.actions import checked_action
+from ...references import Reference
+from . import plant as F
+from .references import MOVING, arm_reference_set
 
 ACTION_BOUND = 2.0  # N m
 POS_SCALE, VEL_SCALE, ACC_SCALE, FF_SCALE = math.pi / 2, 1.0, 5.0, 10.0
@@ -91,7 +92,7 @@ class FlexArmEnv(gym.Env):
         if i not in self._base:
             ref = self.references[i]
             if self.base_feedforward == "basic":
-                from ..physics.arm_nominal import BasicFeedforward
+                from .nominal import BasicFeedforward
 
                 b = BasicFeedforward().compute(ref.positions, ref.fs)
                 self._base[i] = (b["tau_ff"], b["motor_offset"])
@@ -166,6 +167,7 @@ class FlexArmEnv(gym.Env):
         info = {"u": self._sig[k, F.S_U : F.S_U + 6].copy(), "clipped_actions": self._clipped}
         if bad or truncated:
             info["trial"] = self._trial(self._k)
+            info["tracking_rms"] = np.sqrt(np.mean(np.square(F.load_error(info["trial"]))[:, list(MOVING)], axis=0))
         return self._observation(), reward, bool(bad), bool(truncated), info
 
     def _trial(self, n: int) -> Trial:

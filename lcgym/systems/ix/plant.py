@@ -4,7 +4,7 @@ What one run does, per sample k (Ts = 1/fs = 2 ms):
 
 1. The encoders read the axis angles, quantized to 0.0669 deg (propeller) and 0.0119 deg (roll);
    with drivetrain flexibility they sit on the motor side.
-2. The fixed diagonal feedback (PD + first-order low-pass, `spec/ix-model.md`) computes
+2. The fixed diagonal feedback (PD + first-order low-pass, ``FeedbackGains``) computes
    ``fb[k]`` from e[k] = ref[k] - measured[k]; the input is u[k] = sat(fb[k] + ff[k], +-5 V).
 3. u[k] is applied over [t_{k+1}, t_{k+2}) (one-sample computation delay, zero-order hold).
 4. The true dynamics are integrated over each interval in ``substeps`` steps (default 1: 2 ms).
@@ -23,8 +23,9 @@ gravity sag and friction states settle. If the state leaves the safe range (trac
 ``max_error`` or speed over ``max_velocity``, or a non-finite value), the run stops with
 ``SimulationDiverged`` naming the reference, time and state.
 
-Effects: any tuple of effects from `physics.effects` (model-side ones and the plant-only
-``stiction`` and ``drivetrain_flexibility``), each on one axis, each with its parameters.
+Effects: any tuple of effects from `physics.effects` and the IX's own guidance friction
+(``systems/ix/effects.py``): model-side ones and the plant-only ``stiction``,
+``drivetrain_flexibility`` and ``tabulated_force``, each on one axis, each with its parameters.
 ``default_hidden_effects()`` reproduces the situation of paper 000 (see its docstring).
 """
 
@@ -37,19 +38,18 @@ from dataclasses import dataclass, field
 
 import numba
 import numpy as np
+from scipy import signal
 
-from ..data import Trial
-from ..physics import effects as fx
-from ..physics import ix
-from . import ix_kernel as K
-from .references import Reference
+from ...data import Trial
+from ...physics import effects as fx
+from ...references import Reference
+from ..system import SimulationDiverged
+from . import dynamics as ix
+from . import kernel as K
+from .effects import PositionDependentFriction
 
 DEG = math.pi / 180.0
 ENCODER_RESOLUTION = (0.0669 * DEG, 0.0119 * DEG)  # rad per count: propeller, roll
-
-
-class SimulationDiverged(RuntimeError):
-    """The simulated plant left its safe range (unstable gains, huge feedforward, ...)."""
 
 
 @dataclass(frozen=True)
@@ -57,7 +57,7 @@ class FeedbackGains:
     """Diagonal PD + low-pass feedback per axis (propeller, roll); fixed, as on the real IX.
 
     kp [V/rad], kd [V s/rad], f_lp [Hz] low-pass corner. Crossover about 2.7 Hz, phase margin
-    47-53 deg on the rigid plant (`spec/ix-model.md`).
+    47-53 deg on the rigid plant.
     """
 
     kp: tuple[float, float] = (170.0, 120.0)
@@ -71,7 +71,7 @@ class FeedbackGains:
 
 
 def default_hidden_effects() -> tuple[fx.Effect, ...]:
-    """Hidden effects of `spec/ix-model.md`, sized so the fitted rigid model leaves a structured error.
+    """The IX's hidden effects, sized so the fitted rigid model leaves a structured error.
 
     Roll: guidance friction whose level follows the normal force (0.045 V + 0.075 |cos th2| (1 +
     0.4 cos th3) + 0.06 |sin th2|), a Stribeck rise of 0.09 V below 0.4 deg/s and LuGre stiction
@@ -81,18 +81,18 @@ def default_hidden_effects() -> tuple[fx.Effect, ...]:
     with speed, plus 0.06 V at twice the frequency); cable drape 0.18 sin(th2 + 20 deg). Both:
     two-mass drives (motor inertia 0.20, modes near 15-17 and 34 Hz) and 3 % torque ripple.
 
-    Deviation from the spec: the Stribeck rise is an additive level (0.09 / 0.075 V, about 0.6 /
-    0.5 of the mean friction level) instead of a factor on the configuration-dependent level.
+    The Stribeck rise is an additive level (0.09 / 0.075 V, about 0.6 /
+    0.5 of the mean friction level), not a factor on the configuration-dependent level.
     """
     return (
         fx.CoulombFriction("roll", Fc=0.045),
-        fx.PositionDependentFriction("roll", c_cos=0.075, c_cos_roll=0.03, c_sin=0.06),
+        PositionDependentFriction("roll", c_cos=0.075, c_cos_roll=0.03, c_sin=0.06),
         fx.StribeckFriction("roll", dF=0.09, vs=0.4 * DEG),
         fx.Stiction("roll", sigma0=1e4, sigma1=60.0),
         fx.CableSpring("roll", k=0.22, q0=20 * DEG, width=3 * DEG),
         fx.CableInertia("roll", dJ=0.06, q0=20 * DEG, width=10 * DEG),
         fx.CoulombFriction("propeller", Fc=0.10),
-        fx.PositionDependentFriction("propeller", c_cos=0.06),
+        PositionDependentFriction("propeller", c_cos=0.06),
         fx.StribeckFriction("propeller", dF=0.075, vs=0.3 * DEG),
         fx.Stiction("propeller", sigma0=1e4, sigma1=60.0),
         fx.GearHarmonic.from_amplitudes("propeller", 0.14, 0.7, 0.06, 2.0, velocity_gain=0.5),
@@ -114,12 +114,13 @@ def pack_effects(effects: Sequence[fx.Effect], rigid: ix.IXParameters) -> tuple[
     for e in effects:
         if e.axis not in ix.AXES:
             raise ValueError(f"{e.key} is not an effect of the IX (axes {', '.join(ix.AXES)})")
+        e = e.bound(ix.AXES)
         row = E[e.index]
         if isinstance(e, fx.ViscousFriction):
             row[K.VISC] = e.d
         elif isinstance(e, fx.CoulombFriction):
             row[K.FC], row[K.EPS] = e.Fc, e.eps
-        elif isinstance(e, fx.PositionDependentFriction):
+        elif isinstance(e, PositionDependentFriction):
             row[K.PD_COS], row[K.PD_COS_ROLL], row[K.PD_SIN] = e.c_cos, e.c_cos_roll, e.c_sin
         elif isinstance(e, fx.StribeckFriction):
             row[K.ST_DF], row[K.ST_VS] = e.dF, e.vs
@@ -196,15 +197,25 @@ class IXPlant:
     @classmethod
     def from_record(cls, record: dict) -> IXPlant:
         """The plant that ``record`` describes."""
+        from . import IX
+
         gains = FeedbackGains(**{k: tuple(v) if isinstance(v, list) else v for k, v in record["gains"].items()})
         return cls(rigid=ix.IXParameters.from_vector(np.asarray(record["rigid"], dtype=float)),
-                   effects=tuple(fx.effect_from_record(r) for r in record["effects"]), gains=gains, fs=record["fs"],
+                   effects=tuple(fx.effect_from_record(r, IX) for r in record["effects"]), gains=gains, fs=record["fs"],
                    substeps=record["substeps"], encoder_resolution=tuple(record["encoder_resolution"]),
                    preroll=record["preroll"], max_error=record["max_error"], max_velocity=record["max_velocity"])
 
     @property
     def preroll_samples(self) -> int:
         return int(round(self.preroll * self.fs))
+
+    def process_sensitivity(self, n: int, positions: np.ndarray, params: ix.IXParameters | None = None) -> np.ndarray:
+        """P S (e^{i w Ts}) (n_freq, 2) [rad/V] of the nominal closed loop per axis on the rfft grid of
+        n samples (what plant-inversion ILC inverts, ``baselines.ilc``): the rigid axis P(s) = 1 / (J s^2
+        + D s) with J the diagonal of the nominal mass matrix at the mean pose of ``positions`` (T, 2)
+        [rad] and D the nominal viscous coefficient, discretized with a zero-order hold and the plant's
+        one-sample computation delay, and this plant's PD + low-pass feedback C(z)."""
+        return process_sensitivity(n, self.fs, positions, self.gains, params)
 
     def run(self, references, feedforward=None) -> Trial | list[Trial]:
         """Run the closed loop on one reference or a list of them (in parallel).
@@ -273,3 +284,25 @@ class IXPlant:
                 )
             )
         return trials[0] if single else trials
+
+
+def process_sensitivity(n: int, fs: float, positions: np.ndarray, gains: FeedbackGains | None = None,
+                        params: ix.IXParameters | None = None) -> np.ndarray:
+    """P S (e^{i w Ts}) (n_freq, 2) [rad/V] of the nominal IX closed loop (``IXPlant.process_sensitivity``)."""
+    gains = gains or FeedbackGains()
+    p = (params or ix.IXParameters()).to_vector()
+    q_mean = np.asarray(positions, dtype=float).mean(axis=0)
+    J = np.diag(ix.mass_matrix(p, q_mean[None, :])[0])
+    D = p[[ix.D2, ix.D3]]
+    ts = 1.0 / fs
+    z = np.exp(1j * 2 * math.pi * np.fft.rfftfreq(n, ts) * ts)
+    out = np.empty((z.size, 2), dtype=complex)
+    for a in range(2):
+        num, den, _ = signal.cont2discrete(([1.0], [J[a], D[a], 0.0]), ts, method="zoh")
+        num = np.trim_zeros(np.ravel(num), "f")
+        # P_d(z) = z^-1 num(z) / den(z): the ZOH plant and the one-sample computation delay
+        pn, pd = np.polyval(num, z), z * np.polyval(den, z)
+        alpha = math.exp(-2 * math.pi * gains.f_lp[a] / fs)
+        c = (1 - alpha) * (gains.kp[a] + gains.kd[a] * (1 - 1 / z) / ts) / (1 - alpha / z)
+        out[:, a] = pn / (pd + pn * c)  # P / (1 + P C), finite at z = 1 (P has a pole there)
+    return out

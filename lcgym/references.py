@@ -1,19 +1,14 @@
-"""Reference trajectories for the IX: third-order point-to-point setpoints and reference sets.
+"""Reference trajectories, machine-independent: the sampled ``Reference`` and third-order setpoints.
 
 Third-order (jerk-limited) setpoints after Lambrechts, Boerlage and Steinbuch (2005): a move of
 distance d under limits on velocity v, acceleration a and jerk j is a sequence of seven phases
 of constant jerk (+j, 0, -j, 0, -j, 0, +j); phases shrink when a limit cannot be reached. A
 reference strings moves and dwells together per axis; position, velocity and acceleration are
-evaluated exactly (piecewise cubic) at the sample times.
+evaluated exactly (piecewise cubic) at the sample times. Units: rad (or m) and seconds.
 
-Sets (all seeded):
-
-* ``"calibration"``: paper 000, V-A: each axis swept over its range and back, at several speeds,
-  for several positions of the other axis (the default sizes give about 1e6 samples, the
-  paper's data set size).
-* ``"train"``, ``"validation"``, ``"test"``: random point-to-point moves of both axes at random
-  fractions of the speed limits with random dwells, from one distribution and disjoint random
-  streams, so that validation and test references are "new but similar" to the training ones.
+The machines' reference sets (seeded, split train / validation / test as in the papers) are in
+``systems/ix/references.py`` and ``systems/flexarm/references.py``; ``stream`` gives each set
+its own random stream.
 """
 
 from __future__ import annotations
@@ -25,7 +20,6 @@ from dataclasses import dataclass
 import numpy as np
 
 DEG = math.pi / 180.0
-AXES = ("propeller", "roll")
 
 
 @dataclass(frozen=True)
@@ -37,12 +31,6 @@ class AxisLimits:
     v: float
     a: float
     j: float
-
-
-IX_LIMITS = (
-    AxisLimits(-60 * DEG, 60 * DEG, 15 * DEG, 30 * DEG, 200 * DEG),  # propeller
-    AxisLimits(-90 * DEG, 90 * DEG, 20 * DEG, 40 * DEG, 300 * DEG),  # roll
-)
 
 
 def third_order_phases(distance: float, v: float, a: float, j: float) -> tuple[list[float], list[float]]:
@@ -130,14 +118,15 @@ class AxisProfile:
 
 @dataclass
 class Reference:
-    """A sampled reference: positions, velocities, accelerations (T, 2) in rad, rad/s, rad/s^2."""
+    """A sampled reference of the axes ``axes``: positions, velocities, accelerations (T, n_axes) in
+    rad (or m), per second and per second squared; ``fs`` [Hz]."""
 
     name: str
     fs: float
     positions: np.ndarray
     velocities: np.ndarray
     accelerations: np.ndarray
-    axes: tuple[str, ...] = AXES
+    axes: tuple[str, ...] = ()
 
     @property
     def n_samples(self) -> int:
@@ -152,7 +141,7 @@ def references_of(trials) -> list[Reference]:
     """The references of measured trials (what a method's ``fit`` gets), with velocities and
     accelerations by ``physics.kinematics.reference_kinematics``; named by the trial's
     ``meta["reference"]``, else ``training-<i>``."""
-    from ..physics.kinematics import reference_kinematics
+    from .physics.kinematics import reference_kinematics
 
     refs = []
     for i, tr in enumerate(trials):
@@ -161,15 +150,17 @@ def references_of(trials) -> list[Reference]:
     return refs
 
 
-def sample(name: str, profiles: Sequence[AxisProfile], fs: float, tail: float = 1.0) -> Reference:
-    """Sample axis profiles at fs over their common duration plus ``tail`` seconds of rest."""
+def sample(name: str, profiles: Sequence[AxisProfile], fs: float, axes: Sequence[str], tail: float = 1.0) -> Reference:
+    """Sample axis profiles (one per axis of ``axes``) at fs over their common duration plus ``tail``
+    seconds of rest."""
     duration = max(p.end_time for p in profiles) + tail
     t = np.arange(int(math.ceil(duration * fs)) + 1) / fs
     xva = [p.evaluate(t) for p in profiles]
-    return Reference(name, fs, *(np.column_stack([e[k] for e in xva]) for k in range(3)))
+    return Reference(name, fs, *(np.column_stack([e[k] for e in xva]) for k in range(3)), axes=tuple(axes))
 
 
-def _stream(set_name: str, seed: int) -> np.random.Generator:
+def stream(set_name: str, seed: int) -> np.random.Generator:
+    """The random stream of a named reference set and seed (sets draw from disjoint streams)."""
     ids = {"train": 1, "validation": 2, "test": 3, "calibration": 4}
     if set_name not in ids:
         raise ValueError(f"unknown reference set {set_name!r}; choose one of {sorted(ids)}")
@@ -178,60 +169,3 @@ def _stream(set_name: str, seed: int) -> np.random.Generator:
     return np.random.default_rng([seed, ids[set_name]])
 
 
-def random_moves(
-    name: str, rng: np.random.Generator, duration: float = 40.0, fs: float = 500.0,
-    limits: Sequence[AxisLimits] = IX_LIMITS, margin: float = 5 * DEG,
-) -> Reference:
-    """Both axes move point to point between random positions in their range, at random
-    fractions (0.4-1) of their limits, with random dwells (0.3-2 s), for about ``duration`` s."""
-    profiles = []
-    for lim in limits:
-        lo, hi = lim.low + margin, lim.high - margin
-        p = AxisProfile(rng.uniform(lo, hi)).dwell(1.0)
-        while p.end_time < duration:
-            target = rng.uniform(lo, hi)
-            if abs(target - p.x) < 2 * DEG:
-                continue
-            f = rng.uniform(0.4, 1.0, size=3)
-            p.move(target, f[0] * lim.v, f[1] * lim.a, f[2] * lim.j).dwell(rng.uniform(0.3, 2.0))
-        profiles.append(p)
-    return sample(name, profiles, fs)
-
-
-def calibration_sweeps(
-    rng: np.random.Generator, n_positions: int = 7, speeds: Sequence[float] = (1.0, 0.75, 0.5, 0.25),
-    fs: float = 500.0, limits: Sequence[AxisLimits] = IX_LIMITS, margin: float = 2 * DEG,
-) -> list[Reference]:
-    """Paper 000, V-A: each axis swept over its range and back at each speed fraction, with the
-    other axis parked at ``n_positions`` positions across its range (one reference per park)."""
-    refs = []
-    for swept in range(len(limits)):
-        parked = 1 - swept
-        lp, ls = limits[parked], limits[swept]
-        for k, pos in enumerate(np.linspace(lp.low + margin, lp.high - margin, n_positions)):
-            pos = float(np.clip(pos + rng.normal(0, 1 * DEG), lp.low, lp.high))
-            lo, hi = ls.low + margin, ls.high - margin
-            sw = AxisProfile(lo).dwell(1.0)
-            pk = AxisProfile(pos)
-            for s in speeds:
-                sw.move(hi, s * ls.v, s * ls.a, ls.j).dwell(0.5).move(lo, s * ls.v, s * ls.a, ls.j).dwell(0.5)
-            pk.dwell(sw.end_time)
-            profiles = [sw, pk] if swept == 0 else [pk, sw]
-            refs.append(sample(f"calibration-{('propeller', 'roll')[swept]}-sweep-{k}", profiles, fs))
-    return refs
-
-
-def reference_set(
-    name: str, seed: int = 0, n_references: int | None = None, duration: float = 40.0, fs: float = 500.0,
-) -> list[Reference]:
-    """A named, seeded set: "train" (default 8 references), "validation" (4), "test" (4) of
-    random moves of ``duration`` s, or "calibration" (14 sweeps, about 1e6 samples)."""
-    rng = _stream(name, seed)
-    if not duration > 0:
-        raise ValueError(f"duration must be > 0 s, got {duration}")
-    if name == "calibration":
-        return calibration_sweeps(rng, fs=fs)
-    n = n_references if n_references is not None else {"train": 8, "validation": 4, "test": 4}[name]
-    if n < 1:
-        raise ValueError(f"n_references must be >= 1, got {n}")
-    return [random_moves(f"{name}-{seed}-{i}", rng, duration, fs) for i in range(n)]

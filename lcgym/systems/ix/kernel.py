@@ -1,13 +1,13 @@
-"""Compiled closed-loop simulation of the IX (numba): the inner loop of ``envs/ix.py``.
+"""Compiled closed-loop simulation of the IX (numba): the inner loop of ``systems/ix/plant.py``.
 
 Why compiled: a 500 Hz plant with several integrator substeps per sample needs tens of
 millions of right-hand-side evaluations for the paper's 1e6-sample data set; per-sample numpy
 calls cost microseconds each, far over the 10 s budget. The equations are not rewritten here:
-the kernel calls the same functions as the model (``physics.ix.rigid_terms`` and the basis
+the kernel calls the same functions as the model (``systems.ix.dynamics.rigid_terms`` and the basis
 functions of ``physics.effects``), compiled by numba.
 
 Effect parameters arrive packed in a (2, N_SLOTS) array, one row per axis, laid out by the
-slot constants below (a zero amplitude switches an effect off); ``envs/ix.py`` does the packing.
+slot constants below (a zero amplitude switches an effect off); ``plant.py`` does the packing.
 
 State of one plant, per axis i in (0 propeller, 1 roll): load angle and velocity q_i, qd_i,
 motor angle and velocity (equal to the load's without drivetrain flexibility) and the LuGre
@@ -21,13 +21,14 @@ import math
 import numba
 import numpy as np
 
-from ..physics import effects as fx
-from ..physics import ix
-from ..physics.compiled import FASTMATH, cache_dir
+from ...physics import effects as fx
+from ...physics.compiled import FASTMATH, cache_dir
+from . import dynamics as ix
+from . import effects as ix_effects
 
 # numba reads CACHE_DIR when a function is decorated: set it for this module's kernels only
 _previous_cache_dir = numba.config.CACHE_DIR
-numba.config.CACHE_DIR = cache_dir(__file__, ix.__file__, fx.__file__)
+numba.config.CACHE_DIR = cache_dir(__file__, ix.__file__, fx.__file__, ix_effects.__file__)
 
 # effect parameter slots (per axis row)
 (
@@ -48,7 +49,7 @@ OK, DIVERGED = 0, 1
 
 _rigid = ix.rigid_terms
 _sign = fx.smooth_sign
-_normal = fx.normal_force_basis
+_normal = ix_effects.normal_force_basis
 _stribeck = fx.stribeck_shape
 _spring = fx.cable_spring_basis
 _inertia = fx.cable_inertia_basis

@@ -1,7 +1,7 @@
 """Gymnasium tracking environments of the IX C-arm: ``lcgym/IX-v0`` and its batched vector env.
 
 One episode tracks one reference of a reference set on the closed-loop IX plant of
-``envs/ix.py`` (500 Hz, fixed PD + low-pass feedback, hidden effects, quantized encoders). The
+``systems/ix/plant.py`` (500 Hz, fixed PD + low-pass feedback, hidden effects, quantized encoders). The
 agent supplies the **feedforward**; the feedback loop runs inside the environment. One env step
 is one control sample (2 ms).
 
@@ -61,13 +61,14 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from ..data import Trial
-from ..physics.kinematics import reference_kinematics, reference_positions, relay
-from ..physics.model import PhysicalModel
-from . import ix_kernel as K
-from .actions import checked_action
-from .ix import IXPlant
-from .references import Reference, reference_set
+from ...data import Trial
+from ...envs.actions import checked_action
+from ...physics.kinematics import reference_kinematics, reference_positions, relay
+from ...physics.model import PhysicalModel
+from ...references import Reference
+from . import kernel as K
+from .plant import IXPlant
+from .references import reference_set
 
 DEG = math.pi / 180
 PREVIEW = (0, 10, 25, 50, 100)  # samples ahead

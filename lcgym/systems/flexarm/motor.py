@@ -5,18 +5,18 @@ torque [N m]
 
     u_i = tau_l,i(q, qd, qdd) / N_i + Jm_i N_i qdd_i + b_i qd_i + c_i sgn(qd_i)
 
-with tau_l = M_l(q) qdd + C(q, qd) qd + G(q) the load-side rigid body (``physics.arm.rnea``),
+with tau_l = M_l(q) qdd + C(q, qd) qd + G(q) the load-side rigid body (``dynamics.rnea``),
 b_i = Dm_i N_i + Dl_i / N_i the viscous friction of motor and load reflected to the motor [N m s/rad
 per load rad/s], c_i = Fmc_i + Flc_i / N_i the Coulomb friction [N m]. q are load-side angles
 (rad), the reference's or the motor encoders' divided by N. sgn is smoothed as tanh(qd / EPS).
 
-The model is linear in theta = [pi (60 inertial parameters, ``physics.arm``), Jm (6), b (6),
+The model is linear in theta = [pi (60 inertial parameters, ``systems.flexarm.dynamics``), Jm (6), b (6),
 c (6)]: u = X(q, qd, qdd) theta with the regressor X (T, 6, 78) below, the arm's counterpart of
 Lemma 1 of paper 000 (which the PGNN's projection and the least-squares fit use). There is no
 nonlinear parameter (the IX's centres of mass are zeta_n; the arm's first moments m c are linear).
 
-``ARM`` in ``physics.system`` bundles these functions for the learners. The plant integrates the
-flexible equations themselves (``physics.arm.flexible_derivatives``); this module only rearranges
+``FLEXARM`` (``systems/flexarm/__init__.py``) bundles these functions for the learners. The plant integrates the
+flexible equations themselves (``dynamics.flexible_derivatives``); this module only rearranges
 the same RNEA, so plant and model share one implementation of the rigid body.
 """
 
@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from . import arm
+from . import dynamics as arm
 
 N = arm.N_JOINTS
 N_PI = arm.N_PARAMS
@@ -47,7 +47,7 @@ MASS_INDICES = tuple(k * arm.N_PARAMS_LINK for k in range(N))
 
 @dataclass(frozen=True)
 class ArmMotorParameters:
-    """theta of the module docstring: inertial parameters ``pi`` (60, per ``physics.arm``), motor
+    """theta of the module docstring: inertial parameters ``pi`` (60, per ``systems.flexarm.dynamics``), motor
     inertias ``Jm`` [kg m^2], viscous ``b`` [N m s/rad] and Coulomb ``c`` [N m] friction at the motor.
 
     The default is the nominal arm and drives (``ArmParameters()``, ``DriveParameters()``)."""

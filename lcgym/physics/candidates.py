@@ -1,0 +1,102 @@
+"""Candidate effects: what the diagnosis may add to a model, with the grids of their nonlinear
+parameters (``diagnose.search`` tries every combination).
+
+A candidate is an ``Effect`` class plus, for each of its nonlinear parameters, the values the
+search tries. Grid values are fixed numbers, ``Scaled`` numbers (fractions of the axis's speed or
+position scale: ``systems.Axis.speed_scale`` / ``position_scale``, or, where a machine leaves them
+unset, its data's), or a function of the data ``(q, qd, axis_index) -> values`` (e.g. spring
+onsets at quantiles of the axis's measured positions). Periodic effects take their period from
+the peaks of the residual's spectrum over the axis position (``diagnose.search``), not from a
+grid: a period must be known to a fraction of a percent to fit a harmonic over tens of cycles.
+
+The fractions below were chosen on the IX, whose axes declare the scales 20 deg/s and 100 deg,
+so that there they are the grids the diagnosis was developed with (Coulomb smoothing 0.05-2
+deg/s, spring widths 1 and 5 deg, ...). On a machine without declared scales they follow its data:
+a friction smoothing of 0.25 % to 10 % of the axis's top speed is as sharp on a robot joint
+turning at 2 rad/s as on the IX at 20 deg/s, and on a linear axis in m/s.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import effects as fx
+
+DEG = math.pi / 180.0
+
+
+@dataclass(frozen=True)
+class Scaled:
+    """Grid values as fractions of an axis scale: ``by`` "speed" [rad/s or m/s] or "position" [rad or m]."""
+
+    fractions: tuple[float, ...]
+    by: str = "speed"
+
+    def __post_init__(self):
+        if self.by not in ("speed", "position"):
+            raise ValueError(f"Scaled: by must be 'speed' or 'position', got {self.by!r}")
+
+    def values(self, scale: dict) -> np.ndarray:
+        return np.asarray(self.fractions, dtype=float) * scale[self.by]
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """An effect family member the diagnosis can add: ``effect`` (an Effect subclass),
+    ``family`` (friction, spring, inertia, periodic, gravity, user) and ``grid``: for each
+    nonlinear parameter, a tuple of values, a ``Scaled`` or a function ``(q, qd, axis_index) ->
+    values``. ``period``: the name of a nonlinear parameter that is a period over the axis position,
+    found from the spectrum of the residual (not gridded), or None."""
+
+    effect: type[fx.Effect]
+    family: str
+    grid: dict[str, tuple | Scaled | Callable] = field(default_factory=dict)
+    period: str | None = None
+
+    @property
+    def name(self) -> str:
+        return self.effect.name
+
+    @property
+    def n_params(self) -> int:
+        """Linear plus searched nonlinear parameters: the tie-break prefers fewer."""
+        return len(self.effect.linear) + len(self.grid) + (self.period is not None)
+
+    def settings(self, q: np.ndarray, qd: np.ndarray, index: int, scale: dict) -> list[dict]:
+        """Every combination of grid values for an axis; ``scale`` {"speed", "position"} of the axis."""
+        combos = [{}]
+        for name, values in self.grid.items():
+            if isinstance(values, Scaled):
+                vals = values.values(scale)
+            else:
+                vals = values(q, qd, index) if callable(values) else values
+            combos = [{**c, name: float(v)} for c in combos for v in vals]
+        return combos
+
+    def build(self, axis: str, **nonlinear) -> fx.Effect:
+        return self.effect(axis=axis, **nonlinear)
+
+
+def angle_quantiles(q, qd, i, n=9):
+    """Onsets of a one-sided spring: quantiles 5 %..95 % of the axis position [rad or m]."""
+    return np.quantile(q[:, i], np.linspace(0.05, 0.95, n))
+
+
+LIBRARY: tuple[Candidate, ...] = (
+    Candidate(fx.CoulombFriction, "friction", {"eps": Scaled((0.0025, 0.01, 0.025, 0.05, 0.1))}),
+    # Stribeck velocities stop at 40 % of the speed scale: a wider bump is Coulomb friction
+    Candidate(fx.StribeckFriction, "friction", {"vs": Scaled(tuple(np.geomspace(0.005, 0.4, 20))),
+                                                "eps": Scaled((0.0025, 0.01))}),
+    Candidate(fx.CableSpring, "spring", {"q0": angle_quantiles, "width": Scaled((0.01, 0.05), "position"),
+                                         "side": (-1.0, 1.0)}),
+    Candidate(fx.CableInertia, "inertia", {"q0": lambda q, qd, i: angle_quantiles(q, qd, i, 5),
+                                           "width": Scaled((0.05, 0.15), "position")}),
+    Candidate(fx.GearHarmonic, "periodic", period="period"),
+    Candidate(fx.TorqueRipple, "periodic", period="period"),
+    Candidate(fx.CableDrape, "gravity"),
+)
+"""The library's candidates, in the order the diagnosis tries them."""

@@ -1,0 +1,100 @@
+"""Machines: one ``System`` object per machine, and one lookup for all of them.
+
+    from lcgym import systems
+    ix = systems.get("ix")                              # a built-in benchmark machine
+    arm = systems.get("path/to/robot.urdf", joints=("shoulder", "elbow"))   # a URDF (pinocchio)
+    mine = systems.get("my_module:MY_MACHINE")          # a System (or a function returning one)
+
+Built-in machines (``BUILT_IN``) live in one folder each: ``systems/ix/`` (paper 000's C-arm) and
+``systems/flexarm/`` (paper 002's arm); they have a plant, so the benchmark, the simulator and the
+Gymnasium envs run on them. Any machine, built-in or not, has a rigid-body model, so the
+diagnosis, the physical model and the PGNN run on it (``System``'s docstring).
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+import sys
+from collections.abc import Sequence
+
+from .system import Axis, ParameterVector, SimulationDiverged, System
+
+BUILT_IN = {"ix": ("lcgym.systems.ix", "IX"), "flexarm": ("lcgym.systems.flexarm", "FLEXARM")}
+"""Name -> (module, attribute) of each built-in machine."""
+
+
+def get(spec: str | System, joints: Sequence[str] | None = None, **options) -> System:
+    """The machine ``spec`` names: a ``System`` (returned as is), a built-in name (``BUILT_IN``), a
+    ``.urdf`` file (``urdf.from_urdf(spec, joints, **options)``: ``joints`` are the axes, the
+    URDF's other joints are locked) or ``module:attr`` (a ``System`` or a function returning one,
+    imported from the current folder too, like ``python -m``)."""
+    if isinstance(spec, System):
+        return spec
+    spec = str(spec)
+    if spec in BUILT_IN:
+        module, attr = BUILT_IN[spec]
+        return getattr(importlib.import_module(module), attr)
+    if spec.lower().endswith(".urdf"):
+        from .urdf import from_urdf
+
+        return from_urdf(spec, joints=joints, **options)
+    module_name, sep, attr = spec.partition(":")
+    if sep and module_name and attr:
+        return from_python(module_name, attr)
+    raise ValueError(f"unknown machine {spec!r}: give a built-in one ({', '.join(BUILT_IN)}), a .urdf file, "
+                     "or module:attr naming a lcgym.systems.System")
+
+
+def from_python(module_name: str, attr: str) -> System:
+    """``module:attr``: a ``System`` instance, or a function without arguments that returns one."""
+    where = f"{module_name}:{attr}"
+    if os.getcwd() not in sys.path:  # like `python -m`: a module in the current folder is found
+        sys.path.insert(0, os.getcwd())
+    try:
+        module = importlib.import_module(module_name)
+    except Exception as exc:  # an ImportError, or any error the user's module raises on import
+        raise ValueError(f"machine {where}: cannot import module {module_name!r} ({type(exc).__name__}: {exc})") from None
+    if not hasattr(module, attr):
+        raise ValueError(f"machine {where}: module {module_name!r} has no {attr!r}")
+    obj = getattr(module, attr)
+    if not isinstance(obj, System) and callable(obj):
+        try:
+            obj = obj()
+        except Exception as exc:
+            raise ValueError(f"machine {where}: calling it raised {type(exc).__name__}: {exc}") from None
+    if not isinstance(obj, System):
+        raise ValueError(f"machine {where} is a {type(obj).__name__}, not a lcgym.systems.System "
+                         "(nor a function returning one)")
+    return obj
+
+
+def built_in() -> list[System]:
+    """The built-in machines, in ``BUILT_IN`` order."""
+    return [get(name) for name in BUILT_IN]
+
+
+def of_trials(trials) -> System:
+    """The built-in machine that recorded ``trials`` (their ``meta["system"]``; "ix" when unset)."""
+    names = {t.meta.get("system", "ix") for t in trials}
+    if len(names) != 1:
+        raise ValueError(f"trials of several machines mixed: {sorted(names)}")
+    name = names.pop()
+    if name not in BUILT_IN:
+        raise ValueError(f"trials of machine {name!r}: give the machine (a System) explicitly; built-in: "
+                         f"{', '.join(BUILT_IN)}")
+    return get(name)
+
+
+def register_envs() -> None:
+    """Register every built-in machine's Gymnasium ids (``System.envs``) with Gymnasium, once."""
+    import gymnasium as gym
+
+    for system in built_in():
+        for env_id, entry in system.envs.items():
+            if env_id not in gym.registry:
+                gym.register(id=env_id, **entry)
+
+
+__all__ = ["Axis", "BUILT_IN", "ParameterVector", "SimulationDiverged", "System", "built_in", "from_python", "get",
+           "of_trials", "register_envs"]

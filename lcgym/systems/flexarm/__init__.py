@@ -1,0 +1,52 @@
+"""The FlexArm: the flexible-joint 6-DOF industrial arm of paper 002, input in N m (motor side).
+
+``FLEXARM`` is the machine seen from its motors (the rigid-joint model learners fit:
+``motor.py``, on the load-side rigid body of ``dynamics.py``; the physical model with its
+joint-torsion reference offset in ``model.py``), its payload effect (``effects.py``), and for the
+benchmark the flexible plant with the accelerometer (``plant.py``, ``sensors.py``), paper 002's
+nominal feedforward "Basic" (``nominal.py``), the TCP-line references (``references.py``), the
+Gymnasium env ``lcgym/FlexArm-v0`` (``env.py``) and scoring (``bench.py``).
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..system import Axis, System
+from . import dynamics, motor
+from .bench import FlexArmBench
+from .effects import CANDIDATES, Payload
+from .model import ArmModel
+from .nominal import BasicFeedforward
+
+DEG = math.pi / 180.0
+
+FLEXARM = System(
+    name="flexarm",
+    axes=tuple(Axis(a, "revolute", "N m", speed_scale=20 * DEG, position_scale=100 * DEG) for a in dynamics.AXES),
+    param_names=motor.PARAM_NAMES,
+    regressor=motor.regressor,
+    inverse_dynamics=motor.inverse_dynamics,
+    mass_matrix=motor.mass_matrix,
+    positive=(*motor.MASS_INDICES, *range(motor.N_PI, motor.N_THETA)),
+    parameters=motor.ArmMotorParameters,
+    model=ArmModel,
+    fs=1000.0,
+    advance=0.5,  # samples: the plant holds u over the sample
+    noise_rms=0.01,  # N m
+    constraint_configs=16,  # the 6 x 6 mass matrices cost 6 regressor evaluations each
+    effects=(Payload,),
+    candidates=CANDIDATES,
+    candidate_names=("coulomb_friction", "stribeck_friction", "payload"),
+    # the PGNN on 1 kHz data of moves of 1-2 s: u low-passed at 5 Hz, not 1 Hz, every 10th sample
+    hints={"pgnn": {"filter_hz": 5.0, "decimate": 10}},
+    description="flexible-joint 6-DOF industrial arm of paper 002: joints j1-j6, motor torques in N m",
+    joint_axes=lambda: dynamics.joint_axes(dynamics.HOME),
+    caching=motor.cached_regressors,
+    bench=FlexArmBench,
+    envs={"lcgym/FlexArm-v0": {"entry_point": "lcgym.systems.flexarm.env:FlexArmEnv"}},
+    observation_error=slice(30, 36),
+    nominal=BasicFeedforward(),
+)
+
+__all__ = ["FLEXARM"]

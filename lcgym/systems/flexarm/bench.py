@@ -1,0 +1,70 @@
+"""The FlexArm of paper 002 in the benchmark.
+
+Feedforward = motor torques [N m] (T, 6); a method may also return a reference offset (T, 6) [rad,
+load side] through ``reference_offset(reference)``, added to the motor loop's reference (q_mr =
+N (q_lr + offset): the reference modification F1 / r_q of the paper's Fig. 1). Scored on the
+moving joints 2, 3, 5: the load-side tracking error q_lr - q_l [deg] (the simulation's true load
+angle: the encoders sit on the motors and cannot see the gear torsion), the input residual u - f
+[N m], and the TCP position error (Euclidean distance between the true TCP and the reference's
+TCP [mm], axis ``tcp``). ``duration`` does not apply: an arm reference is one TCP line out and
+back (5-6 s).
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+
+import numba
+import numpy as np
+import pandas as pd
+
+from ...metrics import input_residual_table, norms_table
+from ..bench import trace_frame
+from .plant import FlexArmPlant, load_error
+from .references import MOVING, arm_reference_set, tcp_positions
+
+
+class FlexArmBench:
+    """The FlexArm of paper 002 in the benchmark (see the module docstring)."""
+
+    name = "flexarm"
+    scored = MOVING  # joints 2, 3, 5
+
+    def __init__(self):
+        self.plant = FlexArmPlant()
+        self.axes = self.plant.axes
+        self.scored_axes = tuple(self.axes[i] for i in self.scored)
+
+    def references(self, set_name: str, seed: int, n: int, duration: float):
+        return arm_reference_set(set_name, seed, n, self.plant.fs)
+
+    def run(self, references, feedforward=None, offsets=None):
+        references = list(references)
+        feedforward = [None] * len(references) if feedforward is None else list(feedforward)
+        offsets = [None] * len(references) if offsets is None else list(offsets)
+        N = np.asarray(self.plant.true_drive.N)
+        jobs = [(r, f, None if o is None else N * np.asarray(o, dtype=float))
+                for r, f, o in zip(references, feedforward, offsets, strict=True)]
+        # the compiled loop releases the GIL: as many threads as numba may use (one in the
+        # benchmark's parallel workers)
+        with ThreadPoolExecutor(max_workers=max(1, min(len(jobs), numba.get_num_threads()))) as pool:
+            return list(pool.map(lambda job: self.plant.run(*job), jobs))
+
+    load_error = staticmethod(load_error)
+
+    def tcp_error(self, trial) -> np.ndarray:
+        """|TCP - TCP of the reference| (T,) [mm]."""
+        tcp = np.column_stack([trial.extra[f"tcp_{c}"] for c in "xyz"])
+        return 1000.0 * np.linalg.norm(tcp - tcp_positions(trial.ref, self.plant.true_arm.dh), axis=1)
+
+    def tables(self, trials, feedforward) -> list[pd.DataFrame]:
+        cols = list(self.scored)
+        e = np.degrees(np.concatenate([self.load_error(t) for t in trials]))[:, cols]
+        residual = input_residual_table(trials, feedforward, unit="N m")
+        tcp = np.concatenate([self.tcp_error(t) for t in trials])[:, None]
+        return [norms_table(e, self.scored_axes, "tracking_error", "deg"),
+                residual[residual["axis"].isin(self.scored_axes)].reset_index(drop=True),
+                norms_table(tcp, ("tcp",), "tcp_position_error", "mm")]
+
+    def trace(self, trial) -> pd.DataFrame:
+        return trace_frame(trial, self.scored_axes, self.load_error(trial), self.scored)

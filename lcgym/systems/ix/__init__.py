@@ -1,0 +1,56 @@
+"""The IX: the interventional X-ray C-arm of paper 000 (propeller theta2, roll theta3), input in V.
+
+``IX`` is the machine: its rigid body of eqs. (2)-(9) (``dynamics.py``, the compiled regressor of
+Lemma 1 in ``regressor.py``), its guidance friction (``effects.py``), and for the benchmark its
+plant with the hidden effects (``plant.py``, ``kernel.py``), reference sets (``references.py``),
+Gymnasium envs (``env.py``: ``lcgym/IX-v0`` and its vector env) and scoring (``bench.py``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..system import Axis, System
+from . import dynamics
+from .bench import IXBench
+from .effects import CANDIDATES, PositionDependentFriction
+from .regressor import regressor
+
+DEG = math.pi / 180.0
+
+
+def joint_axes() -> np.ndarray:
+    """Propeller about the base's y (R02 = Ry(theta2)), roll about x of the propeller frame (R03 =
+    Ry Rx), at theta = 0: perpendicular."""
+    return np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0]])
+
+
+IX = System(
+    name="ix",
+    axes=tuple(Axis(a, "revolute", "V", speed_scale=20 * DEG, position_scale=100 * DEG) for a in dynamics.AXES),
+    param_names=dynamics.PARAM_NAMES,
+    n_linear=dynamics.N_LINEAR,
+    regressor=regressor,
+    inverse_dynamics=dynamics.inverse_dynamics,
+    mass_matrix=dynamics.mass_matrix,
+    positive=(dynamics.M2, dynamics.M3, dynamics.J2YY, dynamics.J3XX, dynamics.J3YY, dynamics.J3ZZ, dynamics.D2,
+              dynamics.D3),
+    parameters=dynamics.IXParameters,
+    fs=500.0,
+    advance=1.5,  # samples: one computation delay + half a hold interval
+    noise_rms=0.004,  # V: the low-passed input's quantization noise
+    constraint_configs=None,
+    effects=(PositionDependentFriction,),
+    candidates=CANDIDATES,
+    quadratic_in_nonlinear=True,
+    description="interventional X-ray C-arm of paper 000: propeller and roll, input in V",
+    joint_axes=joint_axes,
+    bench=IXBench,
+    envs={"lcgym/IX-v0": {"entry_point": "lcgym.systems.ix.env:IXEnv",
+                          "vector_entry_point": "lcgym.systems.ix.env:IXVectorEnv"}},
+    observation_error=slice(34, 36),
+)
+
+__all__ = ["IX"]

@@ -1,0 +1,44 @@
+"""The IX regressor (Lemma 1, eq. 17) compiled (numba) for many samples.
+
+The least-squares fit evaluates the regressor of 1e6 samples many times (once per candidate set of
+the nonlinear parameters), which numpy's temporaries make take half a minute. The kernel calls the
+same ``joint_torques`` as the numpy and torch paths of ``dynamics.py`` (no second implementation).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from ...physics.compiled import FASTMATH, cache_dir
+from . import dynamics as ix
+
+# numba reads CACHE_DIR when a function is decorated: set it for this module's kernels only
+_previous_cache_dir = numba.config.CACHE_DIR
+numba.config.CACHE_DIR = cache_dir(__file__, ix.__file__)
+
+_torques = ix.joint_torques
+
+
+@numba.njit(cache=True, fastmath=FASTMATH)
+def _inverse_dynamics_sets(P, q, qd, qdd, out):
+    for t in range(q.shape[0]):
+        s2, c2, s3, c3 = math.sin(q[t, 0]), math.cos(q[t, 0]), math.sin(q[t, 1]), math.cos(q[t, 1])
+        for k in range(P.shape[0]):
+            out[t, 0, k], out[t, 1, k] = _torques(P[k], s2, c2, s3, c3, qd[t, 0], qd[t, 1], qdd[t, 0], qdd[t, 1])
+
+
+numba.config.CACHE_DIR = _previous_cache_dir
+
+
+def regressor(zeta_n, q, qd, qdd) -> np.ndarray:
+    """``dynamics.regressor`` (Lemma 1, eq. 17) for (T, 2) sample arrays, compiled: shape (T, 2, 11)."""
+    basis = np.zeros((ix.N_LINEAR, len(ix.PARAM_NAMES)))
+    basis[:, : ix.N_LINEAR] = np.eye(ix.N_LINEAR)
+    basis[:, ix.N_LINEAR :] = np.asarray(zeta_n, dtype=float)
+    q, qd, qdd = (np.ascontiguousarray(a, dtype=float).reshape(-1, 2) for a in (q, qd, qdd))
+    out = np.empty((q.shape[0], 2, ix.N_LINEAR))
+    _inverse_dynamics_sets(basis, q, qd, qdd, out)
+    return out

@@ -1,0 +1,343 @@
+"""``System``: everything lcgym knows about one machine, in one object.
+
+A machine is its axes (name, revolute or prismatic, the unit of its actuator), its rigid-body
+model and, for the built-in benchmark machines, its plant. The rigid-body model is written in
+the parameters p = [zeta_l, zeta_n]: the model is linear in zeta_l (``n_linear`` of them: masses,
+inertias, friction coefficients; Lemma 1 of paper 000) and may be nonlinear in the rest
+(the IX's centres of mass). What the learners and the diagnosis use of it:
+
+* ``regressor(zeta_n, q, qd, qdd) -> (T, n_axes, n_linear)``, numpy: u = regressor @ zeta_l;
+* ``inverse_dynamics(p, q, qd, qdd) -> (T, n_axes)``, numpy or torch (autograd in p, the PGNN);
+* ``mass_matrix(p, q) -> (T, n_axes, n_axes)``, numpy or torch;
+* ``positive``: the parameters that are positive physically (masses, inertias, damping);
+* ``parameters``: a class with ``from_vector(p)`` / ``to_vector()`` whose default is the nominal
+  machine (``ParameterVector`` for machines given as a regressor).
+
+Machines given only by their regressor (a URDF, a user's Python class; ``System.from_regressor``)
+are linear in all their parameters: inverse dynamics and mass matrix then follow from the
+regressor (M e_j = X(q, 0, e_j) p - X(q, 0, 0) p), with one implementation for all.
+
+Units: SI on every axis (rad or m, rad/s or m/s, rad/s^2 or m/s^2); the actuator input in the
+axis's ``input_unit`` (N m or N; the IX's amplifier input in V).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+DEG = math.pi / 180.0
+KINDS = ("revolute", "prismatic")
+
+
+class SimulationDiverged(RuntimeError):
+    """A simulated plant left its safe range (unstable gains, huge feedforward, ...)."""
+
+
+@dataclass(frozen=True)
+class Axis:
+    """One axis (joint) of a machine.
+
+    kind: "revolute" (rad) or "prismatic" (m); input_unit: its actuator's unit (default N m for
+    a revolute joint, N for a prismatic one). speed_scale [rad/s or m/s] and position_scale [rad
+    or m]: the scales of the diagnosis's search grids on this axis (friction smoothing, spring
+    widths, the shortest period searched); None: taken from the data (the 99th percentile of
+    |velocity|, the range of the position).
+    """
+
+    name: str
+    kind: str = "revolute"
+    input_unit: str | None = None
+    speed_scale: float | None = None
+    position_scale: float | None = None
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name or any(c in self.name for c in "@, \t\n"):
+            raise ValueError(f"axis name must be a non-empty string without '@', ',' or spaces, got {self.name!r}")
+        if self.kind not in KINDS:
+            raise ValueError(f"axis {self.name}: kind must be 'revolute' or 'prismatic', got {self.kind!r}")
+        if self.input_unit is None:
+            object.__setattr__(self, "input_unit", "N m" if self.kind == "revolute" else "N")
+        for what in ("speed_scale", "position_scale"):
+            v = getattr(self, what)
+            if v is not None and not (np.isfinite(v) and v > 0):
+                raise ValueError(f"axis {self.name}: {what} must be > 0, got {v}")
+
+    @property
+    def revolute(self) -> bool:
+        return self.kind == "revolute"
+
+    @property
+    def unit(self) -> str:
+        """SI unit of the position: rad or m."""
+        return "rad" if self.revolute else "m"
+
+    @property
+    def display(self) -> tuple[float, str]:
+        """(factor, unit) that turn an SI position into the unit reports print: deg or mm."""
+        return (180.0 / math.pi, "deg") if self.revolute else (1000.0, "mm")
+
+    @property
+    def min_travel(self) -> float:
+        """An axis whose reference spans less stands still for the diagnosis: 1 deg, or 1 mm."""
+        return DEG if self.revolute else 1e-3
+
+
+@dataclass(frozen=True)
+class ParameterVector:
+    """Named parameters of a machine given by its regressor: ``names`` and ``values`` (same order)."""
+
+    names: tuple[str, ...]
+    values: tuple[float, ...]
+
+    def to_vector(self) -> np.ndarray:
+        return np.asarray(self.values, dtype=float)
+
+    def as_dict(self) -> dict[str, float]:
+        return dict(zip(self.names, self.values, strict=True))
+
+
+def _as_axes(axes) -> tuple[Axis, ...]:
+    out = tuple(a if isinstance(a, Axis) else Axis(str(a)) for a in axes)
+    names = [a.name for a in out]
+    if not out:
+        raise ValueError("a machine needs at least one axis")
+    if len(set(names)) < len(names):
+        raise ValueError(f"axis names must be unique, got {names}")
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class System:
+    """One machine (module docstring). Built-in machines also carry ``bench`` (a class whose
+    instances hold the plant, the reference sets and what the benchmark scores; ``systems/bench.py``),
+    ``envs`` (their Gymnasium ids and entry points), ``observation_error`` (where the tracking error
+    sits in the env's observation) and ``nominal`` (a nominal feedforward structure that learning
+    methods start from, paper 002's Basic on the FlexArm; None: they start from the fitted physical
+    model).
+
+    model: the physical-model class (``physics.model.PhysicalModel`` or a subclass), built with
+    ``physical_model`` / ``diagnosis_model``. fs [Hz]: the machine's sample rate (None: the data's).
+    advance [samples]: how far ahead of a sample the feedforward's kinematics are evaluated
+    (computation delay plus half the hold interval of the machine's controller). noise_rms [input
+    unit]: the RMS below which the diagnosis does not count an improvement as real (None: 0.5 %
+    of each axis's low-passed input RMS). constraint_configs: at most this many configurations per
+    batch enter the PGNN's mass-matrix constraint (None: all). effects: effect classes of this
+    machine beyond ``physics.effects`` (their formulas use its geometry); candidates: the
+    diagnosis's candidate effects on it beyond the library's (``physics.candidates.Candidate``);
+    candidate_names: the effect names the diagnosis tries (None: every one that applies).
+    hints: per-method settings for this machine (``hints["pgnn"]``: ``PGNNConfig`` fields).
+    quadratic_in_nonlinear: the regressor's entries are polynomials of degree <= 2 in zeta_n
+    (the IX: a faster exact variable projection). description: one line for listings.
+    joint_axes: ``() -> (n_axes, 3)``, the unit axis of each joint in the base frame at the
+    machine's reference pose (the RBF expert's motion influence); None: all mutually perpendicular.
+    caching: ``() -> context manager`` inside which the machine keeps its last regressors (a
+    diagnosis evaluates the model, its effects and its refits on the same kinematics many times);
+    None: nothing is kept.
+    """
+
+    name: str
+    axes: tuple[Axis, ...]
+    param_names: tuple[str, ...]
+    regressor: Callable
+    parameters: type | Callable
+    n_linear: int | None = None
+    inverse_dynamics: Callable | None = None
+    mass_matrix: Callable | None = None
+    positive: tuple[int, ...] = ()
+    model: type | None = None
+    fs: float | None = None
+    advance: float = 0.5
+    noise_rms: float | None = None
+    constraint_configs: int | None = 16
+    effects: tuple[type, ...] = ()
+    candidates: tuple = ()
+    candidate_names: tuple[str, ...] | None = None
+    hints: Mapping[str, Mapping] = field(default_factory=dict)
+    quadratic_in_nonlinear: bool = False
+    description: str = ""
+    joint_axes: Callable | None = None
+    caching: Callable | None = None
+    bench: type | None = None
+    envs: Mapping[str, Mapping] = field(default_factory=dict)
+    observation_error: slice | None = None
+    nominal: object | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "axes", _as_axes(self.axes))
+        object.__setattr__(self, "param_names", tuple(self.param_names))
+        if self.n_linear is None:
+            object.__setattr__(self, "n_linear", len(self.param_names))
+        if not 0 < self.n_linear <= len(self.param_names):
+            raise ValueError(f"{self.name}: n_linear must be in 1..{len(self.param_names)}, got {self.n_linear}")
+        if self.inverse_dynamics is None:
+            if not self.fully_linear:
+                raise ValueError(f"{self.name}: a machine with nonlinear parameters must give its inverse_dynamics")
+            object.__setattr__(self, "inverse_dynamics", self._linear_inverse_dynamics)
+        if self.mass_matrix is None:
+            if not self.fully_linear:
+                raise ValueError(f"{self.name}: a machine with nonlinear parameters must give its mass_matrix")
+            object.__setattr__(self, "mass_matrix", self._linear_mass_matrix)
+        bad = [i for i in self.positive if not 0 <= i < len(self.param_names)]
+        if bad:
+            raise ValueError(f"{self.name}: positive parameter indices {bad} out of range")
+        if self.fs is not None and not (np.isfinite(self.fs) and self.fs > 0):
+            raise ValueError(f"{self.name}: fs must be > 0, got {self.fs}")
+        object.__setattr__(self, "hints", {k: dict(v) for k, v in self.hints.items()})
+        object.__setattr__(self, "envs", {k: dict(v) for k, v in self.envs.items()})
+
+    @property
+    def env_id(self) -> str | None:
+        """The machine's Gymnasium id (its first), or None (a machine without a plant)."""
+        return next(iter(self.envs), None)
+
+    # ------------------------------------------------------------------ axes and units
+    @property
+    def axis_names(self) -> tuple[str, ...]:
+        return tuple(a.name for a in self.axes)
+
+    @property
+    def n_axes(self) -> int:
+        return len(self.axes)
+
+    @property
+    def input_units(self) -> tuple[str, ...]:
+        return tuple(a.input_unit for a in self.axes)
+
+    @property
+    def input_unit(self) -> str:
+        """The actuator unit, or the axes' units joined by '/' when they differ (N m / N)."""
+        units = list(dict.fromkeys(self.input_units))
+        return units[0] if len(units) == 1 else " / ".join(units)
+
+    def axis(self, name: str) -> Axis:
+        for a in self.axes:
+            if a.name == name:
+                return a
+        raise ValueError(f"{self.name} has no axis {name!r}; its axes are {', '.join(self.axis_names)}")
+
+    # ------------------------------------------------------------------ parameters
+    @property
+    def fully_linear(self) -> bool:
+        """True when every parameter is linear (no zeta_n): then u = regressor @ p exactly."""
+        return self.n_linear == len(self.param_names)
+
+    def nominal_params(self):
+        """The nominal parameters (the machine's description: CAD, URDF, Table I)."""
+        return self.parameters()
+
+    def params_from_vector(self, p):
+        return self.parameters.from_vector(p) if hasattr(self.parameters, "from_vector") else self.parameters(p)
+
+    # ------------------------------------------------------------------ effects
+    def effect_classes(self) -> dict[str, type]:
+        """Every effect that can act on this machine by name: the library's and its own."""
+        from ..physics.effects import EFFECTS
+
+        return {**EFFECTS, **{e.name: e for e in self.effects}}
+
+    def effect(self, key, **params):
+        """An effect on this machine, bound to its axis: a ``name@axis`` label (with its parameters)
+        or an Effect object (checked and bound)."""
+        from ..physics.effects import Effect, parse_key
+
+        if isinstance(key, Effect):
+            effect = key
+        else:
+            name, axis = parse_key(key)
+            classes = self.effect_classes()
+            if name not in classes:
+                raise ValueError(f"unknown effect {name!r} on {self.name}; known: {', '.join(sorted(classes))}")
+            effect = classes[name](axis=axis, **params)
+        if effect.axis not in self.axis_names:
+            raise ValueError(f"{effect.key}: {self.name} has no axis {effect.axis!r}; choose one of "
+                             f"{', '.join(self.axis_names)}")
+        own = self.effect_classes().get(effect.name)
+        if own is not None and not isinstance(effect, own):
+            raise ValueError(f"{effect.key}: {type(effect).__name__} is not {self.name}'s {effect.name}")
+        if not effect.applies_to(self.axis(effect.axis)):
+            raise ValueError(f"{effect.key}: {effect.name} does not apply to a {self.axis(effect.axis).kind} axis")
+        return effect.bound(self.axis_names)
+
+    # ------------------------------------------------------------------ models
+    def physical_model(self, **kwargs):
+        """The machine's physical model (unfitted), ``self.model(system=self, **kwargs)``."""
+        return self._model_class()(system=self, **kwargs)
+
+    def diagnosis_model(self, fs: float):
+        """The model ``lcgym diagnose`` starts from (``PhysicalModel.for_diagnosis``)."""
+        return self._model_class().for_diagnosis(self, fs)
+
+    def _model_class(self) -> type:
+        if self.model is not None:
+            return self.model
+        from ..physics.model import PhysicalModel
+
+        return PhysicalModel
+
+    # ------------------------------------------------------------------ linear machines
+    def _linear_inverse_dynamics(self, p, q, qd, qdd):
+        """u = X(q, qd, qdd) p, numpy or torch (differentiable in p)."""
+        X = self.regressor(np.zeros(0), *(_numpy(x) for x in (q, qd, qdd)))
+        return _contract(X, p)
+
+    def _linear_mass_matrix(self, p, q):
+        """M(q) from the regressor: column j = X(q, 0, e_j) p - X(q, 0, 0) p, (T, A, A)."""
+        q = np.atleast_2d(_numpy(q))
+        T, A = q.shape
+        zero = np.zeros_like(q)
+        base = self.regressor(np.zeros(0), q, zero, zero)
+        basis = np.empty((T, A, A, base.shape[-1]))
+        for j in range(A):
+            e = zero.copy()
+            e[:, j] = 1.0
+            basis[:, :, j, :] = self.regressor(np.zeros(0), q, zero, e) - base
+        return _contract(basis, p)
+
+    @classmethod
+    def from_regressor(cls, name: str, axes: Sequence, parameters: Mapping[str, float], regressor: Callable,
+                       positive: Sequence[str] = (), **kwargs) -> System:
+        """A machine linear in its parameters, given by ``regressor(q, qd, qdd) -> (T, n_axes,
+        n_params)`` (numpy; u = regressor @ p) and its nominal ``parameters`` {name: value}, in the
+        regressor's column order. ``positive``: names of the parameters that stay positive.
+        Other keyword arguments are ``System`` fields (fs, advance, noise_rms, description, ...)."""
+        names = tuple(parameters)
+        values = tuple(float(parameters[n]) for n in names)
+        unknown = [n for n in positive if n not in names]
+        if unknown:
+            raise ValueError(f"{name}: positive names {unknown} are not parameters ({', '.join(names)})")
+
+        def vector(p=None) -> ParameterVector:
+            v = values if p is None else tuple(float(x) for x in np.asarray(p, dtype=float).ravel())
+            if len(v) != len(names):
+                raise ValueError(f"{name}: parameter vector must have {len(names)} values, got {len(v)}")
+            return ParameterVector(names, v)
+
+        def full(zeta_n, q, qd, qdd):
+            X = np.asarray(regressor(q, qd, qdd), dtype=float)
+            T, A = np.shape(q)[0], len(axes)
+            if X.shape != (T, A, len(names)):
+                raise ValueError(f"{name}: the regressor returned shape {X.shape}, expected ({T}, {A}, {len(names)})")
+            return X
+
+        return cls(name=name, axes=tuple(axes), param_names=names, regressor=full, parameters=vector,
+                   positive=tuple(names.index(n) for n in positive), **kwargs)
+
+    def __repr__(self) -> str:
+        return f"System({self.name!r}, axes={list(self.axis_names)}, {len(self.param_names)} parameters)"
+
+
+def _numpy(x) -> np.ndarray:
+    return x.detach().double().numpy() if hasattr(x, "detach") else np.asarray(x, dtype=float)
+
+
+def _contract(X, p):
+    """X (..., k) @ p (k,) in p's array type (a torch p gives a torch result, differentiable in p)."""
+    if hasattr(p, "detach"):
+        import torch
+
+        return torch.as_tensor(np.ascontiguousarray(X), dtype=p.dtype) @ p
+    return np.asarray(X) @ np.asarray(p, dtype=float)
