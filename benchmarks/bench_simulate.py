@@ -18,9 +18,9 @@ import time
 
 import numpy as np
 
-from lcgym.envs.ix import IXPlant
-from lcgym.envs.references import reference_set
-from lcgym.physics import ix
+from lcgym.systems.ix import dynamics as ix
+from lcgym.systems.ix.plant import IXPlant
+from lcgym.systems.ix.references import reference_set
 
 BUDGET_S = 10.0
 

@@ -19,9 +19,10 @@ from pathlib import Path
 
 from lcgym.cli import main as cli
 from lcgym.data import Trial, read_trials, write_trials
-from lcgym.envs.ix import IXPlant
-from lcgym.envs.references import reference_set
 from lcgym.physics.model import PhysicalModel
+from lcgym.systems.ix import IX
+from lcgym.systems.ix.plant import IXPlant
+from lcgym.systems.ix.references import reference_set
 
 BUDGET_S = 30.0
 
@@ -44,11 +45,11 @@ def main() -> None:
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         data = make_file(Path(tmp) / "runs.csv", args.samples)
-        trials = read_trials(data, system="ix")
+        trials = read_trials(data, axes=IX)
         n = sum(t.n_samples for t in trials)
-        PhysicalModel(positions="measured").fit(trials[:1])  # compile the regressor once (numba cache)
+        PhysicalModel(IX, positions="measured").fit(trials[:1])  # compile the regressor once (numba cache)
         t0 = time.perf_counter()
-        PhysicalModel(positions="measured").fit(trials)
+        PhysicalModel(IX, positions="measured").fit(trials)
         t_fit = time.perf_counter() - t0
         t0 = time.perf_counter()
         rc = cli(["diagnose", str(data), "--system", "ix", "--json", str(Path(tmp) / "report.json")])

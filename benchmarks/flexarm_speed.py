@@ -12,10 +12,10 @@ from __future__ import annotations
 
 import time
 
-from lcgym.envs.arm_references import arm_reference_set
-from lcgym.envs.flexarm import FlexArmPlant
-from lcgym.envs.ix import IXPlant
-from lcgym.envs.references import reference_set
+from lcgym.systems.flexarm.plant import FlexArmPlant
+from lcgym.systems.flexarm.references import arm_reference_set
+from lcgym.systems.ix.plant import IXPlant
+from lcgym.systems.ix.references import reference_set
 
 BUDGET_S = 2.0
 

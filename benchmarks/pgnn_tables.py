@@ -38,13 +38,14 @@ import time
 
 import numpy as np
 
-from lcgym.envs.ix import IXPlant
-from lcgym.envs.references import reference_set
-from lcgym.leaderboard.metrics import norms
+from lcgym.metrics import norms
 from lcgym.pgnn import PGNN, PGNNConfig
-from lcgym.physics import ix
 from lcgym.physics.kinematics import lowpass_zero_phase
 from lcgym.physics.model import PhysicalModel
+from lcgym.systems.ix import IX
+from lcgym.systems.ix import dynamics as ix
+from lcgym.systems.ix.plant import IXPlant
+from lcgym.systems.ix.references import reference_set
 
 HISTORY = (0.02, 0.05, 0.1, 0.2, 0.4)  # s
 GEAR_PERIOD = np.radians(5.0)
@@ -88,7 +89,7 @@ def main() -> None:
         refs = reference_set("train", args.seed, n_references=max(1, round(samples / per_reference)))
     data = plant.run(refs)
     t1 = time.perf_counter()
-    physical = PhysicalModel().fit(data)
+    physical = PhysicalModel(IX).fit(data)
     physical_seconds = time.perf_counter() - t1
     if args.collect_with == "physical":
         data = plant.run(refs, [physical.predict(r) for r in refs])

@@ -22,10 +22,12 @@ import time
 
 import numpy as np
 
-from lcgym.envs.arm_references import MOVING, arm_reference_set
-from lcgym.envs.flexarm import FlexArmPlant, run_basic
-from lcgym.rbf_expert.influence import arm_influence
+from lcgym.rbf_expert.influence import task_influence
 from lcgym.rbf_expert.predictor import RBFExpertConfig, RBFExpertPredictor
+from lcgym.systems.flexarm import FLEXARM
+from lcgym.systems.flexarm.nominal import BasicFeedforward
+from lcgym.systems.flexarm.plant import FlexArmPlant
+from lcgym.systems.flexarm.references import MOVING, arm_reference_set
 
 BUDGET_S = 5.0
 
@@ -42,11 +44,11 @@ def main() -> None:
     args = parser.parse_args()
     plant = FlexArmPlant()
     train = arm_reference_set("train", 0, args.lines)
-    run_basic(plant, train[0])  # compile
-    runs, _ = timed(lambda: [run_basic(plant, r) for r in train])
-    _, reference_s = timed(lambda: run_basic(plant, train[0]))
+    BasicFeedforward().run(plant, train[0])  # compile
+    runs, _ = timed(lambda: [BasicFeedforward().run(plant, r) for r in train])
+    _, reference_s = timed(lambda: BasicFeedforward().run(plant, train[0]))
     errors = [np.column_stack([tr.extra[f"e_pl_{a}"] for a in tr.axes]) for tr in runs]
-    phi = arm_influence(train)
+    phi = task_influence(train, FLEXARM.joint_axes())
     samples = sum(r.n_samples for r in train)
     print(f"{args.lines} training lines, {samples} samples; reference (one Basic run of a line): {reference_s:.2f} s")
     results = {}

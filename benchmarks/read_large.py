@@ -33,14 +33,15 @@ AXES = ("j1", "j2", "j3", "j4", "j5", "j6")
 CHILD = r"""
 import json, sys, time
 import lcgym.data
+from lcgym.systems.flexarm import FLEXARM
 mode, path = sys.argv[1], sys.argv[2]
 t0 = time.perf_counter()
 if mode == "stream":
-    trials = lcgym.data.read_trials(path, system="flexarm")
+    trials = lcgym.data.read_trials(path, axes=FLEXARM)
     n = trials[0].n_samples
 elif mode == "one chunk":
     lcgym.data.CHUNK_ROWS = 10**12
-    trials = lcgym.data.read_trials(path, system="flexarm")
+    trials = lcgym.data.read_trials(path, axes=FLEXARM)
     n = trials[0].n_samples
 else:
     n = 0

@@ -17,7 +17,7 @@ import torch
 from stable_baselines3 import PPO
 
 from lcgym.baselines.rl import deterministic_actor
-from lcgym.envs.ix_env import IXEnv
+from lcgym.systems.ix.env import IXEnv
 
 
 def best_per_call(fn, observations, rounds: int = 5) -> float:

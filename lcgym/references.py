@@ -150,9 +150,9 @@ def references_of(trials) -> list[Reference]:
     return refs
 
 
-def sample(name: str, profiles: Sequence[AxisProfile], fs: float, axes: Sequence[str], tail: float = 1.0) -> Reference:
-    """Sample axis profiles (one per axis of ``axes``) at fs over their common duration plus ``tail``
-    seconds of rest."""
+def sample(name: str, profiles: Sequence[AxisProfile], fs: float, tail: float = 1.0, axes: Sequence[str] = ()) -> Reference:
+    """Sample axis profiles (one per axis, named ``axes``) at fs over their common duration plus
+    ``tail`` seconds of rest."""
     duration = max(p.end_time for p in profiles) + tail
     t = np.arange(int(math.ceil(duration * fs)) + 1) / fs
     xva = [p.evaluate(t) for p in profiles]

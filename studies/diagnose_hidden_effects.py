@@ -22,9 +22,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_diagnose import OTHER_FORMS, SINGLE  # noqa: E402  (the cases live with the tests)
 
 from lcgym.diagnose import diagnose  # noqa: E402
-from lcgym.envs.ix import IXPlant  # noqa: E402
-from lcgym.envs.references import reference_set  # noqa: E402
 from lcgym.physics import effects as fx  # noqa: E402
+from lcgym.systems.ix.plant import IXPlant  # noqa: E402
+from lcgym.systems.ix.references import reference_set  # noqa: E402
 
 DEG = 3.141592653589793 / 180
 

@@ -16,8 +16,8 @@ import numpy as np
 from tqdm import tqdm
 
 from lcgym.baselines import PhysicalFeedforward
-from lcgym.envs.ix import IXPlant, default_hidden_effects
-from lcgym.envs.references import reference_set
+from lcgym.systems.ix.plant import IXPlant, default_hidden_effects
+from lcgym.systems.ix.references import reference_set
 
 GROUPS = {
     "roll friction (level, Stribeck, stiction)": lambda e: e.axis == "roll" and "friction" in e.name or e.key == "stiction@roll",

@@ -17,11 +17,11 @@ import argparse
 
 import numpy as np
 
-from lcgym.envs.arm_references import arm_reference_set, tcp_positions
-from lcgym.envs.flexarm import FlexArmPlant, run_basic
-from lcgym.leaderboard.metrics import norms
-from lcgym.physics.arm_nominal import BasicFeedforward, model_following_error
+from lcgym.metrics import norms
 from lcgym.physics.kinematics import lowpass_zero_phase
+from lcgym.systems.flexarm.nominal import BasicFeedforward, model_following_error
+from lcgym.systems.flexarm.plant import FlexArmPlant
+from lcgym.systems.flexarm.references import arm_reference_set, tcp_positions
 
 JOINTS = (1, 2, 4)
 
@@ -29,7 +29,7 @@ JOINTS = (1, 2, 4)
 def evaluate(plant, ref, use_ff: bool):
     """(trial, e_pl (T, 6) from the true load acceleration, TCP error (T,) [mm])."""
     if use_ff:
-        tr = run_basic(plant, ref)
+        tr = BasicFeedforward().run(plant, ref)
         epl = np.column_stack([tr.extra[f"e_pl_true_{a}"] for a in tr.axes])
     else:
         tr = plant.run(ref)

@@ -17,9 +17,9 @@ import numpy as np
 from tqdm import tqdm
 
 from lcgym.baselines.ilc import IterativeLearningControl
-from lcgym.envs.arm_references import arm_reference_set, tcp_positions
-from lcgym.envs.flexarm import FlexArmPlant, run_basic
-from lcgym.physics.arm_nominal import BasicFeedforward
+from lcgym.systems.flexarm.nominal import BasicFeedforward
+from lcgym.systems.flexarm.plant import FlexArmPlant
+from lcgym.systems.flexarm.references import arm_reference_set, tcp_positions
 
 JOINTS = ("j2", "j3", "j5")
 
@@ -38,7 +38,7 @@ def main() -> None:
         moving = np.any(np.abs(ref.velocities) > 1e-6, axis=1)
         tau_ff = BasicFeedforward().compute(ref.positions, ref.fs)["tau_ff"]
         for label, update in (("basic", None), ("lcs", ilc.feedforward(ref) - tau_ff)):
-            tr = run_basic(plant, ref, update)
+            tr = BasicFeedforward().run(plant, ref, update)
             e = np.column_stack([tr.extra[f"e_pl_true_{a}"] for a in JOINTS])
             parts[label]["dynamic"].append(e[moving])
             parts[label]["static"].append(e[~moving])

@@ -23,8 +23,8 @@ import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 from lcgym.baselines.ilc import ILCConfig, IterativeLearningControl  # noqa: E402
-from lcgym.envs.ix import IXPlant  # noqa: E402
-from lcgym.envs.references import reference_set  # noqa: E402
+from lcgym.systems.ix.plant import IXPlant  # noqa: E402
+from lcgym.systems.ix.references import reference_set  # noqa: E402
 
 
 def axis_rms(trial, true: bool = False) -> np.ndarray:

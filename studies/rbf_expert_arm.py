@@ -33,15 +33,16 @@ import time
 import numpy as np
 from tqdm import tqdm
 
-from lcgym.baselines.ilc import ILCConfig, arm_tau_nl_update
-from lcgym.envs.arm_references import MOVING, arm_reference_set, tcp_positions
-from lcgym.envs.flexarm import FlexArmPlant, run_basic
-from lcgym.physics import arm
-from lcgym.physics.arm_nominal import BasicFeedforward
+from lcgym.baselines.ilc import ILCConfig, nominal_update
 from lcgym.rbf_expert.expert import ExpertConfig
-from lcgym.rbf_expert.influence import arm_influence
+from lcgym.rbf_expert.influence import task_influence
 from lcgym.rbf_expert.predictor import RBFExpertConfig, RBFExpertPredictor
 from lcgym.rbf_expert.preprocess import PreprocessConfig
+from lcgym.systems.flexarm import FLEXARM
+from lcgym.systems.flexarm import dynamics as arm
+from lcgym.systems.flexarm.nominal import BasicFeedforward
+from lcgym.systems.flexarm.plant import FlexArmPlant
+from lcgym.systems.flexarm.references import MOVING, arm_reference_set, tcp_positions
 
 JOINTS = [f"j{j + 1}" for j in MOVING]
 TUNE = {  # the configurations compared by --tune
@@ -61,7 +62,7 @@ def e_pl(trial, kind: str = "e_pl") -> np.ndarray:
 def tau_nl_update(reference, e: np.ndarray) -> np.ndarray:
     """Eq. (16) / (17) from Basic: the change of tau_nl (T, 6) [N m] for the error e."""
     tau_nl = BasicFeedforward().compute(reference.positions, reference.fs)["tau_nl"]
-    return arm_tau_nl_update(tau_nl, e, reference.fs, ILCConfig()) - tau_nl
+    return nominal_update(BasicFeedforward(), tau_nl, e, reference.fs, ILCConfig()) - tau_nl
 
 
 def signals(plant: FlexArmPlant, trial, reference) -> dict[str, np.ndarray]:
@@ -85,16 +86,16 @@ def run_lines(plant, predictor, lines, measured=None, progress: bool = True, ora
     ``measured``: the Basic runs of the lines if already done."""
     out = []
     for k, ref in enumerate(tqdm(lines, desc="validation lines", disable=not progress)):
-        basic = measured[k] if measured else run_basic(plant, ref)
-        runs = {"basic": basic, "lcs": run_basic(plant, ref, tau_nl_update(ref, e_pl(basic))),
-                "nnp": run_basic(plant, ref, tau_nl_update(ref, predictor.predict(ref)))}
+        basic = measured[k] if measured else BasicFeedforward().run(plant, ref)
+        runs = {"basic": basic, "lcs": BasicFeedforward().run(plant, ref, tau_nl_update(ref, e_pl(basic))),
+                "nnp": BasicFeedforward().run(plant, ref, tau_nl_update(ref, predictor.predict(ref)))}
         outside = dict(predictor.outside_share_)
         if oracle:
             perfect = np.zeros_like(e_pl(basic))
             for j in MOVING:
                 active = predictor.inputs(ref, j)[1] > 0
                 perfect[active, j] = e_pl(basic)[active, j]
-            runs["oracle"] = run_basic(plant, ref, tau_nl_update(ref, perfect))
+            runs["oracle"] = BasicFeedforward().run(plant, ref, tau_nl_update(ref, perfect))
         moving = np.any(np.abs(ref.velocities) > 1e-6, axis=1)
         out.append(({name: signals(plant, tr, ref) for name, tr in runs.items()}, moving, outside))
     return out
@@ -173,13 +174,13 @@ def main() -> None:
     args = parser.parse_args()
     plant = FlexArmPlant()
     train = arm_reference_set("train", 0, args.train_lines)
-    basic_runs = [run_basic(plant, r) for r in tqdm(train, desc="training lines (Basic)")]
+    basic_runs = [BasicFeedforward().run(plant, r) for r in tqdm(train, desc="training lines (Basic)")]
     errors = [e_pl(tr) for tr in basic_runs]
-    phi = arm_influence(train)
+    phi = task_influence(train, FLEXARM.joint_axes())
     print("motion influence Phi (eqs. 22-25, Table 1):\n", phi.astype(int))
     if args.tune:
         lines = arm_reference_set("validation", 0, 8)
-        measured = [run_basic(plant, r) for r in lines]
+        measured = [BasicFeedforward().run(plant, r) for r in lines]
         for label, cfg in TUNE.items():
             pred = RBFExpertPredictor(phi, MOVING, cfg).fit(train, errors)
             row = table6(run_lines(plant, pred, lines, measured, progress=False))["joint", "dynamic"]

@@ -19,11 +19,11 @@ from pathlib import Path
 
 import numpy as np
 import torch
+from lcgym.leaderboard.systems import BENCH_SYSTEMS
 
 from lcgym.baselines import BasicArmFeedforward, PhysicalFeedforward
 from lcgym.baselines.rl import RLConfig, RLFeedforward
 from lcgym.leaderboard.runner import BenchConfig
-from lcgym.leaderboard.systems import BENCH_SYSTEMS
 
 
 def validation_rms(bench, references, controller, plant) -> np.ndarray:

@@ -4,13 +4,15 @@ import numpy as np
 import pytest
 import torch
 
+from lcgym import systems
 from lcgym.data import read_trials, write_trials
-from lcgym.envs.arm_references import arm_reference_set
-from lcgym.envs.flexarm import FlexArmPlant, default_true_arm, run_basic
-from lcgym.physics import arm, arm_motor
-from lcgym.physics.arm_model import ArmModel
-from lcgym.physics.registry import system_of
-from lcgym.physics.system import ARM
+from lcgym.systems.flexarm import FLEXARM as ARM
+from lcgym.systems.flexarm import dynamics as arm
+from lcgym.systems.flexarm import motor as arm_motor
+from lcgym.systems.flexarm.model import ArmModel
+from lcgym.systems.flexarm.nominal import BasicFeedforward
+from lcgym.systems.flexarm.plant import FlexArmPlant, default_true_arm
+from lcgym.systems.flexarm.references import arm_reference_set
 
 rng = np.random.default_rng(3)
 
@@ -77,13 +79,13 @@ def test_fit_takes_up_the_hidden_payload(feedback_trials):
     """Fitted on feedback-only runs of the plant (12 kg payload unknown to the nominal model), the
     model's holding torques on validation poses come close to the true arm's; the nominal's do not."""
     _, trials = feedback_trials
-    model = ArmModel().fit(trials)
+    model = ArmModel(ARM).fit(trials)
     q = arm_reference_set("validation", 0, 1)[0].positions[::200]
     zero = np.zeros_like(q)
     N = np.asarray(arm.DriveParameters().N)
     truth = arm.inverse_dynamics(default_true_arm(), q, zero, zero) / N
     err_fit = np.abs(model.torque(q, zero, zero) - truth).max(axis=0)
-    err_nom = np.abs(ArmModel().torque(q, zero, zero) - truth).max(axis=0)
+    err_nom = np.abs(ArmModel(ARM).torque(q, zero, zero) - truth).max(axis=0)
     # joints 2, 3 carry the payload's weight (measured: 0.17 / 0.87 and 0.13 / 0.59 N m); with the tool
     # hanging straight down joint 5 carries none
     assert np.all(err_fit[1:3] < 0.3 * err_nom[1:3]), (err_fit, err_nom)
@@ -97,7 +99,7 @@ def test_reference_offset_is_the_joint_torsion(feedback_trials):
     """At rest the offset is the gravity torque over the joint stiffness; with it the load holds
     its reference instead of sagging."""
     plant, _ = feedback_trials
-    model = ArmModel(params=arm_motor.ArmMotorParameters(pi=tuple(default_true_arm().pi)))
+    model = ArmModel(ARM, params=arm_motor.ArmMotorParameters(pi=tuple(default_true_arm().pi)))
     ref = arm_reference_set("validation", 0, 1)[0]
     off = model.reference_offset(ref)
     d = arm.DriveParameters()
@@ -119,10 +121,10 @@ def _load(trial):
 def test_arm_trials_round_trip_through_the_measurement_format(tmp_path, feedback_trials):
     """Motor angles, torques, accelerometer, TCP, true load angles and e_pl survive a file."""
     plant, _ = feedback_trials
-    trial = run_basic(plant, arm_reference_set("validation", 0, 1)[0])
+    trial = BasicFeedforward().run(plant, arm_reference_set("validation", 0, 1)[0])
     for suffix in (".csv", ".parquet"):
         path = write_trials(tmp_path / f"arm{suffix}", [trial])
-        (back,) = read_trials(path, system="flexarm")
+        (back,) = read_trials(path, axes=ARM)
         tol = {"rtol": 1e-9, "atol": 1e-12} if suffix == ".csv" else {"rtol": 0, "atol": 0}  # CSV keeps 10 digits
         for name in ("t", "ref", "pos", "u", "ff"):
             np.testing.assert_allclose(getattr(back, name), getattr(trial, name), **tol)
@@ -131,7 +133,7 @@ def test_arm_trials_round_trip_through_the_measurement_format(tmp_path, feedback
         assert expected <= set(back.extra)
         for k, v in trial.extra.items():
             np.testing.assert_allclose(back.extra[k], v, **tol)
-        assert system_of([back]) == "flexarm" and back.meta["reference"] == trial.meta["reference"]
+        assert systems.of_trials([back]) is ARM and back.meta["reference"] == trial.meta["reference"]
 
 
 def test_regressor_cache_lives_only_inside_its_block():

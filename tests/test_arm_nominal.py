@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from lcgym.envs.arm_references import arm_reference_set
-from lcgym.envs.flexarm import FlexArmPlant
-from lcgym.physics.arm_nominal import BasicFeedforward
+from lcgym.systems.flexarm.nominal import BasicFeedforward
+from lcgym.systems.flexarm.plant import FlexArmPlant
+from lcgym.systems.flexarm.references import arm_reference_set
 
 
 @pytest.fixture(scope="module")

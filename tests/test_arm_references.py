@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lcgym.envs.arm_references import LENGTHS, TCP_HEIGHT, arm_reference_set
-from lcgym.physics import arm
+from lcgym.systems.flexarm import dynamics as arm
+from lcgym.systems.flexarm.references import LENGTHS, TCP_HEIGHT, arm_reference_set
 
 DH = arm.DH().table()
 

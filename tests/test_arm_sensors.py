@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from lcgym.envs.arm_references import arm_reference_set
-from lcgym.envs.flexarm import FlexArmPlant
-from lcgym.physics import arm
-from lcgym.physics.arm_nominal import BasicFeedforward
-from lcgym.physics.arm_sensors import estimate_load_acceleration
 from lcgym.physics.kinematics import lowpass_zero_phase
+from lcgym.systems.flexarm import dynamics as arm
+from lcgym.systems.flexarm.nominal import BasicFeedforward
+from lcgym.systems.flexarm.plant import FlexArmPlant
+from lcgym.systems.flexarm.references import arm_reference_set
+from lcgym.systems.flexarm.sensors import estimate_load_acceleration
 
 
 def test_accelerometer_estimate_matches_the_true_load_acceleration():
@@ -35,10 +35,10 @@ def test_accelerometer_estimate_matches_the_true_load_acceleration():
 
 def test_run_basic_stores_the_model_following_error():
     """e_pl from the accelerometer estimate follows e_pl from the truth (joints 2, 3)."""
-    from lcgym.envs.flexarm import run_basic
+    from lcgym.systems.flexarm.nominal import BasicFeedforward
 
     ref = arm_reference_set("validation", seed=0, n_references=1)[0]
-    tr = run_basic(FlexArmPlant(), ref)
+    tr = BasicFeedforward().run(FlexArmPlant(), ref)
     for a in ("j2", "j3"):
         est, true = tr.extra[f"e_pl_{a}"], tr.extra[f"e_pl_true_{a}"]
         assert np.sqrt(np.mean((est - true) ** 2)) < 0.25 * np.sqrt(np.mean(true**2))

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 import lcgym  # noqa: F401  (registers the ids)
-from lcgym.envs.arm_references import arm_reference_set
-from lcgym.envs.flexarm_env import FlexArmEnv
+from lcgym.systems.flexarm.env import FlexArmEnv
+from lcgym.systems.flexarm.references import arm_reference_set
 
 SHORT = {"n_references": 2, "duration": 4.0}
 GOOD_STEPS = 3  # good steps before the bad action: the error must name step 3

@@ -84,18 +84,18 @@ CASES = [
     (["leaderboard", "{results}", "--reference-set", "holdout"], "invalid choice"),
     # diagnose and effects
     (["diagnose", "{data}", "--system", "ix", "--add", "magic@roll"], "'magic' is not an effect"),
-    (["diagnose", "{data}", "--system", "ix", "--add", "coulomb_friction@elbow"], "unknown axis 'elbow'"),
+    (["diagnose", "{data}", "--system", "ix", "--add", "coulomb_friction@elbow"], "ix has no axis 'elbow'"),
     (["diagnose", "{data}", "--system", "ix", "--min-explained", "nan"], "min_explained must be in (0, 1)"),
     (["diagnose", "{data}", "--system", "ix", "--min-explained", "3"], "min_explained must be in (0, 1)"),
-    (["diagnose", "{data}", "--system", "flexarm"], "is it a file of another system?"),
-    (["diagnose", "{data}", "--system", "crane"], "invalid choice"),
+    (["diagnose", "{data}", "--system", "flexarm"], "is it a file of another machine?"),
+    (["diagnose", "{data}", "--system", "crane"], "unknown machine 'crane'"),
     (["diagnose", "{tmp}/missing.csv", "--system", "ix"], "file not found"),
     (["diagnose", "{bad}", "--system", "ix"], "column 'pos_roll', row 5"),
     (["diagnose", "{data}", "--system", "ix", "--json", "{tmp}/missing/report.json"], "does not exist"),
     (["diagnose", "{data}", "--system", "ix", "--plots", "{tmp}/out.csv"], "exists and is not a folder"),
     (["diagnose", "{degrees}", "--system", "ix"], "lcgym diagnose: warning: {degrees} (trial 0): column 'ref_roll' "
                                                    "reaches 57.3, beyond 2 pi"),
-    (["effects", "--system", "crane"], "invalid choice"),
+    (["effects", "--system", "crane"], "unknown machine 'crane'"),
 ]
 if Path("/proc").is_dir():  # a place where no folder can be made, even by root
     CASES.append((["diagnose", "{data}", "--system", "ix", "--plots", "/proc/lcgym-plots"],

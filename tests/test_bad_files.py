@@ -7,7 +7,8 @@ and in chunks of 3 rows, so that the streamed reader names the same row as a who
 
 The cases of issue 11 and where they are:
 
-- missing columns: ``test_missing_column``, ``test_missing_reference_column_with_system``;
+- missing columns: ``test_missing_column``, ``test_missing_reference_column_of_one_axis`` (references
+  are optional: ``test_a_file_without_references_reads``), ``test_axes_the_file_lacks``;
   renamed or misspelled ones: ``test_renamed_column_is_named_with_the_near_miss``;
 - extra columns are *not* an error: logs carry extra sensors (the FlexArm's accelerometer), so
   they are kept in ``Trial.extra`` (``test_extra_columns_are_kept``); an ``ff_<axis>`` column is
@@ -37,6 +38,7 @@ from lcgym import data
 from lcgym.data import MeasurementFileError, read_trials
 
 HEADER = "t,ref_propeller,ref_roll,pos_propeller,pos_roll,u_propeller,u_roll"
+IX = ("propeller", "roll")  # the IX's axes
 
 
 @pytest.fixture(autouse=True, params=["whole file", "3-row chunks"])
@@ -77,11 +79,11 @@ def assert_names(exc: pytest.ExceptionInfo, path: Path, column: str | None = Non
         assert others == [row], msg
 
 
-def refused(path: Path, column: str | None = None, row: int | None = None, system: str | None = None) -> str:
-    """``read_trials(path)`` must raise MeasurementFileError naming the file (and column and row);
-    returns the message."""
+def refused(path: Path, column: str | None = None, row: int | None = None, axes: tuple | None = None) -> str:
+    """``read_trials(path, axes)`` must raise MeasurementFileError naming the file (and column and
+    row); returns the message."""
     with pytest.raises(MeasurementFileError) as exc:
-        read_trials(path, system=system)
+        read_trials(path, axes=axes)
     assert_names(exc, path, column, row)
     return str(exc.value)
 
@@ -94,7 +96,7 @@ def refused(path: Path, column: str | None = None, row: int | None = None, syste
 def test_clean_hand_written_file_reads(tmp_path):
     """Control for the malformed cases below: the unmodified rows are accepted."""
     path = write_csv(tmp_path, rows_csv(good_rows()))
-    (tr,) = read_trials(path, system="ix")
+    (tr,) = read_trials(path, axes=IX)
     np.testing.assert_allclose(tr.t, np.arange(6) * 0.1)
     np.testing.assert_allclose(tr.u, np.tile([0.5, -0.5], (6, 1)))
 
@@ -108,16 +110,27 @@ def _without_column(tmp_path, column: str) -> Path:
 
 
 @pytest.mark.bad_input
-@pytest.mark.parametrize("system", [None, "ix"])
-def test_missing_column(tmp_path, system):
+@pytest.mark.parametrize("axes", [None, IX])
+def test_missing_column(tmp_path, axes):
     path = _without_column(tmp_path, "u_roll")
-    refused(path, "u_roll", system=system)
+    refused(path, "u_roll", axes=axes)
 
 
 @pytest.mark.bad_input
-def test_missing_reference_column_with_system(tmp_path):
+def test_missing_reference_column_of_one_axis(tmp_path):
+    """References are optional, but for every axis or none."""
     path = _without_column(tmp_path, "ref_roll")
-    refused(path, "ref_roll", system="ix")
+    message = refused(path, "ref_roll", axes=IX)
+    assert "for every axis, or none" in message
+
+
+def test_a_file_without_references_reads(tmp_path):
+    cols = [c for c in HEADER.split(",") if not c.startswith("ref_")]
+    text = ",".join(cols) + "\n" + "\n".join(",".join(str(r[COL[c]]) for c in cols) for r in good_rows()) + "\n"
+    (tr,) = read_trials(write_csv(tmp_path, text), axes=IX)
+    assert tr.ref is None and tr.pos.shape == (6, 2)
+    with pytest.raises(ValueError, match="no reference"):
+        _ = tr.error
 
 
 def _corrupt(row: int, column: str, value: str, n: int = 8) -> str:
@@ -141,7 +154,7 @@ def _corrupt(row: int, column: str, value: str, n: int = 8) -> str:
 )
 def test_bad_value(tmp_path, column, row, value):
     path = write_csv(tmp_path, _corrupt(row, column, value))
-    refused(path, column, row, system="ix")
+    refused(path, column, row, axes=IX)
 
 
 @pytest.mark.bad_input
@@ -161,7 +174,7 @@ def test_bad_value_in_ff_column_is_rejected(tmp_path, column, row, value):
     rows = [r + [0.25] for r in good_rows()]
     rows[row - 1][-1] = value
     text = HEADER + f",{column}\n" + "\n".join(",".join(map(str, r)) for r in rows) + "\n"
-    refused(write_csv(tmp_path, text), column, row, system="ix")
+    refused(write_csv(tmp_path, text), column, row, axes=IX)
 
 
 @pytest.mark.bad_input
@@ -208,7 +221,7 @@ def test_empty_file(tmp_path):
 @pytest.mark.bad_input
 def test_header_only(tmp_path):
     path = write_csv(tmp_path, HEADER + "\n")
-    message = refused(path, system="ix")
+    message = refused(path, axes=IX)
     assert "no data rows" in message
 
 
@@ -243,10 +256,10 @@ def test_missing_file(tmp_path):
 
 
 @pytest.mark.bad_input
-def test_unknown_system(tmp_path):
+def test_axes_the_file_lacks(tmp_path):
     path = write_csv(tmp_path, rows_csv(good_rows()))
-    with pytest.raises(ValueError, match="system"):
-        read_trials(path, system="scara")
+    message = refused(path, "pos_carriage", axes=("carriage", "elbow"))
+    assert "the file's axes are propeller, roll" in message
 
 
 # ---------------------------------------------------------------------------------------------
@@ -284,7 +297,7 @@ def test_two_trials_in_one_file(tmp_path):
     lines = [header] + [",".join(map(str, [r[0], 0, *r[1:]])) for r in a]
     lines += [",".join(map(str, [r[0], 1, *r[1:]])) for r in b]
     path = write_csv(tmp_path, "\n".join(lines) + "\n")
-    trials = read_trials(path, system="ix")
+    trials = read_trials(path, axes=IX)
     assert [tr.n_samples for tr in trials] == [5, 7]
     assert trials[0].fs == pytest.approx(10.0)
     assert trials[1].fs == pytest.approx(50.0)
@@ -316,7 +329,7 @@ def test_two_trials_error_names_trial_and_file_row(tmp_path):
                                              ("t", "time")])
 def test_renamed_column_is_named_with_the_near_miss(tmp_path, renamed, to):
     path = write_csv(tmp_path, rows_csv(good_rows()).replace(renamed, to, 1))
-    message = refused(path, renamed, system="ix")
+    message = refused(path, renamed, axes=IX)
     if renamed != "t":  # "time" is too far from "t" to be suggested
         assert f"did you mean '{to}'" in message
 
@@ -324,7 +337,7 @@ def test_renamed_column_is_named_with_the_near_miss(tmp_path, renamed, to):
 def test_extra_columns_are_kept(tmp_path):
     rows = [r + [k, "ok", 0.25] for k, r in enumerate(good_rows())]
     text = HEADER + ",acc_x,status,ff_roll\n" + "\n".join(",".join(map(str, r)) for r in rows) + "\n"
-    (tr,) = read_trials(write_csv(tmp_path, text), system="ix")
+    (tr,) = read_trials(write_csv(tmp_path, text), axes=IX)
     assert tr.ff is None  # ff_roll without ff_propeller: no feedforward, the column is an extra
     np.testing.assert_array_equal(tr.extra["acc_x"], np.arange(6))
     assert list(tr.extra["status"]) == ["ok"] * 6
@@ -345,7 +358,7 @@ def test_interleaved_trials_are_split(tmp_path):
     lines = [header]
     for ra, rb in zip(a, b, strict=True):
         lines += [",".join(map(str, [ra[0], 3, *ra[1:]])), ",".join(map(str, [rb[0], 7, *rb[1:]]))]
-    trials = read_trials(write_csv(tmp_path, "\n".join(lines) + "\n"), system="ix")
+    trials = read_trials(write_csv(tmp_path, "\n".join(lines) + "\n"), axes=IX)
     assert [tr.n_samples for tr in trials] == [5, 5]
     np.testing.assert_allclose(trials[0].t, np.arange(5) * 0.1)
     np.testing.assert_allclose(trials[1].t, np.arange(5) * 0.2)
@@ -376,9 +389,9 @@ def test_a_large_file_is_read_in_chunks(tmp_path, monkeypatch, chunking, suffix)
     write = frame.to_csv if suffix == ".csv" else frame.to_parquet
     write(path, index=False)
     monkeypatch.setattr(data, "CHUNK_ROWS", 10**9)
-    (whole,) = read_trials(path, system="ix")
+    (whole,) = read_trials(path, axes=IX)
     monkeypatch.setattr(data, "CHUNK_ROWS", 1000)
-    (chunked,) = read_trials(path, system="ix")
+    (chunked,) = read_trials(path, axes=IX)
     for name in ("t", "ref", "pos", "u", "ff"):
         np.testing.assert_array_equal(getattr(chunked, name), getattr(whole, name))
     np.testing.assert_array_equal(chunked.extra["acc_x"], whole.extra["acc_x"])
@@ -394,14 +407,14 @@ def test_a_large_file_is_read_in_chunks(tmp_path, monkeypatch, chunking, suffix)
             yield chunk
 
     monkeypatch.setattr(data, "_chunks", counting)
-    refused(path, "u_roll", 17_001, system="ix")
+    refused(path, "u_roll", 17_001, axes=IX)
     assert len(chunks_read) == 18  # rows 17,001-18,000 are the 18th chunk; two more are never read
 
 
 def test_more_rows_than_the_line_count_grow_the_arrays(tmp_path, monkeypatch):
     path = write_csv(tmp_path, rows_csv(good_rows(9)))
     monkeypatch.setattr(data, "_row_bound", lambda path: 1)
-    (tr,) = read_trials(path, system="ix")
+    (tr,) = read_trials(path, axes=IX)
     np.testing.assert_allclose(tr.t, np.arange(9) * 0.1)
     np.testing.assert_allclose(tr.u, np.tile([0.5, -0.5], (9, 1)))
 
@@ -410,7 +423,7 @@ def test_more_rows_than_the_line_count_grow_the_arrays(tmp_path, monkeypatch):
 def test_windows_and_old_mac_line_endings_read(tmp_path, newline):
     path = tmp_path / "meas.csv"
     path.write_bytes(rows_csv(good_rows(7)).replace("\n", newline).encode())
-    (tr,) = read_trials(path, system="ix")
+    (tr,) = read_trials(path, axes=IX)
     np.testing.assert_allclose(tr.t, np.arange(7) * 0.1)
 
 
@@ -419,7 +432,7 @@ def test_windows_and_old_mac_line_endings_read(tmp_path, newline):
 def test_unreadable_bytes(tmp_path, content):
     path = tmp_path / "meas.csv"
     path.write_bytes(content)
-    refused(path, system="ix")
+    refused(path, axes=IX)
 
 
 @pytest.mark.bad_input
@@ -427,7 +440,7 @@ def test_unreadable_bytes(tmp_path, content):
 def test_corrupt_parquet(tmp_path, content):
     path = tmp_path / "meas.parquet"
     path.write_bytes(content)
-    message = refused(path, system="ix")
+    message = refused(path, axes=IX)
     assert "cannot parse" in message
 
 
@@ -438,7 +451,7 @@ def test_parquet_with_strings_and_nan(tmp_path):
     frame.loc[6, "pos_roll"] = "stuck"
     path = tmp_path / "meas.parquet"
     frame.to_parquet(path, index=False)
-    refused(path, "pos_roll", 7, system="ix")
+    refused(path, "pos_roll", 7, axes=IX)
 
 
 def test_many_trials_in_any_row_order_are_split_in_file_order(tmp_path):
@@ -461,7 +474,7 @@ def test_many_trials_in_any_row_order_are_split_in_file_order(tmp_path):
     for name, frame in (("whole", whole), ("mixed", mixed)):
         path = tmp_path / f"{name}.csv"
         frame.to_csv(path, index=False)
-        trials = read_trials(path, system="ix")
+        trials = read_trials(path, axes=IX)
         firsts = pd.unique(frame["trial"])
         assert len(trials) == 40
         for tr, k in zip(trials, firsts, strict=True):
@@ -473,7 +486,7 @@ def test_many_trials_in_any_row_order_are_split_in_file_order(tmp_path):
 @pytest.mark.parametrize("sep", [";", "\t"])
 def test_another_separator_is_named(tmp_path, sep):
     path = write_csv(tmp_path, rows_csv(good_rows()).replace(",", sep))
-    message = refused(path, system="ix")
+    message = refused(path, axes=IX)
     assert "lcgym reads comma-separated files" in message
 
 

@@ -3,6 +3,7 @@ test_bad_cli.py)."""
 
 from lcgym.cli import main
 from lcgym.data import read_trials
+from lcgym.systems.ix import IX
 
 
 def test_simulate_writes_file_plot_and_table(tmp_path, capsys):
@@ -12,6 +13,6 @@ def test_simulate_writes_file_plot_and_table(tmp_path, capsys):
     assert rc == 0
     text = capsys.readouterr().out
     assert "tracking_error" in text and "input_residual" in text and "physical" in text
-    trials = read_trials(out, system="ix")
+    trials = read_trials(out, axes=IX)
     assert [t.meta["controller"] for t in trials] == ["feedback", "physical"]
     assert png.stat().st_size > 10_000

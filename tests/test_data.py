@@ -11,6 +11,7 @@ import pandas as pd
 import pytest
 
 from lcgym.data import Trial, read_trials, write_trials
+from lcgym.systems.ix import IX
 
 AXES = ("propeller", "roll")
 
@@ -79,7 +80,7 @@ def test_round_trip_several_trials(tmp_path, suffix):
     for c in ("ff_propeller", "ff_roll", "acc_x", "motor_angle"):
         assert c in frame.columns
 
-    back = read_trials(path, system="ix")
+    back = read_trials(path, axes=IX)
     assert len(back) == 3
     tol = 1e-9 if suffix == ".csv" else 0.0
     for a, b in zip(trials, back, strict=True):

@@ -14,10 +14,12 @@ from lcgym.data import Trial, read_trials, write_trials
 from lcgym.diagnose import NOTHING_FOUND, diagnose, register_effect
 from lcgym.diagnose.candidates import CANDIDATES, candidates_for
 from lcgym.diagnose.search import Scorer, period_peaks
-from lcgym.envs.ix import IXPlant
-from lcgym.envs.references import reference_set
 from lcgym.physics import effects as fx
 from lcgym.physics.model import PhysicalModel
+from lcgym.systems.ix import IX
+from lcgym.systems.ix.effects import PositionDependentFriction
+from lcgym.systems.ix.plant import IXPlant
+from lcgym.systems.ix.references import reference_set
 
 DEG = math.pi / 180.0
 
@@ -29,7 +31,7 @@ def _triangle(x, period):
 # one hidden effect each, sized clearly above the input's noise floor (about 0.03 V propeller, 0.006 V roll)
 SINGLE = {
     "coulomb_friction@roll": fx.CoulombFriction("roll", Fc=0.1),
-    "position_dependent_friction@roll": fx.PositionDependentFriction("roll", c_cos=0.05, c_cos_roll=0.1),
+    "position_dependent_friction@roll": PositionDependentFriction("roll", c_cos=0.05, c_cos_roll=0.1),
     "cable_spring@roll": fx.CableSpring("roll", k=0.22, q0=20 * DEG, width=3 * DEG),
     "cable_inertia@roll": fx.CableInertia("roll", dJ=0.2, q0=10 * DEG, width=10 * DEG),
     "gear_harmonic@propeller": fx.GearHarmonic.from_amplitudes("propeller", 0.14, 0.7, 0.06, 2.0, velocity_gain=0.5),
@@ -164,7 +166,7 @@ def test_measured_motion_removes_the_tracking_lag_from_the_residual():
     trials = _trials(())
     out = {}
     for positions in ("reference", "measured"):
-        m = PhysicalModel(positions=positions).fit(trials)
+        m = PhysicalModel(IX, positions=positions).fit(trials)
         kin, lengths = m.kinematics(trials)
         r = m.reduce(np.concatenate([t.u for t in trials]) - m.torque(*kin), lengths)
         out[positions] = np.sqrt(np.mean(r**2, axis=0))
@@ -241,7 +243,7 @@ def test_replay_without_add_replays_the_suggested_model():
 
 def test_read_back_keeps_the_plant_record_for_replay(tmp_path):
     trials = _trials((SINGLE["cable_drape@roll"],))
-    back = read_trials(write_trials(tmp_path / "m.parquet", trials), system="ix")
+    back = read_trials(write_trials(tmp_path / "m.parquet", trials), axes=IX)
     plant = IXPlant.from_record(back[0].meta["plant"])
     assert plant.effects == (SINGLE["cable_drape@roll"],)
 

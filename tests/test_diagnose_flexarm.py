@@ -7,10 +7,12 @@ import pytest
 from lcgym.cli import main
 from lcgym.data import write_trials
 from lcgym.diagnose import diagnose
-from lcgym.envs.arm_references import arm_reference_set
-from lcgym.envs.flexarm import FlexArmPlant
-from lcgym.physics import arm
-from lcgym.physics.arm_model import ArmModel
+from lcgym.systems.flexarm import FLEXARM
+from lcgym.systems.flexarm import dynamics as arm
+from lcgym.systems.flexarm.effects import Payload
+from lcgym.systems.flexarm.model import ArmModel
+from lcgym.systems.flexarm.plant import FlexArmPlant
+from lcgym.systems.flexarm.references import arm_reference_set
 
 
 def _trials(plant):
@@ -44,10 +46,10 @@ def test_no_payload_is_claimed_without_one():
 
 
 def test_diagnosis_model_holds_the_cad_inertia(with_payload):
-    model = ArmModel.for_diagnosis(1000.0).fit(with_payload)
-    assert model.params_.pi == ArmModel().params.pi and model.params_.c == (0.0,) * 6
+    model = FLEXARM.diagnosis_model(1000.0).fit(with_payload)
+    assert model.params_.pi == ArmModel(FLEXARM).params.pi and model.params_.c == (0.0,) * 6
     assert model.parts() == ("rigid_body (inertial parameters as given)", "motor_inertia", "viscous_friction")
-    assert ArmModel().parts()[-1] == "coulomb_friction"
+    assert ArmModel(FLEXARM).parts()[-1] == "coulomb_friction"
 
 
 def test_cli_on_an_arm_file(tmp_path, capsys, with_payload):
@@ -56,9 +58,9 @@ def test_cli_on_an_arm_file(tmp_path, capsys, with_payload):
     out = capsys.readouterr().out
     assert "payload@j2" in out and "N m" in out and (tmp_path / "r.json").exists()
     for bad, message in (("cable_drape@j2", "not an effect diagnose can add on flexarm"),
-                         ("payload@roll", "applies to flexarm"),
-                         ("coulomb_friction@roll", "not an effect of the flexarm model"),
-                         ("coulomb_friction@j7", "unknown axis")):
+                         ("payload@roll", "flexarm has no axis 'roll'"),
+                         ("coulomb_friction@roll", "flexarm has no axis 'roll'"),
+                         ("coulomb_friction@j7", "flexarm has no axis 'j7'")):
         assert main(["diagnose", str(data), "--system", "flexarm", "--add", bad]) == 1
         assert message in capsys.readouterr().err
     assert main(["effects", "--system", "flexarm"]) == 0
@@ -68,13 +70,18 @@ def test_cli_on_an_arm_file(tmp_path, capsys, with_payload):
 
 @pytest.mark.bad_input
 def test_effects_stay_on_their_system():
-    from lcgym.envs.ix import IXPlant
     from lcgym.physics import effects as fx
+    from lcgym.systems.ix import IX
+    from lcgym.systems.ix.plant import IXPlant
 
-    with pytest.raises(ValueError, match="applies to flexarm"):
-        fx.Payload("roll")
+    with pytest.raises(ValueError, match="unknown effect 'payload' on ix"):
+        IX.effect("payload@roll")
+    with pytest.raises(ValueError, match="flexarm has no axis 'roll'"):
+        FLEXARM.effect(Payload("roll"))
     with pytest.raises(ValueError, match="not an effect of the IX"):
         IXPlant(effects=(fx.CoulombFriction("j2", Fc=0.1),))
-    assert fx.CoulombFriction("j5").index == 4 and fx.CoulombFriction("roll").index == 1
-    cols = fx.Payload("j3", m=1.0).columns(*(np.zeros((2, 6)) for _ in range(3)))
+    with pytest.raises(ValueError, match="not bound to a machine"):
+        fx.CoulombFriction("j5").torque(np.zeros((2, 6)), np.zeros((2, 6)), np.zeros((2, 6)))
+    assert FLEXARM.effect("coulomb_friction@j5").index == 4 and IX.effect("coulomb_friction@roll").index == 1
+    cols = FLEXARM.effect(Payload("j3", m=1.0)).columns(*(np.zeros((2, 6)) for _ in range(3)))
     assert cols.shape == (2, 10)

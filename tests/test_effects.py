@@ -6,12 +6,14 @@ import numpy as np
 import pytest
 import torch
 
-from lcgym.envs.ix import FeedbackGains, IXPlant
-from lcgym.envs.references import AxisProfile, sample
 from lcgym.physics import effects as fx
-from lcgym.physics import ix
+from lcgym.references import AxisProfile, sample
+from lcgym.systems.ix import dynamics as ix
+from lcgym.systems.ix.effects import PositionDependentFriction
+from lcgym.systems.ix.plant import FeedbackGains, IXPlant
 
 DEG = math.pi / 180
+AXES = ix.AXES  # effects act on the IX's axes here (bound with ``.bound(AXES)``)
 RNG = np.random.default_rng(0)
 NO_GRAVITY = ix.IXParameters(x2=0.0, z2=0.0, x3=0.0, y3=0.0, z3=0.0)  # CoMs on the axes
 
@@ -26,7 +28,8 @@ def kin(n=200):
 def test_torque_is_columns_times_coefficients_on_own_axis():
     q, qd, qdd = kin()
     for e in [fx.CoulombFriction("roll", Fc=0.1), fx.GearHarmonic.from_amplitudes("propeller", 0.1, 0.3, 0.05, 1.0, 0.5),
-              fx.CableSpring("roll", k=0.2), fx.PositionDependentFriction("propeller", 0.1, 0.02, 0.03)]:
+              fx.CableSpring("roll", k=0.2), PositionDependentFriction("propeller", 0.1, 0.02, 0.03)]:
+        e = e.bound(AXES)
         tau = e.torque(q, qd, qdd)
         assert np.all(tau[:, 1 - e.index] == 0)
         np.testing.assert_allclose(tau[:, e.index], e.columns(q, qd, qdd) @ e.coefficients())
@@ -34,7 +37,7 @@ def test_torque_is_columns_times_coefficients_on_own_axis():
 
 def test_cable_inertia_is_euler_lagrange_of_its_kinetic_energy():
     """T = 1/2 J(q) qd^2 with J = dJ sigmoid((q - q0)/w): d/dt dT/dqd - dT/dq by autograd."""
-    e = fx.CableInertia("roll", dJ=0.06, q0=20 * DEG, width=10 * DEG)
+    e = fx.CableInertia("roll", dJ=0.06, q0=20 * DEG, width=10 * DEG).bound(AXES)
     q, qd, qdd = kin(20)
     for k in range(20):
         qt = torch.tensor(q[k, 1], dtype=torch.float64, requires_grad=True)
@@ -48,19 +51,20 @@ def test_cable_inertia_is_euler_lagrange_of_its_kinetic_energy():
 
 
 def test_cable_spring_is_one_sided_and_a_potential_force():
-    e = fx.CableSpring("roll", k=0.22, q0=20 * DEG, width=3 * DEG)
+    e = fx.CableSpring("roll", k=0.22, q0=20 * DEG, width=3 * DEG).bound(AXES)
     q = np.zeros((3, 2))
     q[:, 1] = [-30 * DEG, 20 * DEG, 80 * DEG]
     tau = e.torque(q, np.zeros_like(q), np.zeros_like(q))[:, 1]
     assert abs(tau[0]) < 1e-6  # slack below q0
     assert tau[2] == pytest.approx(0.22 * 60 * DEG, rel=1e-6)  # linear far beyond q0
     # side = -1 mirrors it
-    mirrored = fx.CableSpring("roll", k=0.22, q0=-20 * DEG, width=3 * DEG, side=-1.0)
+    mirrored = fx.CableSpring("roll", k=0.22, q0=-20 * DEG, width=3 * DEG, side=-1.0).bound(AXES)
     assert mirrored.torque(-q, q * 0, q * 0)[2, 1] == pytest.approx(-tau[2], rel=1e-9)
 
 
 def test_gear_harmonic_amplitude_form():
-    e = fx.GearHarmonic.from_amplitudes("propeller", 0.14, 0.7, 0.06, 2.0, velocity_gain=0.5, period=5 * DEG, v_ref=15 * DEG)
+    e = fx.GearHarmonic.from_amplitudes("propeller", 0.14, 0.7, 0.06, 2.0, velocity_gain=0.5, period=5 * DEG,
+                                        v_ref=15 * DEG).bound(AXES)
     q, qd, qdd = kin()
     x = 2 * math.pi * q[:, 0] / (5 * DEG)
     expected = 0.14 * (1 + 0.5 * np.abs(qd[:, 0]) / (15 * DEG)) * np.sin(x + 0.7) + 0.06 * np.sin(2 * x + 2.0)
@@ -68,7 +72,7 @@ def test_gear_harmonic_amplitude_form():
 
 
 def test_stribeck_limits():
-    e = fx.StribeckFriction("roll", dF=0.09, vs=0.4 * DEG, eps=1e-4)
+    e = fx.StribeckFriction("roll", dF=0.09, vs=0.4 * DEG, eps=1e-4).bound(AXES)
     v = np.array([1e-2 * DEG, 0.4 * DEG, 20 * DEG])
     qd = np.column_stack([np.zeros(3), v])
     tau = e.torque(np.zeros((3, 2)), qd, np.zeros((3, 2)))[:, 1]

@@ -7,10 +7,10 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import lcgym  # noqa: F401  (registers the ids)
-from lcgym.envs.arm_references import arm_reference_set
-from lcgym.envs.flexarm import FlexArmPlant
-from lcgym.envs.flexarm_env import FlexArmEnv
-from lcgym.physics.arm_nominal import BasicFeedforward
+from lcgym.systems.flexarm.env import FlexArmEnv
+from lcgym.systems.flexarm.nominal import BasicFeedforward
+from lcgym.systems.flexarm.plant import FlexArmPlant
+from lcgym.systems.flexarm.references import arm_reference_set
 
 
 @pytest.fixture(scope="module")

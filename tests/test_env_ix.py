@@ -8,10 +8,10 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import lcgym  # noqa: F401  (registers the ids)
-from lcgym.envs import ix_env
-from lcgym.envs.ix import FeedbackGains, IXPlant
-from lcgym.envs.references import random_moves
 from lcgym.envs.sb3 import make_sb3_vec_env
+from lcgym.systems.ix import env as ix_env
+from lcgym.systems.ix.plant import FeedbackGains, IXPlant
+from lcgym.systems.ix.references import random_moves
 
 SHORT = {"n_references": 2, "duration": 4.0}  # small reference sets keep the tests fast
 IDS = [env_id for env_id in gym.registry if env_id.startswith("lcgym/IX")]

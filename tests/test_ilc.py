@@ -10,18 +10,16 @@ from lcgym.baselines.ilc import (
     ILCDiverged,
     ILCTransfer,
     IterativeLearningControl,
-    arm_load_response,
     deadzone,
     frequency_update,
-    ix_process_sensitivity,
     q_filter,
 )
-from lcgym.envs.arm_references import arm_reference_set, tcp_positions
-from lcgym.envs.flexarm import FlexArmPlant, run_basic
-from lcgym.envs.ix import FeedbackGains, IXPlant
-from lcgym.envs.references import reference_set
-from lcgym.physics import ix
-from lcgym.physics.arm_nominal import BasicFeedforward
+from lcgym.systems.flexarm.nominal import BasicFeedforward
+from lcgym.systems.flexarm.plant import FlexArmPlant
+from lcgym.systems.flexarm.references import arm_reference_set, tcp_positions
+from lcgym.systems.ix import dynamics as ix
+from lcgym.systems.ix.plant import FeedbackGains, IXPlant, process_sensitivity
+from lcgym.systems.ix.references import reference_set
 
 FS = 500.0
 
@@ -32,7 +30,7 @@ def test_process_sensitivity_matches_a_time_domain_closed_loop():
     periodic input: output over input spectra of the last period."""
     n, periods = 512, 8
     pos = np.zeros((10, 2))
-    ps = ix_process_sensitivity(n, FS, pos)
+    ps = process_sensitivity(n, FS, pos)
     p = ix.IXParameters().to_vector()
     J = np.diag(ix.mass_matrix(p, pos[:1])[0])
     g = FeedbackGains()
@@ -62,7 +60,7 @@ def test_frequency_update_inverts_a_known_response():
     rng = np.random.default_rng(1)
     g = np.zeros((T, 2))  # moves in the first 1.2 s; the closed loop settles in the last 0.8 s
     g[:600] = signal.filtfilt(*signal.butter(2, 5 / (FS / 2)), rng.standard_normal((600, 2)), axis=0) * np.hanning(600)[:, None]
-    ps = ix_process_sensitivity(2 * T, FS, np.zeros((2, 2)))
+    ps = process_sensitivity(2 * T, FS, np.zeros((2, 2)))
     e = np.fft.irfft(np.fft.rfft(g, n=2 * T, axis=0) * ps, n=2 * T, axis=0)[:T]
     out = frequency_update(np.zeros((T, 2)), e, 1 / ps, q_filter(2 * T, FS, 50.0, 4), 1.0)
     np.testing.assert_allclose(out[:950], g[:950], atol=1e-3 * np.abs(g).max())
@@ -120,7 +118,7 @@ def test_ix_divergence_is_an_error_not_garbage(ix_setup):
 def test_arm_load_response_matches_the_nominal_model():
     """The discrete P_lu at low frequency equals the continuous model's response (ZOH: same DC)."""
     n, fs = 2000, 1000.0
-    resp = arm_load_response(n, fs)
+    resp = BasicFeedforward().load_response(n, fs)
     nominal = BasicFeedforward()
     w = 2 * np.pi * np.fft.rfftfreq(n, 1 / fs)
     for i in (1, 2, 4):
@@ -144,7 +142,7 @@ def test_arm_one_lcs_iteration():
     moving = np.any(np.abs(ref.velocities) > 1e-6, axis=1)
     out = {}
     for label, update in (("basic", None), ("lcs", ilc.feedforward(ref) - basic["tau_ff"])):
-        tr = run_basic(plant, ref, update)
+        tr = BasicFeedforward().run(plant, ref, update)
         e = np.column_stack([tr.extra[f"e_pl_true_{a}"] for a in ("j2", "j3", "j5")])[moving]
         tcp = np.column_stack([tr.extra[f"tcp_{c}"] for c in "xyz"]) - tcp_positions(ref.positions)
         out[label] = (np.sqrt(np.mean(e**2, axis=0)), np.sqrt(np.mean(np.sum(tcp**2, axis=1))))

@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 from lcgym.data import Trial
-from lcgym.leaderboard.metrics import METRICS, input_residual_table, norms, tracking_error_table
+from lcgym.metrics import METRICS, input_residual_table, norms, tracking_error_table
 
 AXES = ("propeller", "roll")
 

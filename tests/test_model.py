@@ -6,11 +6,13 @@ import numpy as np
 import pytest
 
 from lcgym.data import Trial
-from lcgym.envs.references import random_moves
-from lcgym.physics import compiled, ix
 from lcgym.physics import effects as fx
 from lcgym.physics.kinematics import reference_kinematics
 from lcgym.physics.model import PhysicalModel, _QuadraticDesign
+from lcgym.systems.ix import IX
+from lcgym.systems.ix import dynamics as ix
+from lcgym.systems.ix import compiled
+from lcgym.systems.ix.references import random_moves
 
 TRUE = ix.IXParameters(m2=1.8, m3=2.6, J2yy=0.6, J3xx=0.75, J3yy=0.45, J3zz=0.42, J3xy=0.01, J3xz=-0.02,
                        J3yz=0.02, d2=1.5, d3=0.8, x2=0.02, z2=0.08, x3=0.03, y3=0.05, z3=-0.04)
@@ -19,7 +21,7 @@ TRUE = ix.IXParameters(m2=1.8, m3=2.6, J2yy=0.6, J3xx=0.75, J3yy=0.45, J3zz=0.42
 def synthetic_trials(effects=(), n=3, seed=0, duration=20.0):
     """Trials whose input is exactly the true model's torque (no plant, no noise)."""
     rng = np.random.default_rng(seed)
-    model = PhysicalModel(params=TRUE, effects=effects)
+    model = PhysicalModel(IX, params=TRUE, effects=effects)
     trials = []
     for i in range(n):
         r = random_moves(f"s{i}", rng, duration=duration)
@@ -30,10 +32,10 @@ def synthetic_trials(effects=(), n=3, seed=0, duration=20.0):
 
 def test_fit_recovers_the_input_map_from_nominal_start():
     trials = synthetic_trials()
-    model = PhysicalModel().fit(trials)  # starts at the spec's nominal values, far from TRUE
+    model = PhysicalModel(IX).fit(trials)  # starts at the spec's nominal values, far from TRUE
     assert model.fit_info_["residual_rms"] < 1e-6
     new = random_moves("new", np.random.default_rng(99), duration=20)
-    true_f = PhysicalModel(params=TRUE).predict(new)
+    true_f = PhysicalModel(IX, params=TRUE).predict(new)
     np.testing.assert_allclose(model.predict(new), true_f, atol=2e-5)
     # identifiable physical quantities come back: damping, roll inertia about its axis
     p = model.params_
@@ -55,7 +57,7 @@ def test_fit_with_effect_recovers_coefficients():
     spring = fx.CableSpring("roll", k=0.3, q0=20 * math.pi / 180)
     gear = fx.GearHarmonic.from_amplitudes("propeller", 0.1, 0.5, 0.04, 1.0, velocity_gain=0.5)
     trials = synthetic_trials(effects=(spring, gear))
-    model = PhysicalModel(params=TRUE).with_effect(fx.CableSpring("roll", q0=spring.q0)).with_effect(
+    model = PhysicalModel(IX, params=TRUE).with_effect(fx.CableSpring("roll", q0=spring.q0)).with_effect(
         fx.GearHarmonic("propeller"))
     model.fit(trials)
     fitted = {e.key: e for e in model.effects_}
@@ -69,13 +71,13 @@ def test_ripple_fit_first_order():
     trials = []
     for i in range(2):
         r = random_moves(f"r{i}", rng, duration=20)
-        tau = PhysicalModel(params=TRUE).predict(r)
+        tau = PhysicalModel(IX, params=TRUE).predict(r)
         q, _, _ = reference_kinematics(r.positions, 500.0, 1.5)
         s, c = fx.periodic_basis(q[:, 1], ripple.period)
         u = tau.copy()
         u[:, 1] = tau[:, 1] / (1 + ripple.a_sin * s + ripple.a_cos * c)  # exact inverse of the plant's ripple
         trials.append(Trial(t=r.t, ref=r.positions, pos=r.positions, u=u, axes=ix.AXES))
-    model = PhysicalModel(params=TRUE, effects=(fx.TorqueRipple("roll", period=ripple.period),)).fit(trials)
+    model = PhysicalModel(IX, params=TRUE, effects=(fx.TorqueRipple("roll", period=ripple.period),)).fit(trials)
     np.testing.assert_allclose(model.effects_[0].coefficients(), ripple.coefficients(), atol=2e-3)
 
 
@@ -102,16 +104,17 @@ def test_compiled_regressor_equals_numpy():
 @pytest.mark.bad_input
 def test_plant_only_effects_rejected_in_model():
     with pytest.raises(ValueError, match="plants only"):
-        PhysicalModel(effects=(fx.Stiction("roll"),))
+        PhysicalModel(IX, effects=(fx.Stiction("roll"),))
     with pytest.raises(ValueError, match="already has"):
-        PhysicalModel(effects=(fx.CableSpring("roll"),)).with_effect("cable_spring@roll")
+        PhysicalModel(IX, effects=(fx.CableSpring("roll"),)).with_effect("cable_spring@roll")
 
 
 @pytest.mark.bad_input
 def test_effect_labels():
     e = fx.make_effect("coulomb_friction@roll", Fc=0.05)
     assert e.key == "coulomb_friction@roll" and e.Fc == 0.05
-    for bad, msg in [("coulomb_friction", "NAME@AXIS"), ("friction@roll", "unknown effect"),
-                     ("coulomb_friction@tilt", "unknown axis")]:
+    with pytest.raises(ValueError, match="ix has no axis 'tilt'"):
+        IX.effect("coulomb_friction@tilt")
+    for bad, msg in [("coulomb_friction", "NAME@AXIS"), ("friction@roll", "unknown effect")]:
         with pytest.raises(ValueError, match=msg):
             fx.make_effect(bad)

@@ -5,13 +5,13 @@ import pytest
 import torch
 
 from lcgym.data import Trial
-from lcgym.envs.references import random_moves
 from lcgym.pgnn import PGNN, PGNNConfig
 from lcgym.pgnn.network import PGNNModule, min_eigenvalue, physical_constraints, physics_penalty
 from lcgym.pgnn.training import _batch_projection, network_inputs, projected_norm2
-from lcgym.physics import ix
 from lcgym.physics.model import PhysicalModel
-from lcgym.physics.system import IX
+from lcgym.systems.ix import IX
+from lcgym.systems.ix import dynamics as ix
+from lcgym.systems.ix.references import random_moves
 
 
 def test_minibatch_r1_estimates_the_full_projection():
@@ -64,7 +64,7 @@ def test_physics_penalty_and_constraints():
 
 
 def _trials(n=2, duration=6.0):
-    model = PhysicalModel()
+    model = PhysicalModel(IX)
     rng = np.random.default_rng(3)
     out = []
     for i in range(n):
@@ -84,7 +84,7 @@ def test_physical_part_is_the_shared_model(small_pgnn):
     small_pgnn.use_network = False
     phys = small_pgnn.predict(ref)
     small_pgnn.use_network = True
-    expected = PhysicalModel(params=small_pgnn.params_).predict(ref)
+    expected = PhysicalModel(IX, params=small_pgnn.params_).predict(ref)
     np.testing.assert_allclose(phys, expected, atol=2e-5)  # float32 network vs float64 model
     both = small_pgnn.predict(ref)
     np.testing.assert_allclose(both - phys, small_pgnn.nn_contribution(ref), atol=1e-6)
@@ -142,7 +142,7 @@ def test_leaderboard_methods_report_the_network_contribution():
 @pytest.mark.bad_input
 def test_sample_rate_mismatch_and_ls_variant_config():
     with pytest.raises(ValueError, match="physical model samples at 1000"):
-        PGNN(PGNNConfig(max_epochs=1, threads=1), fs=500.0, physical=PhysicalModel(fs=1000.0)).fit(_trials(n=1))
+        PGNN(PGNNConfig(max_epochs=1, threads=1), fs=500.0, physical=PhysicalModel(IX, fs=1000.0)).fit(_trials(n=1))
     from lcgym.baselines.pgnn import PGNNLSFeedforward
 
     ls = PGNNLSFeedforward(PGNNConfig(max_epochs=1, batch_size=2000, threads=1)).fit(_trials(n=1, duration=3.0))

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from lcgym.physics import arm
+from lcgym.systems.flexarm import dynamics as arm
 
 P = arm.ArmParameters()
 DH = P.dh.table()

@@ -16,7 +16,7 @@ import pytest
 import torch
 from scipy.integrate import solve_ivp
 
-from lcgym.physics import ix
+from lcgym.systems.ix import dynamics as ix
 
 P = ix.IXParameters()
 

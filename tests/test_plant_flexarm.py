@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lcgym.envs.arm_references import arm_reference_set
-from lcgym.envs.flexarm import HOME, FlexArmPlant, PIDGains
-from lcgym.envs.ix import SimulationDiverged
-from lcgym.envs.references import Reference
-from lcgym.physics import arm
+from lcgym.references import Reference
+from lcgym.systems.flexarm import dynamics as arm
+from lcgym.systems.flexarm.plant import HOME, FlexArmPlant, PIDGains
+from lcgym.systems.flexarm.references import arm_reference_set
+from lcgym.systems.ix.plant import SimulationDiverged
 
 
 @pytest.fixture(scope="module")

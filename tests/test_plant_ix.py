@@ -5,10 +5,12 @@ import math
 import numpy as np
 import pytest
 
-from lcgym.envs.ix import ENCODER_RESOLUTION, IXPlant, SimulationDiverged, default_hidden_effects
-from lcgym.envs.references import random_moves
 from lcgym.physics import effects as fx
 from lcgym.physics.model import PhysicalModel
+from lcgym.systems.ix import IX
+from lcgym.systems.ix.effects import PositionDependentFriction
+from lcgym.systems.ix.plant import ENCODER_RESOLUTION, IXPlant, SimulationDiverged, default_hidden_effects
+from lcgym.systems.ix.references import random_moves
 
 DEG = math.pi / 180
 
@@ -40,7 +42,7 @@ def test_rigid_plant_tracks_with_exact_model_feedforward(ref):
     """Plant and model share one implementation: the model's inverse dynamics on the rigid plant
     leaves only the zero-order-hold error, orders of magnitude below feedback-only errors."""
     plant = IXPlant(effects=(), encoder_resolution=(0, 0))
-    exact = plant.run(ref, PhysicalModel().predict(ref))
+    exact = plant.run(ref, PhysicalModel(IX).predict(ref))
     fb_only = plant.run(ref)
     assert np.all(rms_deg(exact.error) < 2e-5)
     assert np.all(rms_deg(fb_only.error) > 0.1)
@@ -53,7 +55,7 @@ def test_rigid_plant_tracks_with_exact_model_feedforward(ref):
         fx.CableInertia("roll", dJ=0.06),
         fx.GearHarmonic.from_amplitudes("propeller", 0.14, 0.7, 0.06, 2.0, velocity_gain=0.5),
         fx.CableDrape.from_amplitude("roll", 0.18, 0.3),
-        fx.PositionDependentFriction("roll", 0.075, 0.03, 0.06),
+        PositionDependentFriction("roll", 0.075, 0.03, 0.06),
         fx.ViscousFriction("propeller", 0.5),
         fx.StribeckFriction("propeller", dF=0.07),
     ],
@@ -63,9 +65,9 @@ def test_each_effect_same_in_plant_and_model(ref, effect):
     """An effect in the plant is cancelled by the same effect in the model's feedforward (same
     sign, same formula), and it does matter when the model lacks it."""
     plant = IXPlant(effects=(effect,), encoder_resolution=(0, 0))
-    with_effect = rms_deg(plant.run(ref, PhysicalModel(effects=(effect,)).predict(ref)).error)
-    without = rms_deg(plant.run(ref, PhysicalModel().predict(ref)).error)
-    i = effect.index
+    with_effect = rms_deg(plant.run(ref, PhysicalModel(IX, effects=(effect,)).predict(ref)).error)
+    without = rms_deg(plant.run(ref, PhysicalModel(IX).predict(ref)).error)
+    i = IX.effect(effect).index
     assert with_effect[i] < 1e-4 and without[i] > 10 * with_effect[i]
 
 
@@ -85,7 +87,7 @@ def test_input_saturates_at_5_volt(ref):
 
 @pytest.mark.fault
 def test_unstable_feedback_stops_with_state():
-    from lcgym.envs.ix import FeedbackGains
+    from lcgym.systems.ix.plant import FeedbackGains
 
     ref = random_moves("unstable", np.random.default_rng(1), duration=5)
     plant = IXPlant(gains=FeedbackGains(kp=(-170.0, 120.0)))

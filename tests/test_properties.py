@@ -11,8 +11,9 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from lcgym.data import MeasurementFileError, Trial, read_trials, write_trials
-from lcgym.envs.references import AxisProfile
-from lcgym.leaderboard.metrics import norms
+from lcgym.metrics import norms
+from lcgym.references import AxisProfile
+from lcgym.systems.ix import IX
 
 PROFILE = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 
@@ -100,7 +101,7 @@ def test_any_written_trial_reads_back(tmp_path, data, suffix):
     values, fs = data
     path = tmp_path / f"m{suffix}"
     write_trials(path, [trial_of(values, fs)], meta={"system": "ix"})
-    back = read_trials(path, system="ix")
+    back = read_trials(path, axes=IX)
     assert len(back) == 1
     rtol = 1e-9 if suffix == ".csv" else 0.0  # CSV keeps 10 significant digits, Parquet every bit
     np.testing.assert_allclose(np.column_stack([back[0].ref, back[0].pos, back[0].u, back[0].ff]), values,
@@ -127,6 +128,6 @@ def test_any_corrupt_cell_is_named_by_column_and_row(tmp_path, data, row, column
     lines[r] = ",".join(cells)
     path.write_text("\n".join(lines) + "\n")
     with pytest.raises(MeasurementFileError) as exc:
-        read_trials(path, system="ix")
+        read_trials(path, axes=IX)
     message = str(exc.value)
     assert path.name in message and repr(column) in message.replace('"', "'") and f"row {r}" in message, message

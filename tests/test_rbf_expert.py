@@ -7,19 +7,21 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from lcgym.envs.arm_references import MOVING, arm_reference_set
-from lcgym.envs.references import AxisProfile, sample
-from lcgym.physics import arm
 from lcgym.rbf_expert.expert import fill_short_gaps, keep_long_runs, network_types
-from lcgym.rbf_expert.influence import PAPER_PHI, arm_influence, influence_matrix, joint_axes, motion_influence
+from lcgym.rbf_expert.influence import PAPER_PHI, influence_matrix, motion_influence, task_influence
 from lcgym.rbf_expert.predictor import RBFExpertConfig, RBFExpertPredictor
 from lcgym.rbf_expert.preprocess import Preprocessor, arctan_ratio
+from lcgym.references import AxisProfile, sample
+from lcgym.systems.flexarm import FLEXARM
+from lcgym.systems.flexarm import dynamics as arm
+from lcgym.systems.flexarm.dynamics import joint_axes
+from lcgym.systems.flexarm.references import MOVING, arm_reference_set
 
 
 def test_table1_rules_give_eq25_among_the_moving_joints():
     """The FlexArm's TCP lines: joints 2, 3, 5 parallel, 2 and 3 turning opposite ways, 2 and 5 the
     same: the same entries as eq. (25) of the paper's robot."""
-    phi = arm_influence(arm_reference_set("train", 0, 2))
+    phi = task_influence(arm_reference_set("train", 0, 2), FLEXARM.joint_axes())
     m = list(MOVING)
     np.testing.assert_array_equal(phi[np.ix_(m, m)], PAPER_PHI[np.ix_(m, m)])
     np.testing.assert_array_equal(np.diag(phi), 1.0)
@@ -98,7 +100,7 @@ def test_predictor_learns_an_error_that_is_a_function_of_the_reference():
     """A made-up error e = f(velocity, acceleration) of 2-axis references: predicted on new
     references where a network is active (not at long constant velocity: the paper predicts zero
     there), and zero where the reference rests."""
-    from lcgym.envs.references import reference_set
+    from lcgym.systems.ix.references import reference_set
 
     train, new = reference_set("train", 0, 6, 20.0, 1000.0), reference_set("validation", 0, 1, 20.0, 1000.0)
 
@@ -128,7 +130,7 @@ def test_bad_configuration_is_refused():
 
 
 def reference_set_one():
-    from lcgym.envs.references import reference_set
+    from lcgym.systems.ix.references import reference_set
 
     return reference_set("validation", 0, 1, 5.0, 1000.0)[0]
 
@@ -142,8 +144,8 @@ def test_rbf_expert_method_on_the_ix_predicts_its_training_error_away():
     of them (inside the training data): the predicted correction lowers the tracking error."""
     from lcgym.baselines.physical import PhysicalFeedforward
     from lcgym.baselines.rbf_expert import RBFExpertFeedforward
-    from lcgym.envs.ix import IXPlant
-    from lcgym.envs.references import reference_set
+    from lcgym.systems.ix.plant import IXPlant
+    from lcgym.systems.ix.references import reference_set
 
     plant = IXPlant()
     refs = reference_set("train", 0, 3, 15.0, plant.fs)
@@ -162,8 +164,8 @@ def test_rbf_expert_method_on_the_arm_lowers_the_model_following_error():
     """On the FlexArm (eq. 17 from Basic), trained on two lines, used on one of them: the joints'
     model-following error (true load acceleration) falls in the moving periods."""
     from lcgym.baselines.rbf_expert import RBFExpertFeedforward
-    from lcgym.envs.flexarm import FlexArmPlant, run_basic
-    from lcgym.physics.arm_nominal import BasicFeedforward
+    from lcgym.systems.flexarm.nominal import BasicFeedforward
+    from lcgym.systems.flexarm.plant import FlexArmPlant
 
     plant = FlexArmPlant()
     refs = arm_reference_set("train", 0, 2)
@@ -175,7 +177,7 @@ def test_rbf_expert_method_on_the_arm_lowers_the_model_following_error():
     moving = np.any(np.abs(r.velocities) > 1e-6, axis=1)
     e = {}
     for label, update in (("basic", None), ("nnp", method.feedforward(r) - basic["tau_ff"])):
-        tr = run_basic(plant, r, update)
+        tr = BasicFeedforward().run(plant, r, update)
         e[label] = np.column_stack([tr.extra[f"e_pl_true_{a}"] for a in tr.axes])[moving][:, list(MOVING)]
     assert _rms(e["nnp"]) < 0.8 * _rms(e["basic"]), (_rms(e["nnp"]), _rms(e["basic"]))
     assert set(method.outside_[r.name]) == set(MOVING)

@@ -1,4 +1,4 @@
-"""Third-order setpoints and reference sets (lcgym/envs/references.py).
+"""Third-order setpoints and reference sets (lcgym/references.py, lcgym/systems/ix/references.py).
 
 The jerk-limited move is checked from outside: evaluated on a fine time grid it must end at the
 target at rest, respect |v| <= vmax, |a| <= amax, |jerk| <= jmax (jerk by finite differences of
@@ -12,14 +12,8 @@ import math
 import numpy as np
 import pytest
 
-from lcgym.envs.references import (
-    AXES,
-    DEG,
-    IX_LIMITS,
-    AxisProfile,
-    reference_set,
-    third_order_phases,
-)
+from lcgym.references import AxisProfile, third_order_phases
+from lcgym.systems.ix.references import AXES, DEG, IX_LIMITS, reference_set
 
 REL = 1e-9  # limit tolerance for exactly evaluated quantities
 

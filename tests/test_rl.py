@@ -8,14 +8,14 @@ import pytest
 import torch
 from stable_baselines3 import PPO, SAC, TD3
 
-from lcgym.baselines.rl import ERROR_COLUMNS, HYPERPARAMETERS, RLConfig, RLFeedforward, deterministic_actor
-from lcgym.envs.ix import FeedbackGains, IXPlant
-from lcgym.envs.ix_env import IXEnv
-from lcgym.envs.references import reference_set
+from lcgym.baselines.rl import HYPERPARAMETERS, RLConfig, RLFeedforward, deterministic_actor
 from lcgym.envs.sb3 import HideError, make_sb3_vec_env
 from lcgym.leaderboard.runner import BenchConfig, run_cell
-from lcgym.leaderboard.systems import BENCH_SYSTEMS
 from lcgym.physics.model import PhysicalModel
+from lcgym.systems.ix import IX
+from lcgym.systems.ix.env import IXEnv
+from lcgym.systems.ix.plant import FeedbackGains, IXPlant
+from lcgym.systems.ix.references import reference_set
 
 torch.set_num_threads(1)
 
@@ -23,7 +23,7 @@ torch.set_num_threads(1)
 @pytest.fixture(scope="module")
 def ix_data():
     """A short IX task: 2 training references of 4 s of moves, 1 validation reference."""
-    bench = BENCH_SYSTEMS["ix"]()
+    bench = IX.bench()
     train = bench.references("train", 0, 2, 4.0)
     val = bench.references("validation", 0, 1, 4.0)
     return bench, bench.run(train), val
@@ -98,7 +98,7 @@ def test_cache_reuses_verified_models_only(ix_data, tmp_path):
 
 def test_training_curve_rows_and_plot(tmp_path):
     short = reference_set("train", 0, 1, 0.5)  # episodes of about 1,600 samples
-    bench = BENCH_SYSTEMS["ix"]()
+    bench = IX.bench()
     trials = bench.run(short)
     rl = RLFeedforward(RLConfig(total_steps=8192, num_envs={"ix": 2, "flexarm": 1}, cache_dir=str(tmp_path),
                                 hyperparameters={"n_steps": 512, "batch_size": 512, "n_epochs": 1}))
@@ -136,7 +136,7 @@ def test_sb3_adapter_reports_episode_rms_and_hides_error():
     assert done[0]
     np.testing.assert_allclose(infos[0]["tracking_rms"], np.sqrt(np.mean(info["trial"].error ** 2, axis=0)))
     assert infos[0]["episode"]["l"] == refs[0].n_samples
-    hidden = HideError(make_sb3_vec_env("lcgym/IX-v0", num_envs=2, references=refs), ERROR_COLUMNS["ix"])
+    hidden = HideError(make_sb3_vec_env("lcgym/IX-v0", num_envs=2, references=refs), IX.observation_error)
     obs = hidden.reset()
     for _ in range(20):
         obs, *_ = hidden.step(np.ones((2, 2), dtype=np.float32))
@@ -145,7 +145,7 @@ def test_sb3_adapter_reports_episode_rms_and_hides_error():
 
 def test_env_takes_a_fitted_model_as_base():
     refs = reference_set("validation", 0, 1, 4.0)
-    model = PhysicalModel().fit(IXPlant().run(reference_set("train", 3, 1, 4.0)))
+    model = PhysicalModel(IX).fit(IXPlant().run(reference_set("train", 3, 1, 4.0)))
     env = IXEnv(references=refs, base_feedforward=model)
     np.testing.assert_allclose(env.task.base_ff[0, : refs[0].n_samples], model.predict(refs[0].positions))
     assert env.action_space.high[0] == 1.0
@@ -171,7 +171,7 @@ def test_bench_cell_counts_env_steps(monkeypatch, tmp_path):
     rows, trace = run_cell("ix", "rl", 0, config)
     assert {r["status"] for r in rows} == {"ok"}, rows[0].get("error")
     steps, trials = {r["env_steps"] for r in rows}, {r["plant_trials"] for r in rows}
-    bench = BENCH_SYSTEMS["ix"]()
+    bench = IX.bench()
     train, val = (bench.references(s, 0, 1, 2.0)[0].n_samples for s in ("train", "validation"))
     budget = round(RLConfig().passes["ix"] * train)
     batch = 8 * HYPERPARAMETERS["ppo"]["n_steps"]  # PPO trains in whole rollouts of 8 envs x n_steps

@@ -13,6 +13,7 @@ import dataclasses
 
 import numpy as np
 
+from .. import systems
 from ..physics import effects as fx
 from ..physics.candidates import LIBRARY, Candidate
 
@@ -21,7 +22,9 @@ CANDIDATES: dict[str, Candidate] = {}
 
 
 def candidates_for(system) -> list[Candidate]:
-    """The candidates the diagnosis tries on ``system`` (a ``systems.System``; module docstring)."""
+    """The candidates the diagnosis tries on ``system`` (a ``systems.System`` or what
+    ``systems.get`` accepts; module docstring)."""
+    system = systems.get(system)
     pool = {c.name: c for c in (*LIBRARY, *system.candidates, *CANDIDATES.values())}
     if system.candidate_names is not None:
         pool = {n: c for n, c in pool.items() if n in system.candidate_names or n in CANDIDATES}

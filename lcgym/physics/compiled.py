@@ -1,6 +1,6 @@
 """Settings shared by every compiled (numba) kernel of lcgym: fast-math flags and the cache folder.
 
-The kernels themselves live with their machines (``systems/ix/kernel.py``, ``systems/ix/regressor.py``,
+The kernels themselves live with their machines (``systems/ix/kernel.py``, ``systems/ix/compiled.py``,
 ``systems/flexarm/plant.py``); they call the same ``register_jitable`` equations as the numpy and
 torch paths (no second implementation).
 """

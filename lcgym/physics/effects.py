@@ -163,9 +163,10 @@ class Effect:
             raise ValueError(f"{self.key}: unknown axis {self.axis!r}; choose one of {', '.join(names)}")
         return dataclasses.replace(self, index=names.index(self.axis))
 
-    def applies_to(self, axis) -> bool:
+    @classmethod
+    def applies_to(cls, axis) -> bool:
         """Whether the formula has a meaning on ``axis`` (a ``systems.Axis``)."""
-        return axis.revolute or not self.revolute_only
+        return axis.revolute or not cls.revolute_only
 
     def _i(self) -> int:
         if self.index is None:

@@ -16,7 +16,7 @@ from ..system import Axis, System
 from . import dynamics
 from .bench import IXBench
 from .effects import CANDIDATES, PositionDependentFriction
-from .regressor import regressor
+from .compiled import regressor
 
 DEG = math.pi / 180.0
 

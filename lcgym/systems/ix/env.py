@@ -86,9 +86,11 @@ _MODEL_CACHE: dict[tuple, PhysicalModel] = {}
 
 def physical_model(plant: IXPlant, seed: int = 0) -> PhysicalModel:
     """Rigid model fitted on feedback-only runs of the training references (cached per process)."""
+    from . import IX
+
     key = (repr(plant), seed)
     if key not in _MODEL_CACHE:
-        _MODEL_CACHE[key] = PhysicalModel(fs=plant.fs).fit(plant.run(reference_set("train", seed, fs=plant.fs)))
+        _MODEL_CACHE[key] = IX.physical_model(fs=plant.fs).fit(plant.run(reference_set("train", seed, fs=plant.fs)))
     return _MODEL_CACHE[key]
 
 

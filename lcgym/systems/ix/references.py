@@ -45,7 +45,7 @@ def random_moves(
             f = rng.uniform(0.4, 1.0, size=3)
             p.move(target, f[0] * lim.v, f[1] * lim.a, f[2] * lim.j).dwell(rng.uniform(0.3, 2.0))
         profiles.append(p)
-    return sample(name, profiles, fs, AXES)
+    return sample(name, profiles, fs, axes=AXES)
 
 
 def calibration_sweeps(
@@ -67,7 +67,7 @@ def calibration_sweeps(
                 sw.move(hi, s * ls.v, s * ls.a, ls.j).dwell(0.5).move(lo, s * ls.v, s * ls.a, ls.j).dwell(0.5)
             pk.dwell(sw.end_time)
             profiles = [sw, pk] if swept == 0 else [pk, sw]
-            refs.append(sample(f"calibration-{AXES[swept]}-sweep-{k}", profiles, fs, AXES))
+            refs.append(sample(f"calibration-{AXES[swept]}-sweep-{k}", profiles, fs, axes=AXES))
     return refs
 
 

@@ -1,0 +1,612 @@
+"""A closed-loop simulator of a URDF machine, to make measurement data with effects the URDF lacks.
+
+The plant's equation, per axis of the machine (``urdf.from_urdf``):
+
+    M(q) qdd + h(q, qd) + sum of the hidden effects' torques(q, qd) = u
+
+with M, h the rigid body of the reduced URDF model (or of ``parameters``, a true rigid body that
+differs from the URDF's) and the effects of ``physics.effects`` bound to the axes. What one run
+does, per sample k (Ts = 1 / fs):
+
+1. The encoders read the axis positions y[k], quantized to ``encoder_resolution`` and with white
+   ``noise_rms`` (seeded) added.
+2. The PID of each axis (``FeedbackGains``) acts on e[k] = ref[k] - y[k]; its derivative is
+   the backward difference low-passed at ``f_lp`` Hz (first order); the integrator stops while the
+   input saturates. u[k] = sat(ff[k] + fb[k], +-``u_max``).
+3. u[k] is held over [t_k, t_{k+1}) (zero-order hold, no computation delay: the feedforward's
+   kinematics are best evaluated half a sample ahead, ``System.advance`` = 0.5) while the dynamics
+   advance by ``substeps`` classical RK4 steps, the accelerations by pinocchio's ``aba``.
+
+The effects' formulas are the library's own (``register_jitable`` functions of ``physics.effects``,
+compiled with numba here); only effects whose torque depends on q and qd alone can act: viscous,
+Coulomb and Stribeck friction, cable springs and drapes, gear harmonics and tabulated forces over
+velocity or position. Effects with internal state or that need qdd or the input (stiction,
+drivetrain flexibility, cable inertia, torque ripple) are refused.
+
+Step size: a smoothed Coulomb friction Fc tanh(qd / eps) is stiff near standstill (slope Fc / eps
+against the axis's inertia). ``substeps=None`` picks the number of RK4 steps per sample so that
+h times the fastest rate of the effects (velocity slope / inertia, plus sqrt(position slope /
+inertia)) stays at or below ``STEP_RATE``, at least ``MIN_SUBSTEPS``.
+
+Before recording, the plant holds the first reference sample (and the first feedforward sample)
+for ``preroll`` s so that gravity sag and the integrators settle. If the state turns non-finite or
+a tracking error exceeds ``max_error``, the run stops with ``SimulationDiverged``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+import pinocchio as pin
+
+from ..data import Trial
+from ..physics import effects as fx
+from ..physics.compiled import FASTMATH, cache_dir
+from ..references import AxisProfile, Reference, sample
+from .system import SimulationDiverged, System
+from .urdf import URDFRobot, urdf_robot
+
+MIN_SUBSTEPS = 2
+MAX_SUBSTEPS = 512  # beyond this the effects are too stiff for a sampled simulation: give substeps explicitly
+STEP_RATE = 1.0  # h times the fastest effect rate (RK4's real-axis stability limit is 2.78)
+INERTIA_SAMPLES = 64  # random configurations for the axis inertias (gains, step size)
+DEFAULT_MAX_ERROR = {"revolute": 30 * math.pi / 180, "prismatic": 0.1}  # rad, m
+
+SUPPORTED = (fx.ViscousFriction, fx.CoulombFriction, fx.StribeckFriction, fx.CableSpring, fx.CableDrape,
+             fx.GearHarmonic, fx.TabulatedForce)
+REFUSED = {
+    fx.Stiction: "has internal state (LuGre bristles)",
+    fx.DrivetrainFlexibility: "adds states (a motor inertia behind a spring)",
+    fx.CableInertia: "needs qdd (it adds inertia)",
+    fx.TorqueRipple: "scales the input (it needs the base torque)",
+}
+
+# effect parameter slots, one row per axis (in pinocchio's velocity order)
+(
+    VISC, FC, FC_EPS, ST_DF, ST_VS, ST_EPS, SP_K, SP_Q0, SP_W, SP_SIDE, DR_S, DR_C,
+    GH_S1, GH_C1, GH_S1V, GH_C1V, GH_S2, GH_C2, GH_PER, GH_VREF, TB_N, TB_LO, TB_HI, TB_POS,
+) = range(24)
+N_SLOTS = 24
+# controller and mapping slots, one row per axis
+KP, KD, KI, ALPHA, UMAX, RES, MAXERR, IQ, CONT = range(9)
+N_CTRL = 9
+# workspace rows: state, input, stage state, pinocchio configuration, RK4 stage derivatives, controller state
+Q, V, U, VS, TAU, QPIN, W0, A0, EPREV, EDOT, INTEG = 0, 1, 2, 3, 4, 5, 6, 10, 14, 15, 16
+N_ROWS = 17
+# per-sample outputs: measured position, applied input, true position
+OUT_Y, OUT_U, OUT_Q = range(3)
+# control status
+OK, TOO_FAR, NOT_FINITE = range(3)
+
+_previous_cache_dir = numba.config.CACHE_DIR  # numba reads CACHE_DIR when a function is decorated
+numba.config.CACHE_DIR = cache_dir(__file__, fx.__file__)
+
+
+@numba.njit(cache=True, fastmath=FASTMATH)
+def effect_torque(q, v, e, table):
+    """Torque [N m or N] of the hidden effects on one axis at position q and velocity v; e: the
+    axis's slot row, table: its tabulated force's values."""
+    tau = e[VISC] * v
+    if e[FC] != 0.0:
+        tau += e[FC] * fx.smooth_sign(v, e[FC_EPS])
+    if e[ST_DF] != 0.0:
+        tau += e[ST_DF] * fx.stribeck_shape(v, e[ST_VS]) * fx.smooth_sign(v, e[ST_EPS])
+    if e[SP_K] != 0.0:
+        tau += e[SP_K] * fx.cable_spring_basis(q, e[SP_Q0], e[SP_W], e[SP_SIDE])
+    if e[DR_S] != 0.0 or e[DR_C] != 0.0:
+        s, c = fx.periodic_basis(q, 2.0 * math.pi)
+        tau += e[DR_S] * s + e[DR_C] * c
+    if e[GH_PER] != 0.0:
+        b = fx.gear_harmonic_basis(q, v, e[GH_PER], e[GH_VREF])
+        tau += e[GH_S1] * b[0] + e[GH_C1] * b[1] + e[GH_S1V] * b[2] + e[GH_C1V] * b[3] + e[GH_S2] * b[4] + e[GH_C2] * b[5]
+    if e[TB_N] > 0.0:
+        x = q if e[TB_POS] > 0.0 else v
+        tau += fx.table_lookup(x, e[TB_LO], e[TB_HI], table[: int(e[TB_N])])
+    return tau
+
+
+@numba.njit(cache=True, fastmath=FASTMATH)
+def rk4_stage(k, a_prev, S, E, tables, C, h):
+    """Prepare RK4 stage k (0..3) of one step of size h [s]: store the previous stage's
+    acceleration a_prev, form the stage's velocity S[VS], pinocchio configuration S[QPIN] and net
+    torque S[TAU] = u - effects, for ``aba`` to evaluate."""
+    n = C.shape[0]
+    if k > 0:
+        S[A0 + k - 1, :n] = a_prev
+    c = 0.0 if k == 0 else (0.5 * h if k < 3 else h)
+    for i in range(n):
+        qs, vs = S[Q, i], S[V, i]
+        if k > 0:
+            qs += c * S[W0 + k - 1, i]
+            vs += c * S[A0 + k - 1, i]
+        S[W0 + k, i] = vs
+        S[VS, i] = vs
+        iq = int(C[i, IQ])
+        if C[i, CONT] > 0.0:
+            S[QPIN, iq] = math.cos(qs)
+            S[QPIN, iq + 1] = math.sin(qs)
+        else:
+            S[QPIN, iq] = qs
+        S[TAU, i] = S[U, i] - effect_torque(qs, vs, E[i], tables[i])
+
+
+@numba.njit(cache=True, fastmath=FASTMATH)
+def rk4_finish(a_last, S, h):
+    """Complete the RK4 step: the state S[Q], S[V] advances by h from the four stages."""
+    n = a_last.shape[0]
+    S[A0 + 3, :n] = a_last
+    for i in range(n):
+        S[Q, i] += h / 6.0 * (S[W0, i] + 2.0 * S[W0 + 1, i] + 2.0 * S[W0 + 2, i] + S[W0 + 3, i])
+        S[V, i] += h / 6.0 * (S[A0, i] + 2.0 * S[A0 + 1, i] + 2.0 * S[A0 + 2, i] + S[A0 + 3, i])
+
+
+@numba.njit(cache=True, fastmath=FASTMATH)
+def control(k, S, C, ref, ff, noise, out, ts):
+    """Sample k: encoder reading, PID and saturation (module docstring); S[U] receives u[k], out[k]
+    the measured position, the input and the true position. Returns OK, TOO_FAR (a tracking error
+    over its limit) or NOT_FINITE."""
+    status = OK
+    for i in range(C.shape[0]):
+        q = S[Q, i]
+        if not (math.isfinite(q) and math.isfinite(S[V, i])):
+            return NOT_FINITE
+        res = C[i, RES]
+        y = (math.floor(q / res + 0.5) * res if res > 0.0 else q) + noise[k, i]
+        e = ref[k, i] - y
+        if k == 0:
+            S[EPREV, i] = e
+        S[EDOT, i] = C[i, ALPHA] * S[EDOT, i] + (1.0 - C[i, ALPHA]) * (e - S[EPREV, i]) / ts
+        S[EPREV, i] = e
+        raw = ff[k, i] + C[i, KP] * e + C[i, KD] * S[EDOT, i] + C[i, KI] * S[INTEG, i]
+        u = min(max(raw, -C[i, UMAX]), C[i, UMAX])
+        if u == raw:  # conditional integration: no wind-up while saturated
+            S[INTEG, i] += e * ts
+        S[U, i] = u
+        out[k, OUT_Y, i] = y
+        out[k, OUT_U, i] = u
+        out[k, OUT_Q, i] = q
+        if abs(ref[k, i] - q) > C[i, MAXERR]:
+            status = TOO_FAR
+    return status
+
+
+numba.config.CACHE_DIR = _previous_cache_dir
+
+
+# ---------------------------------------------------------------------------------------------
+# Feedback
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class FeedbackGains:
+    """Diagonal PID per axis, in the machine's axis order: kp [N m/rad or N/m], kd [N m s/rad or
+    N s/m], ki [N m/(rad s) or N/(m s)]; f_lp [Hz]: the derivative's first-order low-pass."""
+
+    kp: tuple[float, ...]
+    kd: tuple[float, ...]
+    ki: tuple[float, ...]
+    f_lp: float = 100.0
+
+    def __post_init__(self):
+        n = len(self.kp)
+        for what in ("kp", "kd", "ki"):
+            v = np.asarray(getattr(self, what), dtype=float)
+            if v.shape != (n,) or not np.all(np.isfinite(v)) or np.any(v < 0):
+                raise ValueError(f"FeedbackGains.{what} must be {n} finite values >= 0, got {getattr(self, what)!r}")
+            object.__setattr__(self, what, tuple(float(x) for x in v))
+        if not (np.isfinite(self.f_lp) and self.f_lp > 0):
+            raise ValueError(f"FeedbackGains.f_lp must be > 0 Hz, got {self.f_lp}")
+
+    @classmethod
+    def tuned(cls, system: System, bandwidth: float = 10.0, damping: float = 0.7, integral_time: float | None = None,
+              fs: float = 1000.0, seed: int = 0) -> FeedbackGains:
+        """Gains that put each axis, seen as a rigid inertia J, at ``bandwidth`` Hz with ``damping``:
+        kp = J w^2, kd = 2 damping J w, ki = kp / integral_time (None: no integral action), the
+        derivative low-pass at 10 x bandwidth. J is the geometric mean of the axis's smallest and
+        largest inertia over seeded random configurations (``inertia_range``), so that bandwidth and
+        damping vary by the same factor either way; where the loop sampled at ``fs`` would be
+        unstable at either end (``stable``), that axis's bandwidth is lowered in steps of 20 %."""
+        if not (bandwidth > 0 and damping > 0 and fs > 0):
+            raise ValueError(f"bandwidth, damping and fs must be > 0, got {bandwidth} Hz, {damping}, {fs} Hz")
+        if integral_time is not None and not integral_time > 0:
+            raise ValueError(f"integral_time must be > 0 s, got {integral_time}")
+        lo, hi = inertia_range(urdf_robot(system), seed=seed)
+        J = np.sqrt(lo * hi)
+        kp, kd, ki = np.zeros_like(J), np.zeros_like(J), np.zeros_like(J)
+        for i in range(J.size):
+            f = bandwidth
+            while True:
+                w = 2 * math.pi * f
+                gains = (J[i] * w**2, 2 * damping * J[i] * w, J[i] * w**2 / integral_time if integral_time else 0.0)
+                one = cls(*((g,) for g in gains), f_lp=10 * bandwidth)
+                if (one.stable(lo[i], fs) and one.stable(hi[i], fs))[0] or f < 1e-3 * bandwidth:
+                    break
+                f *= 0.8
+            kp[i], kd[i], ki[i] = gains
+        return cls(tuple(kp), tuple(kd), tuple(ki), f_lp=10 * bandwidth)
+
+    def stable(self, inertia, fs: float) -> np.ndarray:
+        """Per axis: whether the sampled loop (this PID at ``fs`` Hz, the input held over a sample)
+        around a rigid inertia J (``inertia`` [kg m^2 or kg], per axis) is stable: the roots of
+        its characteristic polynomial lie inside the unit circle. The plant J s^2 held by a
+        zero-order hold is Ts^2 / (2 J) (z + 1) / (z - 1)^2; the controller is the module's PID."""
+        ts, alpha = 1.0 / fs, math.exp(-2 * math.pi * self.f_lp / fs)
+        J = np.broadcast_to(np.asarray(inertia, dtype=float), (len(self.kp),))
+        out = np.zeros(len(self.kp), dtype=bool)
+        P = np.polynomial.polynomial
+        for i, (kp, kd, ki) in enumerate(zip(self.kp, self.kd, self.ki, strict=True)):
+            z_a, z_1 = np.array([-alpha, 1.0]), np.array([-1.0, 1.0])
+            num = P.polyadd(kp * z_a, kd * (1 - alpha) / ts * z_1)
+            den = z_a
+            if ki > 0:  # the integrator sums e up to the previous sample: Ts / (z - 1)
+                num, den = P.polyadd(P.polymul(num, z_1), ki * ts * z_a), P.polymul(z_a, z_1)
+            plant_num, plant_den = ts**2 / (2 * J[i]) * np.array([1.0, 1.0]), P.polymul(z_1, z_1)
+            char = P.polyadd(P.polymul(den, plant_den), P.polymul(num, plant_num))
+            out[i] = bool(np.all(np.abs(P.polyroots(char)) < 1.0))
+        return out
+
+
+def inertia_range(robot: URDFRobot, model=None, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """(smallest, largest) inertia of each axis (axis order) [kg m^2 or kg] over
+    ``INERTIA_SAMPLES`` seeded random configurations within the joint limits: 1 / max (M^-1)_ii
+    (the axis with the others free) and max M_ii (the others held). ``model``: another rigid body
+    on the robot's joints (default the robot's)."""
+    model = model or robot.model
+    data = model.createData()
+    q = robot.sample_kinematics(INERTIA_SAMPLES, np.random.default_rng(seed))[0]
+    big, inverse = np.zeros(robot.n_axes), np.zeros(robot.n_axes)
+    for cfg in robot.configuration(q):
+        M = pin.crba(model, data, cfg)
+        M = np.triu(M) + np.triu(M, 1).T  # crba fills the upper triangle
+        big = np.maximum(big, np.diag(M)[robot.v_index])
+        inverse = np.maximum(inverse, np.diag(np.linalg.inv(M))[robot.v_index])
+    return 1.0 / inverse, big
+
+
+# ---------------------------------------------------------------------------------------------
+# Effects
+# ---------------------------------------------------------------------------------------------
+
+
+def pack_effects(effects: Sequence[fx.Effect], system: System, robot: URDFRobot) -> tuple[np.ndarray, np.ndarray, list]:
+    """(E, tables, bound): the effects' parameters as slot rows (n_axes, N_SLOTS) and tabulated
+    values (n_axes, max_points) in pinocchio's velocity order, and the effects bound to the axes.
+    Refuses effects the plant cannot simulate (module docstring)."""
+    fx.check_unique(effects)
+    n = robot.n_axes
+    E = np.zeros((n, N_SLOTS))
+    tables = np.zeros((n, fx.TabulatedForce.max_points))
+    bound = []
+    for effect in effects:
+        if not isinstance(effect, fx.Effect):
+            raise TypeError(f"hidden effects must be lcgym effects (physics.effects), got {type(effect).__name__}")
+        _check_supported(effect)
+        effect = system.effect(effect)  # checks the axis and binds it to the machine's axis order
+        bound.append(effect)
+        row = robot.v_index[effect.index]
+        _pack(effect, E[row], tables[row])
+    return E, tables, bound
+
+
+def _check_supported(effect: fx.Effect) -> None:
+    if type(effect) in SUPPORTED:
+        return
+    reason = next((why for cls, why in REFUSED.items() if isinstance(effect, cls)), "is not one of them")
+    names = ", ".join(cls.name for cls in SUPPORTED)
+    raise ValueError(f"{effect.key}: URDFPlant simulates effects whose torque depends on q and qd only ({names}); "
+                     f"{effect.name} {reason}")
+
+
+def _pack(e: fx.Effect, row: np.ndarray, table: np.ndarray) -> None:
+    if isinstance(e, fx.ViscousFriction):
+        row[VISC] += e.d
+    elif isinstance(e, fx.CoulombFriction):
+        row[[FC, FC_EPS]] = e.Fc, e.eps
+    elif isinstance(e, fx.StribeckFriction):
+        row[[ST_DF, ST_VS, ST_EPS]] = e.dF, e.vs, e.eps
+    elif isinstance(e, fx.CableSpring):
+        row[[SP_K, SP_Q0, SP_W, SP_SIDE]] = e.k, e.q0, e.width, e.side
+    elif isinstance(e, fx.CableDrape):
+        row[[DR_S, DR_C]] = e.s, e.c
+    elif isinstance(e, fx.GearHarmonic):
+        row[GH_S1 : GH_VREF + 1] = e.s1, e.c1, e.s1v, e.c1v, e.s2, e.c2, e.period, e.v_ref
+    elif isinstance(e, fx.TabulatedForce):
+        values = np.asarray(e.values, dtype=float)
+        row[[TB_N, TB_LO, TB_HI, TB_POS]] = values.size, e.lo, e.hi, float(e.variable == "position")
+        table[: values.size] = values
+
+
+def effect_slopes(E: np.ndarray, tables: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per slot row, the largest |d tau / d qd| [N m s/rad] and |d tau / d q| [N m/rad] of the
+    packed effects (a gear harmonic's taken at speeds up to 2 v_ref): what sets the step size."""
+
+    def over(x, slot, gate):  # x / E[:, slot] where the effect is on, 0 elsewhere
+        return np.where(gate, x / np.where(gate, E[:, slot], 1.0), 0.0)
+
+    coulomb, stribeck, gear = E[:, FC] != 0, E[:, ST_DF] != 0, E[:, GH_PER] != 0
+    dv = np.abs(E[:, VISC]) + over(np.abs(E[:, FC]), FC_EPS, coulomb)
+    # the Stribeck term: dF / eps from the sign, at most 0.86 dF / vs from the bump
+    dv += over(np.abs(E[:, ST_DF]), ST_EPS, stribeck) + over(0.86 * np.abs(E[:, ST_DF]), ST_VS, stribeck)
+    dq = np.abs(E[:, SP_K]) + np.hypot(E[:, DR_S], E[:, DR_C])
+    first = np.abs(E[:, GH_S1]) + np.abs(E[:, GH_C1]) + 2 * (np.abs(E[:, GH_S1V]) + np.abs(E[:, GH_C1V]))
+    second = 2 * (np.abs(E[:, GH_S2]) + np.abs(E[:, GH_C2]))
+    dq += over(2 * math.pi * (first + second), GH_PER, gear)
+    dv += over(np.abs(E[:, GH_S1V]) + np.abs(E[:, GH_C1V]), GH_VREF, gear)
+    for i in np.flatnonzero(E[:, TB_N] > 0):
+        n = int(E[i, TB_N])
+        slope = np.max(np.abs(np.diff(tables[i, :n]))) / ((E[i, TB_HI] - E[i, TB_LO]) / (n - 1))
+        if E[i, TB_POS] > 0:
+            dq[i] += slope
+        else:
+            dv[i] += slope
+    return dv, dq
+
+
+# ---------------------------------------------------------------------------------------------
+# The plant
+# ---------------------------------------------------------------------------------------------
+
+
+class URDFPlant:
+    """Closed-loop simulator of a URDF machine with hidden effects (module docstring).
+
+    system: a machine made by ``urdf.from_urdf`` (or a URDF path, with ``joints``). effects: hidden
+    effects on its axes. parameters: the true rigid body and viscous friction in the system's
+    parameter order (None: the URDF's, no friction). gains: ``FeedbackGains`` (None:
+    ``FeedbackGains.tuned(system)``). fs [Hz]; substeps: RK4 steps per sample (None: from the
+    effects' stiffness). u_max [N m or N]: input limit, one value or one per axis (None: none).
+    encoder_resolution [rad or m per count] and noise_rms [rad or m]: one value or one per axis
+    (0: exact). seed: the noise's. preroll [s]. max_error [rad or m], one value or one per axis
+    (None: 30 deg on revolute, 0.1 m on prismatic axes).
+    """
+
+    def __init__(self, system: System | str, effects: Sequence[fx.Effect] = (), parameters=None,
+                 gains: FeedbackGains | None = None, fs: float = 1000.0, substeps: int | None = None,
+                 u_max=None, encoder_resolution=0.0, noise_rms=0.0, seed: int = 0, preroll: float = 0.5,
+                 max_error=None, joints: Sequence[str] | None = None):
+        if not isinstance(system, System):
+            from .urdf import from_urdf
+
+            system = from_urdf(system, joints=joints)
+        self.system = system
+        self.robot = urdf_robot(system)
+        if not (np.isfinite(fs) and fs > 0):
+            raise ValueError(f"fs must be > 0 Hz, got {fs}")
+        if not (np.isfinite(preroll) and preroll >= 0):
+            raise ValueError(f"preroll must be >= 0 s, got {preroll}")
+        self.fs, self.preroll, self.seed = float(fs), float(preroll), seed
+        self.model, viscous = self._true_model(parameters)
+        self.data = self.model.createData()
+        self.effects = tuple(effects)
+        self._E, self._tables, self.bound_effects = pack_effects(self.effects, system, self.robot)
+        self._E[self.robot.v_index, VISC] += viscous
+        self.gains = gains if gains is not None else FeedbackGains.tuned(system, fs=fs)
+        if len(self.gains.kp) != self.n_axes:
+            raise ValueError(f"gains for {len(self.gains.kp)} axes, but {system.name} has {self.n_axes}")
+        self.u_max = self._per_axis("u_max", np.inf if u_max is None else u_max, positive=True)
+        self.encoder_resolution = self._per_axis("encoder_resolution", encoder_resolution)
+        self.noise_rms = self._per_axis("noise_rms", noise_rms)
+        default = [DEFAULT_MAX_ERROR[a.kind] for a in system.axes]
+        self.max_error = self._per_axis("max_error", default if max_error is None else max_error, positive=True)
+        self.substeps = self._substeps(substeps)
+        self._C = self._controller_rows()
+        self._rng = np.random.default_rng(seed)
+
+    @property
+    def n_axes(self) -> int:
+        return self.robot.n_axes
+
+    @property
+    def name(self) -> str:
+        return self.system.name
+
+    # ------------------------------------------------------------------ set-up
+    def _true_model(self, parameters):
+        """The rigid body the plant integrates and the true viscous coefficients (axis order)."""
+        if parameters is None:
+            return self.robot.model, np.zeros(self.n_axes)
+        p = np.asarray(parameters, dtype=float).ravel()
+        if p.size != self.robot.n_params or not np.all(np.isfinite(p)):
+            raise ValueError(f"{self.name}: parameters must be {self.robot.n_params} finite values, got {p.size}")
+        model = self.robot.model.copy()
+        for k, jid in enumerate(self.robot.joint_ids):
+            model.inertias[int(jid)] = pin.Inertia.FromDynamicParameters(p[10 * k : 10 * k + 10])
+        return model, p[10 * self.n_axes :]
+
+    def _per_axis(self, what: str, value, positive: bool = False) -> np.ndarray:
+        v = np.full(self.n_axes, float(value)) if np.ndim(value) == 0 else np.asarray(value, dtype=float)
+        if v.shape != (self.n_axes,) or np.any(np.isnan(v)) or np.any(v < 0) or (positive and np.any(v <= 0)):
+            raise ValueError(f"{what} must be one value or {self.n_axes} values {'> 0' if positive else '>= 0'}, got {value!r}")
+        return v
+
+    def _substeps(self, substeps: int | None) -> int:
+        if substeps is not None:
+            if int(substeps) != substeps or substeps < 1:
+                raise ValueError(f"substeps must be an integer >= 1, got {substeps}")
+            return int(substeps)
+        dv, dq = effect_slopes(self._E, self._tables)
+        minv = 1.0 / inertia_range(self.robot, self.model, seed=self.seed)[0][np.argsort(self.robot.v_index)]
+        rate = float(np.max(dv * minv + np.sqrt(dq * minv)))
+        n = max(MIN_SUBSTEPS, math.ceil(rate / self.fs / STEP_RATE))
+        if n > MAX_SUBSTEPS:
+            raise ValueError(f"{self.name}: the hidden effects are too stiff for {self.fs:g} Hz ({n} RK4 steps per sample "
+                             f"needed, fastest rate {rate:.3g} 1/s); smooth them (a larger eps) or give substeps")
+        return n
+
+    def _controller_rows(self) -> np.ndarray:
+        """Controller, limits and configuration map per axis, rows in pinocchio's velocity order."""
+        r, g = self.robot, self.gains
+        C = np.zeros((self.n_axes, N_CTRL))
+        alpha = math.exp(-2 * math.pi * g.f_lp / self.fs)
+        for k, row in enumerate(r.v_index):
+            C[row] = (g.kp[k], g.kd[k], g.ki[k], alpha, self.u_max[k], self.encoder_resolution[k], self.max_error[k],
+                      r.q_index[k], float(r.continuous[k]))
+        return C
+
+    # ------------------------------------------------------------------ simulation
+    def run(self, references, feedforward=None) -> Trial | list[Trial]:
+        """Run the closed loop on one reference or a list of them.
+
+        references: an array (T, n_axes) of positions [rad or m] in the machine's axis order, a
+        ``references.Reference``, or a list of these. feedforward: None (zero), an array (T,
+        n_axes) [N m or N], or a list matching ``references``. Returns a Trial (a list for a list)
+        with the reference, encoder position ``pos``, input ``u``, feedforward ``ff`` and the true
+        positions in ``extra["load_<axis>"]``; meta: the system, reference and effect names."""
+        single = not isinstance(references, (list, tuple))
+        refs = [references] if single else list(references)
+        ffs = [feedforward] if single else (list(feedforward) if feedforward is not None else [None] * len(refs))
+        if len(ffs) != len(refs):
+            raise ValueError(f"{len(refs)} references but {len(ffs)} feedforward signals")
+        trials = [self._run_one(*self._checked(i, r, f)) for i, (r, f) in enumerate(zip(refs, ffs, strict=True))]
+        return trials[0] if single else trials
+
+    def _checked(self, i: int, reference, feedforward) -> tuple[str, np.ndarray, np.ndarray]:
+        name = reference.name if isinstance(reference, Reference) else f"reference-{i}"
+        x = np.asarray(reference.positions if isinstance(reference, Reference) else reference, dtype=float)
+        if x.ndim != 2 or x.shape[1] != self.n_axes or x.shape[0] < 2:
+            raise ValueError(f"{name}: reference must have shape (T >= 2, {self.n_axes}), got {x.shape}")
+        if not np.all(np.isfinite(x)):
+            raise ValueError(f"{name}: reference contains NaN or inf at sample {int(np.argwhere(~np.isfinite(x))[0, 0])}")
+        if feedforward is None:
+            return name, x, np.zeros_like(x)
+        f = np.asarray(feedforward, dtype=float)
+        if f.shape != x.shape:
+            raise ValueError(f"{name}: feedforward shape {f.shape} differs from the reference's {x.shape}")
+        if not np.all(np.isfinite(f)):
+            raise ValueError(f"{name}: feedforward is NaN or inf at sample {int(np.argwhere(~np.isfinite(f))[0, 0])}")
+        return name, x, f
+
+    def _run_one(self, name: str, ref: np.ndarray, ff: np.ndarray) -> Trial:
+        P, T, n = int(round(self.preroll * self.fs)), ref.shape[0], self.n_axes
+        order = np.argsort(self.robot.v_index)  # pinocchio velocity index -> axis
+        REF = np.concatenate([np.repeat(ref[:1], P, axis=0), ref])[:, order]
+        FF = np.concatenate([np.repeat(ff[:1], P, axis=0), ff])[:, order]
+        noise = np.zeros((P + T, n))
+        if np.any(self.noise_rms > 0):
+            noise = self._rng.standard_normal((P + T, n)) * self.noise_rms[order]
+        S = self._workspace(REF[0], np.zeros(n))
+        out = np.zeros((P + T, 3, n))
+        ts, h = 1.0 / self.fs, 1.0 / (self.fs * self.substeps)
+        for k in range(P + T):
+            status = control(k, S, self._C, REF, FF, noise, out, ts)
+            if status != OK:
+                self._diverged(name, k - P, S, REF[k], status)
+            self._interval(S, h)
+        back = self.robot.v_index  # axis -> pinocchio velocity index
+        rec = out[P:]
+        return Trial(
+            t=np.arange(T) / self.fs, ref=ref, pos=rec[:, OUT_Y][:, back], u=rec[:, OUT_U][:, back], ff=ff,
+            axes=self.system.axis_names,
+            extra={f"load_{a}": rec[:, OUT_Q, back[i]] for i, a in enumerate(self.system.axis_names)},
+            meta={"system": self.name, "reference": name, "effects": [e.key for e in self.bound_effects]},
+        )
+
+    def free_response(self, q0, qd0, inputs) -> tuple[np.ndarray, np.ndarray]:
+        """The plant without feedback: from q0, qd0 (n_axes,) [rad or m, per s], each row of
+        ``inputs`` (T, n_axes) [N m or N] held for one sample. Returns q, qd (T + 1, n_axes) at the
+        sample times (the first row the initial state)."""
+        u = np.atleast_2d(np.asarray(inputs, dtype=float))
+        if u.ndim != 2 or u.shape[1] != self.n_axes:
+            raise ValueError(f"inputs must have shape (T, {self.n_axes}), got {u.shape}")
+        order, back = np.argsort(self.robot.v_index), self.robot.v_index
+        S = self._workspace(np.asarray(q0, dtype=float)[order], np.asarray(qd0, dtype=float)[order])
+        q, qd = np.empty((u.shape[0] + 1, self.n_axes)), np.empty((u.shape[0] + 1, self.n_axes))
+        q[0], qd[0] = S[Q, :self.n_axes][back], S[V, :self.n_axes][back]
+        h = 1.0 / (self.fs * self.substeps)
+        for k in range(u.shape[0]):
+            S[U, :self.n_axes] = u[k, order]
+            self._interval(S, h)
+            q[k + 1], qd[k + 1] = S[Q, :self.n_axes][back], S[V, :self.n_axes][back]
+        return q, qd
+
+    def _workspace(self, q0: np.ndarray, v0: np.ndarray) -> np.ndarray:
+        """Workspace rows (module constants) for a start at rest at q0, v0 (pinocchio order); the
+        views aba reads are made once per run."""
+        n, nq = self.n_axes, self.model.nq
+        S = np.zeros((N_ROWS, max(n, nq)))
+        S[Q, :n], S[V, :n] = q0, v0
+        self._views = (S[QPIN, :nq], S[VS, :n], S[TAU, :n])
+        return S
+
+    def _interval(self, S: np.ndarray, h: float) -> None:
+        """One sample interval: ``substeps`` RK4 steps of size h with S[U] held."""
+        model, data, aba, E, tables, C = self.model, self.data, pin.aba, self._E, self._tables, self._C
+        qpin, vs, tau = self._views
+        for _ in range(self.substeps):
+            rk4_stage(0, vs, S, E, tables, C, h)
+            a = aba(model, data, qpin, vs, tau)
+            rk4_stage(1, a, S, E, tables, C, h)
+            a = aba(model, data, qpin, vs, tau)
+            rk4_stage(2, a, S, E, tables, C, h)
+            a = aba(model, data, qpin, vs, tau)
+            rk4_stage(3, a, S, E, tables, C, h)
+            rk4_finish(aba(model, data, qpin, vs, tau), S, h)
+
+    def _diverged(self, name: str, k: int, S: np.ndarray, ref: np.ndarray, status: int):
+        back, n = self.robot.v_index, self.n_axes
+        q, v, r = S[Q, :n][back], S[V, :n][back], ref[back]
+        when = "during the pre-roll" if k < 0 else f"at t = {k / self.fs:.3f} s (sample {k})"
+        if status == NOT_FINITE:
+            why = "the state is no longer finite"
+        else:
+            i = int(np.argmax(np.abs(r - q) / self.max_error))
+            why = f"the tracking error of {self.system.axis_names[i]} is {r[i] - q[i]:.4g} (limit {self.max_error[i]:.4g})"
+        raise SimulationDiverged(
+            f"{self.name}: {name}: the simulation diverged {when}: {why}; q = {np.round(q, 4).tolist()}, "
+            f"qd = {np.round(v, 4).tolist()}, reference {np.round(r, 4).tolist()} (axes {', '.join(self.system.axis_names)}; "
+            "rad or m)")
+
+
+# ---------------------------------------------------------------------------------------------
+# References
+# ---------------------------------------------------------------------------------------------
+
+
+def random_references(system: System, n: int = 1, duration: float = 20.0, fs: float = 1000.0, seed: int = 0,
+                      speed: float = 0.5, accel_time: float = 0.2, jerk_time: float = 0.05, margin: float = 0.1,
+                      velocity_fallback: tuple[float, float] = (1.0, 0.1)) -> list[Reference]:
+    """``n`` seeded references of random point-to-point moves of every axis of a URDF machine,
+    third-order setpoints (``references.AxisProfile``) for about ``duration`` s each.
+
+    Targets lie within the URDF's joint limits, ``margin`` of the range inside each end (+-pi for a
+    continuous joint). A move's velocity limit is a random 0.4-1 of ``speed`` times the URDF's
+    velocity limit (``velocity_fallback`` [rad/s, m/s] where the URDF gives none), its
+    acceleration limit reaches that velocity in ``accel_time`` s, its jerk limit that acceleration
+    in ``jerk_time`` s; dwells 0.2-1 s between moves."""
+    robot = urdf_robot(system)
+    if n < 1 or not duration > 0 or not fs > 0 or not 0 < speed or not 0 <= margin < 0.5:
+        raise ValueError(f"need n >= 1, duration > 0, fs > 0, speed > 0, 0 <= margin < 0.5; got {n}, {duration}, {fs}, "
+                         f"{speed}, {margin}")
+    rng = np.random.default_rng(seed)
+    refs = []
+    for i in range(n):
+        profiles = [_axis_profile(rng, robot, k, duration, speed, accel_time, jerk_time, margin, velocity_fallback)
+                    for k in range(robot.n_axes)]
+        refs.append(sample(f"{system.name}-{seed}-{i}", profiles, fs, tail=0.5, axes=system.axis_names))
+    return refs
+
+
+def _axis_profile(rng, robot: URDFRobot, k: int, duration: float, speed: float, accel_time: float, jerk_time: float,
+                  margin: float, fallback: tuple[float, float]) -> AxisProfile:
+    lo, hi = robot.lower[k], robot.upper[k]
+    inset = margin * (hi - lo)
+    lo, hi = lo + inset, hi - inset
+    v_urdf = robot.velocity[k]
+    v_max = speed * (v_urdf if np.isfinite(v_urdf) and v_urdf > 0 else fallback[robot.kinds[k] == "prismatic"])
+    p = AxisProfile(rng.uniform(lo, hi)).dwell(0.5)
+    while p.end_time < duration:
+        target = rng.uniform(lo, hi)
+        if abs(target - p.x) < 0.05 * (hi - lo):
+            continue
+        v = rng.uniform(0.4, 1.0) * v_max
+        a = v / accel_time
+        p.move(target, v, a, a / jerk_time).dwell(rng.uniform(0.2, 1.0))
+    return p
+
+
+__all__ = ["FeedbackGains", "URDFPlant", "inertia_range", "pack_effects", "random_references"]
