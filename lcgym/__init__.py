@@ -7,8 +7,7 @@ machine from a URDF or Python), ``physics`` (the effect library, the least-squar
 (runner, store, report), ``diagnose`` (which effect a model misses), ``data`` (trials and files).
 """
 
-__version__ = "0.1.0"
-
-from .systems import register_envs  # noqa: E402  (the version first: modules below read it)
+from .provenance import __version__ as __version__
+from .systems import register_envs
 
 register_envs()

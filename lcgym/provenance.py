@@ -1,6 +1,7 @@
-"""Where results come from: a hash of lcgym's own source and the git commit of the checkout.
+"""Where results come from: lcgym's version, a hash of its own source and the git commit of the
+checkout.
 
-Both go into the results (``leaderboard.store``) and into the keys of caches (``baselines.rl``), so
+They go into the results (``leaderboard.store``) and into the keys of caches (``baselines.rl``), so
 that numbers computed by other code are never mixed with these.
 """
 
@@ -10,6 +11,8 @@ import hashlib
 import subprocess
 from functools import cache
 from pathlib import Path
+
+__version__ = "0.1.0"
 
 
 @cache

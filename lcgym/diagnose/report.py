@@ -66,7 +66,9 @@ class Diagnosis:
                                 "unit": {ax: r["unit"] for ax, r in self.residual.items()},
                              "order": "greedy forward selection (selected: true), then the other passing "
                                       "candidates by explained; explained and RMS_after: the effect alone, held-out; "
-                                      "explained_at_selection: share of the residual left at its greedy step"}}
+                                      "explained_at_selection: share of the residual left at its greedy step "
+                                      "(step), held-out RMS before and after it at that step "
+                                      "(RMS_before_at_selection, RMS_after_at_selection)"}}
         if self.after is not None:
             out["after"] = self.after
         if self.replay is not None:
@@ -108,8 +110,9 @@ class Diagnosis:
             lines.append(f"  {NOTHING_FOUND} (none removes {100 * self.min_explained:.0f}% with at least "
                          f"{' / '.join(floors)} RMS)")
         for k, c in enumerate(self.candidates, 1):
-            how = (f"selected: {100 * c['explained_at_selection']:.0f}% of what was left at its turn" if c["selected"]
-                   else "not needed once the selected ones are in")
+            how = (f"selected at step {c['step']}: {100 * c['explained_at_selection']:.0f}% of what was left, "
+                   f"{c['RMS_before_at_selection']:.4f} -> {c['RMS_after_at_selection']:.4f} {c['unit']}"
+                   if c["selected"] else "not needed once the selected ones are in")
             display = self.displays.get(c["axis"], (180 / math.pi, "deg"))
             params = ", ".join(f"{n}={_fmt(n, v, display)}" for n, v in c["parameters"].items())
             lines.append(f"  {k}. {c['effect']}@{c['axis']} [{c['family']}]: {100 * c['explained']:.0f}%, "

@@ -28,8 +28,10 @@ repeat until none passes, or until a pick, once the model is refitted with it, n
 its axis's held-out error (the pick is then undone). A candidate passes when, at its step, it
 removes at least ``min_explained`` of its axis's held-out residual energy *at that step*, at least
 ``LATE_FACTOR`` x ``min_explained`` of the *baseline* one (the model alone: a late pick must still
-matter against the original error, not only chase the structure that is left), and the removed
-part has an RMS of at least ``min_rms`` of its axis (the noise floor: a nearly perfect model
+matter against the original error, not only chase the structure that is left; an axis's original
+error is its baseline less what picks on *other* axes removed from it: a large effect on one axis
+leaks into the others through the shared rigid-body fit, and once it is in, that leak is no
+error of theirs), and the removed part has an RMS of at least ``min_rms`` of its axis (the noise floor: a nearly perfect model
 otherwise makes a few millivolts of quantization structure look like a large share). A large effect can hide a
 second one on the same axis until it is in: the FlexArm's payload hides its joints' Coulomb
 friction, which then removes 78-79 % of what is left, 9.7-10 % of the original error. The second
@@ -110,9 +112,12 @@ def prepare(trials: Sequence, model: PhysicalModel, block_seconds: float = 4.0) 
     free, fixed, theta = model.free_design(kin)
     rigid_torque = free @ theta + fixed
     torque = model.torque(*kin) - fixed  # the held part (e.g. CAD inertia) is moved to the input side
-    effect_cols = model._effect_columns(kin, rigid_torque)  # ripple columns scale the rigid torque
-    design = model.reduce(np.concatenate([free, effect_cols], axis=2), lengths)
-    u = model.reduce(np.concatenate([tr.u for tr in trials]) - fixed, lengths)
+    if getattr(model, "reduced_", None) is not None:  # a linear fit's own reduced design: the same columns
+        design, u = model.reduced_
+    else:
+        effect_cols = model._effect_columns(kin, rigid_torque)  # ripple columns scale the rigid torque
+        design = model.reduce(np.concatenate([free, effect_cols], axis=2), lengths)
+        u = model.reduce(np.concatenate([tr.u for tr in trials]) - fixed, lengths)
     dec = max(1, model.decimate)
     rows, trial, fold = [], [], []
     start = 0
@@ -140,6 +145,7 @@ class Scorer:
 
     def __init__(self, design: np.ndarray, u: np.ndarray, fold: np.ndarray):
         self.design, self.u, self.fold = design, u, fold
+        self.memo: dict = {}  # what candidates of this scorer share (spectral peaks)
         # every fold's fit is a minimum-norm correction to the fit on all data (as PhysicalModel.fit
         # corrects the nominal values): directions one fold cannot identify keep the full-data values
         self.theta0 = _solve(np.einsum("rap,raq->pq", design, design), np.einsum("rap,ra->p", design, u))
@@ -152,6 +158,9 @@ class Scorer:
             theta = self.theta0 + _solve(G, b - G @ self.theta0)
             self.parts.append({"tr": tr, "te": te, "G": G, "b": b, "uu": float((y * y).sum()),
                                "D_axis": [np.ascontiguousarray(D[:, a, :]) for a in range(D.shape[1])],
+                               "test_axis": [np.ascontiguousarray(design[te, a, :]) for a in range(D.shape[1])],
+                               "u_tr": [np.ascontiguousarray(y[:, a]) for a in range(D.shape[1])],
+                               "u_te": [np.ascontiguousarray(u[te, a]) for a in range(D.shape[1])],
                                "resid_tr": y - D @ theta, "test_sse": ((u[te] - design[te] @ theta) ** 2).sum(axis=0)})
 
     @property
@@ -164,15 +173,16 @@ class Scorer:
         P = self.parts[f]
         E = cols[P["tr"]]
         C = P["D_axis"][axis].T @ E
-        G = np.block([[P["G"], C], [C.T, E.T @ E]])
-        b = np.concatenate([P["b"], E.T @ self.u[P["tr"], axis]])
+        p = P["G"].shape[0]
+        G = np.empty((p + E.shape[1], p + E.shape[1]))
+        G[:p, :p], G[:p, p:], G[p:, :p], G[p:, p:] = P["G"], C, C.T, E.T @ E
+        b = np.concatenate([P["b"], E.T @ P["u_tr"][axis]])
         theta0 = np.concatenate([self.theta0, np.zeros(E.shape[1])])
         theta = theta0 + _solve(G, b - G @ theta0)
         train = P["uu"] - 2 * theta @ b + theta @ G @ theta
-        p = self.design.shape[2]
         te = P["te"]
-        pred = self.design[te, axis, :] @ theta[:p] + cols[te] @ theta[p:]
-        return float(train), float(((self.u[te, axis] - pred) ** 2).sum())
+        pred = P["test_axis"][axis] @ theta[:p] + cols[te] @ theta[p:]
+        return float(train), float(((P["u_te"][axis] - pred) ** 2).sum())
 
     def with_columns(self, cols: np.ndarray, axis: int) -> Scorer:
         """A scorer whose design has ``cols`` (R, k) added on ``axis`` (a selected effect)."""
@@ -258,19 +268,20 @@ def score_candidate(scorer: Scorer, cand: Candidate, axis: int, prep: Prepared, 
     q_red = q_full[prep.rows, axis]
     weight = prep.rigid_torque[prep.rows, axis] if cand.effect.needs_base_torque else None
 
+    def peaks(f: int) -> list[float]:
+        """Spectral peaks of fold f's training residual (kept on the scorer: every periodic candidate
+        of the axis with the same weight reads the same ones)."""
+        key = ("peaks", axis, f, weight is not None, shortest)
+        if key not in scorer.memo:
+            P = scorer.parts[f]
+            scorer.memo[key] = period_peaks(P["resid_tr"][:, axis], q_red[P["tr"]],
+                                            None if weight is None else weight[P["tr"]], shortest=shortest)
+        return scorer.memo[key]
+
     def settings(f: int | None) -> list[dict]:
         if cand.period is None:
             return grid
-        if f is None:
-            periods = set()
-            for g in (0, 1):
-                P = scorer.parts[g]
-                periods.update(period_peaks(P["resid_tr"][:, axis], q_red[P["tr"]],
-                                            None if weight is None else weight[P["tr"]], shortest=shortest))
-        else:
-            P = scorer.parts[f]
-            periods = period_peaks(P["resid_tr"][:, axis], q_red[P["tr"]], None if weight is None else weight[P["tr"]],
-                                   shortest=shortest)
+        periods = list(dict.fromkeys(peaks(0) + peaks(1))) if f is None else peaks(f)
         return [{**g, cand.period: float(p)} for g in grid for p in periods]
 
     held_out = 0.0
@@ -290,13 +301,14 @@ def score_candidate(scorer: Scorer, cand: Candidate, axis: int, prep: Prepared, 
 class Ranking:
     """Outcome of the search: ``baseline`` held-out SSE per axis of the model alone;
     ``alone`` every candidate's Score against the model alone; ``selected`` the greedy picks
-    as (Score, share of the baseline removed at that step); ``model`` the model refitted with
+    as (Score at its step, share of what was left removed at that step, held-out SSE of its axis
+    before that step); ``model`` the model refitted with
     the selected effects; ``min_rms`` (n_axes,) the noise floor per axis."""
 
     baseline: np.ndarray
     n_rows: int
     alone: list[Score]
-    selected: list[tuple[Score, float]]
+    selected: list[tuple[Score, float, float]]
     model: PhysicalModel
     min_explained: float
     min_rms: np.ndarray
@@ -332,6 +344,7 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
     cache = ColumnCache(prep, axes)
     scorer = Scorer(prep.design, prep.u, prep.fold)
     baseline = scorer.test_sse.copy()
+    own = baseline.copy()  # each axis's original error without what picks on other axes removed from it
     n_rows = prep.u.shape[0]
     pairs = [(c, a) for a in (range(len(axes)) if search_axes is None else search_axes) for c in candidates
              if kinds is None or c.effect.applies_to(kinds[a])]
@@ -343,7 +356,7 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
             progress.refresh()
         scores = []
         for cand, a in pairs:
-            if any(s.candidate.name == cand.name and s.axis == a for s, _ in selected):
+            if any(s.candidate.name == cand.name and s.axis == a for s, _, _ in selected):
                 continue
             s = score_candidate(scorer, cand, a, prep, cache, scales[a])
             if progress is not None:
@@ -356,7 +369,7 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
         for s in scores:
             removed = current[s.axis] - s.held_out_sse
             share = removed / current[s.axis] if current[s.axis] > 0 else 0.0
-            of_baseline = removed / baseline[s.axis] if baseline[s.axis] > 0 else 0.0
+            of_baseline = removed / own[s.axis] if own[s.axis] > 0 else 0.0
             if (share >= min_explained and of_baseline >= LATE_FACTOR * min_explained
                     and math.sqrt(max(removed, 0.0) / n_rows) >= min_rms[s.axis]):
                 passing.append((s, share, removed))
@@ -370,7 +383,9 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
         new_scorer = Scorer(new_prep.design, new_prep.u, new_prep.fold)
         if new_scorer.test_sse[pick[0].axis] >= current[pick[0].axis]:
             break  # refitted with it, the model does no better held-out: do not keep it
-        selected.append(pick)
+        selected.append((*pick, float(current[pick[0].axis])))
+        others = np.arange(len(axes)) != pick[0].axis
+        own[others] -= np.clip(current - new_scorer.test_sse, 0.0, None)[others]
         model, prep, scorer = new_model, new_prep, new_scorer
         cache.use(prep)
     return Ranking(baseline, n_rows, alone, selected, model, min_explained, min_rms)

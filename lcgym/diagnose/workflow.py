@@ -127,10 +127,12 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
 
         rows = []
         alone = {(s.candidate.name, s.axis): s for s in ranking.alone}
-        for s, share in ranking.selected:  # explained and RMS_after of the effect alone, as for the rest
-            rows.append(_candidate_row(ranking, alone.get((s.candidate.name, s.axis), s), axes, units, selected=True,
-                                       step=share))
-        picked = {(s.candidate.name, s.axis) for s, _ in ranking.selected}
+        for k, (s, share, before) in enumerate(ranking.selected, 1):  # explained, RMS_after: the effect alone
+            row = _candidate_row(ranking, alone.get((s.candidate.name, s.axis), s), axes, units, selected=True, step=share)
+            row.update(step=k, RMS_before_at_selection=math.sqrt(before / ranking.n_rows),
+                       RMS_after_at_selection=math.sqrt(s.held_out_sse / ranking.n_rows))
+            rows.append(row)
+        picked = {(s.candidate.name, s.axis) for s, _, _ in ranking.selected}
         rest = [s for s in ranking.alone if (s.candidate.name, s.axis) not in picked and ranking.passes_alone(s)]
         for s in sorted(rest, key=lambda s: -ranking.explained(s)):
             rows.append(_candidate_row(ranking, s, axes, units, selected=False, step=None))

@@ -42,11 +42,11 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
-from .. import __version__, systems
+from .. import systems
 from ..baselines import CONTROLLERS, Cost, load_method
 from ..data import atomic_write
 from ..envs.actions import short_repr
-from ..provenance import git_commit, source_hash
+from ..provenance import __version__, git_commit, source_hash
 from .store import append_rows, completed_cells
 
 EVALUATED_SETS = ("train", "validation")

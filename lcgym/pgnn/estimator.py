@@ -21,10 +21,11 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from .. import __version__, systems
+from .. import systems
 from ..data import atomic_write
 from ..physics.kinematics import reference_kinematics, reference_positions
 from ..physics.model import PhysicalModel
+from ..provenance import __version__
 from .network import PGNNModule
 from .training import PGNNConfig, network_inputs, train, training_data
 

@@ -12,6 +12,8 @@ zero-order hold), so the feedforward for sample k is best evaluated at t_k + 1.5
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 from scipy.signal import butter, sosfiltfilt
 
@@ -66,7 +68,14 @@ def lowpass_zero_phase(signal, fs: float, cutoff_hz: float, order: int = 2, axis
     Paper 000 (V-A) filters the measured input with order 2 at 1 Hz. Applying the same filter to
     the input and to every regressor column keeps a least-squares fit consistent.
     """
-    sos = butter(order, cutoff_hz, fs=fs, output="sos")
+    sos = _butterworth(order, float(cutoff_hz), float(fs))
     x = np.asarray(signal, dtype=float)
     padlen = min(x.shape[axis] - 1, 3 * (2 * len(sos) + 1) * 20)
     return sosfiltfilt(sos, x, axis=axis, padlen=padlen)
+
+
+@lru_cache(maxsize=64)
+def _butterworth(order: int, cutoff_hz: float, fs: float) -> np.ndarray:
+    """Second-order sections of the Butterworth low-pass, designed once per setting (scipy's filters
+    read it and never write it; its Cython code needs a writable buffer)."""
+    return butter(order, cutoff_hz, fs=fs, output="sos")

@@ -167,15 +167,24 @@ class PhysicalModel:
         return np.concatenate(cols, axis=2)
 
     def reduce(self, A, lengths):
-        """Per-trial zero-phase low-pass along time, then decimation; A is (T, ...)."""
+        """Per-trial zero-phase low-pass along time, then decimation; A is (T, ...). Columns that are
+        zero throughout (a regressor's parameters that do not act on an axis) stay zero unfiltered."""
+        A = np.asarray(A, dtype=float)
+        flat = A.reshape(A.shape[0], -1)
+        used = np.flatnonzero(np.any(flat != 0.0, axis=0)) if flat.shape[1] > 1 else np.arange(flat.shape[1])
         out, start = [], 0
         for n in lengths:
-            seg = A[start : start + n]
+            seg = flat[start : start + n, used]
             start += n
             if self.filter_hz:
                 seg = lowpass_zero_phase(seg, self.fs, self.filter_hz, axis=0)
             out.append(seg[:: max(1, self.decimate)])
-        return np.concatenate(out, axis=0)
+        kept = np.concatenate(out, axis=0)
+        if used.size == flat.shape[1]:
+            return kept.reshape(kept.shape[0], *A.shape[1:])
+        full = np.zeros((kept.shape[0], flat.shape[1]))
+        full[:, used] = kept
+        return full.reshape(kept.shape[0], *A.shape[1:])
 
     def kinematics(self, trials: Sequence) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], list[int]]:
         """(q, qd, qdd) of the fit, each (sum of T, n_axes), and the trial lengths (see ``positions``;
@@ -233,6 +242,9 @@ class PhysicalModel:
         vector[: self.system.n_linear][mask] = theta[: int(mask.sum())]
         self.params_ = self.system.params_from_vector(vector)
         self.fit_info_ = {"n_free": int(mask.sum()), "rank": _rank(X[:, :, : int(mask.sum())], self.rcond)}
+        # the reduced design and input as fitted: unchanged by the fit where no effect scales the model's
+        # torque, so the diagnosis reuses them (``diagnose.search.prepare``) instead of filtering them again
+        self.reduced_ = None if base is not fixed else (X, y.reshape(X.shape[:2]))
         return theta, resid
 
     def _fit_variable_projection(self, kin, lengths, u):

@@ -74,7 +74,6 @@ class URDFRobot:
         self.path = path
         self.name = name
         self.model = model
-        self.data = model.createData()
         self.names = tuple(joints)
         self.kinds = tuple(kinds)
         self.locked = tuple(locked)
@@ -193,7 +192,8 @@ class URDFRobot:
         X = np.zeros((T, A, 11 * A))
         cfg, vel, acc = self.configuration(q), self.tangent(qd), self.tangent(qdd)
         Y = X[:, :, : 10 * A] if self._in_order else np.empty((T, A, 10 * A))
-        model, data, rnea_regressor = self.model, self.data, pin.computeJointTorqueRegressor
+        data = self.model.createData()  # per call: the regressor may run in several threads at once
+        model, rnea_regressor = self.model, pin.computeJointTorqueRegressor
         for k in range(T):
             Y[k] = rnea_regressor(model, data, cfg[k], vel[k], acc[k])
         if not self._in_order:
@@ -216,11 +216,11 @@ class URDFRobot:
     def joint_axes(self) -> np.ndarray:
         """Unit axes (n_axes, 3) of the joints in the world frame at the neutral pose: the rotation
         axis of a revolute joint, the direction of travel of a prismatic one."""
-        q0 = pin.neutral(self.model)
-        pin.computeJointJacobians(self.model, self.data, q0)
+        data = self.model.createData()
+        pin.computeJointJacobians(self.model, data, pin.neutral(self.model))
         out = np.empty((self.n_axes, 3))
         for k, (jid, iv, kind) in enumerate(zip(self.joint_ids, self.v_index, self.kinds, strict=True)):
-            column = pin.getJointJacobian(self.model, self.data, int(jid), pin.LOCAL_WORLD_ALIGNED)[:, iv]
+            column = pin.getJointJacobian(self.model, data, int(jid), pin.LOCAL_WORLD_ALIGNED)[:, iv]
             axis = column[:3] if kind == "prismatic" else column[3:]
             out[k] = axis / np.linalg.norm(axis)
         return out

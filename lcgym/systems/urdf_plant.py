@@ -28,6 +28,10 @@ against the axis's inertia). ``substeps=None`` picks the number of RK4 steps per
 h times the fastest rate of the effects (velocity slope / inertia, plus sqrt(position slope /
 inertia)) stays at or below ``STEP_RATE``, at least ``MIN_SUBSTEPS``.
 
+Feedback: without given gains, ``FeedbackGains.tuned`` puts every axis at 10 Hz with damping
+0.7 (PD, no integral action) for the geometric mean of its inertia over the workspace, lowered
+where the sampled loop would be unstable at the smallest or largest inertia.
+
 Before recording, the plant holds the first reference sample (and the first feedforward sample)
 for ``preroll`` s so that gravity sag and the integrators settle. If the state turns non-finite or
 a tracking error exceeds ``max_error``, the run stops with ``SimulationDiverged``.
@@ -217,24 +221,29 @@ class FeedbackGains:
             raise ValueError(f"integral_time must be > 0 s, got {integral_time}")
         lo, hi = inertia_range(urdf_robot(system), seed=seed)
         J = np.sqrt(lo * hi)
-        kp, kd, ki = np.zeros_like(J), np.zeros_like(J), np.zeros_like(J)
-        for i in range(J.size):
-            f = bandwidth
-            while True:
-                w = 2 * math.pi * f
-                gains = (J[i] * w**2, 2 * damping * J[i] * w, J[i] * w**2 / integral_time if integral_time else 0.0)
-                one = cls(*((g,) for g in gains), f_lp=10 * bandwidth)
-                if (one.stable(lo[i], fs) and one.stable(hi[i], fs))[0] or f < 1e-3 * bandwidth:
-                    break
-                f *= 0.8
-            kp[i], kd[i], ki[i] = gains
-        return cls(tuple(kp), tuple(kd), tuple(ki), f_lp=10 * bandwidth)
+        gains = [cls._stable_axis(J[i], lo[i], hi[i], bandwidth, damping, integral_time, fs) for i in range(J.size)]
+        kp, kd, ki = zip(*gains, strict=True)
+        return cls(kp, kd, ki, f_lp=10 * bandwidth)
+
+    @classmethod
+    def _stable_axis(cls, J, lo, hi, bandwidth, damping, integral_time, fs) -> tuple[float, float, float]:
+        """(kp, kd, ki) of one axis at the highest bandwidth, from ``bandwidth`` down in steps of
+        20 %, whose sampled loop is stable at both inertias lo and hi."""
+        f = bandwidth
+        while f > 1e-3 * bandwidth:
+            w = 2 * math.pi * f
+            gains = (J * w**2, 2 * damping * J * w, J * w**2 / integral_time if integral_time else 0.0)
+            one = cls(*((g,) for g in gains), f_lp=10 * bandwidth)
+            if one.stable(lo, fs)[0] and one.stable(hi, fs)[0]:
+                return gains
+            f *= 0.8
+        raise ValueError(f"no stable feedback found at {fs:g} Hz for an axis of inertia {lo:.3g} to {hi:.3g}")
 
     def stable(self, inertia, fs: float) -> np.ndarray:
         """Per axis: whether the sampled loop (this PID at ``fs`` Hz, the input held over a sample)
         around a rigid inertia J (``inertia`` [kg m^2 or kg], per axis) is stable: the roots of
-        its characteristic polynomial lie inside the unit circle. The plant J s^2 held by a
-        zero-order hold is Ts^2 / (2 J) (z + 1) / (z - 1)^2; the controller is the module's PID."""
+        its characteristic polynomial lie inside the unit circle. The plant 1 / (J s^2) behind a
+        zero-order hold is Ts^2 / (2 J) (z + 1) / (z - 1)^2; the controller is ``control``'s PID."""
         ts, alpha = 1.0 / fs, math.exp(-2 * math.pi * self.f_lp / fs)
         J = np.broadcast_to(np.asarray(inertia, dtype=float), (len(self.kp),))
         out = np.zeros(len(self.kp), dtype=bool)
@@ -263,6 +272,9 @@ def inertia_range(robot: URDFRobot, model=None, seed: int = 0) -> tuple[np.ndarr
     for cfg in robot.configuration(q):
         M = pin.crba(model, data, cfg)
         M = np.triu(M) + np.triu(M, 1).T  # crba fills the upper triangle
+        if np.linalg.cond(M) > 1e12:
+            raise ValueError(f"{robot.name}: the mass matrix is singular at q = {np.round(cfg, 3).tolist()} (pinocchio's "
+                             "configuration): an axis moves no mass, and the plant cannot integrate it")
         big = np.maximum(big, np.diag(M)[robot.v_index])
         inverse = np.maximum(inverse, np.diag(np.linalg.inv(M))[robot.v_index])
     return 1.0 / inverse, big

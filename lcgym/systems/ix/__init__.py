@@ -15,8 +15,8 @@ import numpy as np
 from ..system import Axis, System
 from . import dynamics
 from .bench import IXBench
-from .effects import CANDIDATES, PositionDependentFriction
 from .compiled import regressor
+from .effects import CANDIDATES, PositionDependentFriction
 
 DEG = math.pi / 180.0
 

@@ -1,0 +1,173 @@
+"""The package's layout: imports run one way, and no method, learner or diagnosis asks for a machine
+by name.
+
+The imports of every module of ``lcgym`` are read from its source (``ast``: module level and inside
+functions, relative ones resolved). Each module belongs to a *unit*: its folder
+(``lcgym/systems/ix/`` is ``systems.ix``), or itself for a top-level module (``data``, ``cli``, ...).
+The graph of units must have no cycle, and every import must go down the layers
+
+    cli -> leaderboard, diagnose, simulate -> baselines, pgnn, rbf_expert -> systems -> envs
+        -> physics, references -> data, metrics, provenance
+
+(a unit may import its own layer's units where that is listed below, and any lower layer). The
+machine packages are found by name at run time (``systems.get``: ``importlib``), not imported by
+``systems``: that lookup is the registry, not an import edge.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1] / "lcgym"
+
+LAYERS = [
+    {"cli"},
+    {"leaderboard", "diagnose", "simulate"},
+    {"baselines", "pgnn", "rbf_expert"},
+    {"systems", "systems.ix", "systems.flexarm", "systems.examples"},
+    {"envs"},
+    {"physics", "references"},
+    {"data", "metrics", "provenance"},
+]
+SAME_LAYER = {  # imports allowed within one layer (unit -> units)
+    "simulate": {"leaderboard"},
+    "baselines": {"pgnn", "rbf_expert"},
+    "systems.ix": {"systems"},
+    "systems.flexarm": {"systems"},
+    "systems.examples": {"systems"},
+    "references": {"physics"},  # references_of differentiates the trials' references
+}
+METHOD_UNITS = ("baselines", "pgnn", "rbf_expert", "diagnose", "leaderboard", "simulate")
+MACHINE_NAMES = ("ix", "flexarm")
+
+
+def _module_name(path: Path) -> str:
+    rel = path.relative_to(ROOT.parent).with_suffix("")
+    parts = list(rel.parts)
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    return ".".join(parts)
+
+
+def _unit(module: str) -> str | None:
+    """The unit of a module ``lcgym.x.y.z``; None for the root package ``lcgym`` itself."""
+    parts = module.split(".")[1:]
+    if not parts:
+        return None
+    if parts[0] == "systems" and len(parts) >= 2 and (ROOT / "systems" / parts[1]).is_dir():
+        return f"systems.{parts[1]}"
+    return parts[0]
+
+
+def _imports(path: Path) -> list[tuple[str, int]]:
+    """(imported lcgym module, line) of every import statement in a file."""
+    module = _module_name(path)
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            out += [(a.name, node.lineno) for a in node.names if a.name.startswith("lcgym")]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                base = base[: len(base) - node.level + 1]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module or ""
+            if not target.startswith("lcgym"):
+                continue
+            for alias in node.names:  # "from . import systems" imports the submodule lcgym.systems
+                sub = f"{target}.{alias.name}"
+                is_module = (ROOT.parent / sub.replace(".", "/")).with_suffix(".py").exists() or \
+                    (ROOT.parent / sub.replace(".", "/")).is_dir()
+                out.append((sub if is_module else target, node.lineno))
+    return out
+
+
+def _edges() -> dict[tuple[str, str], list[str]]:
+    edges: dict[tuple[str, str], list[str]] = {}
+    for path in sorted(ROOT.rglob("*.py")):
+        src = _unit(_module_name(path))
+        for target, line in _imports(path):
+            dst = _unit(target)
+            if src is None or dst is None or src == dst:
+                continue
+            edges.setdefault((src, dst), []).append(f"{path.relative_to(ROOT.parent)}:{line}")
+    return edges
+
+
+def _layer(unit: str) -> int:
+    for i, layer in enumerate(LAYERS):
+        if unit in layer:
+            return i
+    raise AssertionError(f"unit {unit} is in no layer of this test: add it to LAYERS")
+
+
+def test_no_import_cycle_between_folders():
+    edges = _edges()
+    graph: dict[str, set[str]] = {}
+    for a, b in edges:
+        graph.setdefault(a, set()).add(b)
+    state: dict[str, int] = {}
+
+    def visit(node: str, path: list[str]) -> None:
+        state[node] = 1
+        for nxt in sorted(graph.get(node, ())):
+            if state.get(nxt) == 1:
+                cycle = path[path.index(nxt):] + [nxt] if nxt in path else [node, nxt]
+                where = "; ".join(f"{x} -> {y} at {edges[(x, y)][0]}" for x, y in zip(cycle, cycle[1:], strict=False))
+                pytest.fail(f"import cycle {' -> '.join(cycle)}: {where}")
+            if state.get(nxt) is None:
+                visit(nxt, path + [nxt])
+        state[node] = 2
+
+    for node in sorted(graph):
+        if state.get(node) is None:
+            visit(node, [node])
+
+
+def test_imports_run_down_the_layers():
+    bad = []
+    for (a, b), where in sorted(_edges().items()):
+        la, lb = _layer(a), _layer(b)
+        if lb < la or (lb == la and b not in SAME_LAYER.get(a, set())):
+            bad.append(f"{a} -> {b} ({', '.join(where[:2])})")
+    assert not bad, "imports against the layers:\n" + "\n".join(bad)
+
+
+def test_the_graph_sees_a_known_edge():
+    """Control: the parser finds the edges it must find (else the tests above could not fail)."""
+    edges = _edges()
+    assert ("leaderboard", "baselines") in edges and ("systems.ix", "physics") in edges
+    assert ("diagnose", "systems") in edges and ("baselines", "systems") in edges
+
+
+def _name_branches(path: Path, root: Path = ROOT.parent) -> list[str]:
+    """Comparisons of anything with the string "ix" or "flexarm" (==, !=, in, not in)."""
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Compare):
+            operands = [node.left, *node.comparators]
+            strings = [n.value for n in operands if isinstance(n, ast.Constant) and isinstance(n.value, str)]
+            for n in operands:
+                if isinstance(n, (ast.Tuple, ast.List, ast.Set)):
+                    strings += [e.value for e in n.elts if isinstance(e, ast.Constant) and isinstance(e.value, str)]
+            if any(s in MACHINE_NAMES for s in strings):
+                out.append(f"{path.relative_to(root)}:{node.lineno}")
+    return out
+
+
+def test_no_method_learner_or_diagnosis_branches_on_a_machine_name():
+    found = [hit for unit in METHOD_UNITS for path in sorted(ROOT.glob(f"{unit}/**/*.py")) + sorted(ROOT.glob(f"{unit}.py"))
+             for hit in _name_branches(path)]
+    assert not found, f"branches on a machine's name: {found}"
+
+
+def test_the_branch_finder_finds_a_branch(tmp_path):
+    """Control for the test above."""
+    p = tmp_path / "probe.py"
+    p.write_text('def f(system):\n    return 1 if system == "flexarm" else 2\n\n\nx = "ix" in ("ix",)\n')
+    assert len(_name_branches(p, tmp_path)) == 2
