@@ -201,6 +201,7 @@ def cmd_diagnose(args) -> int:
                           min_explained=args.min_explained, progress=sys.stderr.isatty())
     except DataTooShort as exc:
         raise MeasurementFileError(f"{args.data}: column 't': {exc}") from None
+    report.spec = args.system
     print(report.text())
     if args.plots is not None:  # plots first, JSON last: a failure leaves no report behind
         for path in report.plot(args.plots):
@@ -230,7 +231,7 @@ def cmd_effects(args) -> int:
         doc = doc if len(doc) <= 100 else doc[:97] + "..."
         searched = [*cand.grid, *([cand.period] if cand.period else [])]
         print(f"  {name:30s} [{cand.family}] {doc}" + (f" (searched: {', '.join(searched)})" if searched else ""))
-    print(f"the model already has: {', '.join(system.diagnosis_model(fs=1.0).parts())}")
+    print(f"the model already has: {', '.join(system.diagnosis_model(fs=system.fs or 1000.0).parts())}")
     return 0
 
 

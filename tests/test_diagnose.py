@@ -142,7 +142,7 @@ def test_scorer_matches_an_independent_least_squares_fit():
     fold = (np.arange(R) // 50) % 2
     s = Scorer(D, u, fold)
     for f in (0, 1):
-        train_sse, test_sse = s.evaluate(cols, axis=1, f=f)
+        train_sse, test_sse, coefficients = s.evaluate(cols, axis=1, f=f)
         tr, te = fold != f, fold == f
         X = np.zeros((R, A, p + 2))
         X[:, :, :p] = D
@@ -150,6 +150,7 @@ def test_scorer_matches_an_independent_least_squares_fit():
         theta, *_ = np.linalg.lstsq(X[tr].reshape(-1, p + 2), u[tr].reshape(-1), rcond=None)
         assert train_sse == pytest.approx(float(((u[tr].reshape(-1) - X[tr].reshape(-1, p + 2) @ theta) ** 2).sum()), rel=1e-8)
         assert test_sse == pytest.approx(float(((u[te, 1] - X[te, 1] @ theta) ** 2).sum()), rel=1e-8)
+        np.testing.assert_allclose(coefficients, theta[p:], rtol=1e-8)
 
 
 def test_period_peaks_finds_a_known_period():

@@ -9,9 +9,8 @@ from lcgym.data import Trial
 from lcgym.physics import effects as fx
 from lcgym.physics.kinematics import reference_kinematics
 from lcgym.physics.model import PhysicalModel, _QuadraticDesign
-from lcgym.systems.ix import IX
+from lcgym.systems.ix import IX, compiled
 from lcgym.systems.ix import dynamics as ix
-from lcgym.systems.ix import compiled
 from lcgym.systems.ix.references import random_moves
 
 TRUE = ix.IXParameters(m2=1.8, m3=2.6, J2yy=0.6, J3xx=0.75, J3yy=0.45, J3zz=0.42, J3xy=0.01, J3xz=-0.02,

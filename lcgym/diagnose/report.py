@@ -43,6 +43,7 @@ class Diagnosis:
     identified: tuple[int, int] | None = None
     displays: dict = field(default_factory=dict)
     resampled: str | None = None
+    spec: str | None = None  # the machine as the user named it (a URDF path, module:attr), for the hints
     model: object = field(repr=False, default=None)
     suggested_model: object = field(repr=False, default=None)
     series: dict = field(repr=False, default_factory=dict)
@@ -119,7 +120,7 @@ class Diagnosis:
                          f"held-out RMS {c['RMS_before']:.4f} -> {c['RMS_after']:.4f} {c['unit']} "
                          f"({how}{'; ' + params if params else ''})")
         if self.candidates:
-            lines.append(f"  add the selected ones: lcgym diagnose DATA --system {self.system} "
+            lines.append(f"  add the selected ones: lcgym diagnose DATA --system {self.spec or self.system} "
                          + " ".join(f"--add {m}" for m in self.missing))
         if self.after is not None:
             lines += ["", f"after adding {', '.join(self.after['added'])} and refitting, residual RMS{head}:",

@@ -25,21 +25,28 @@ Greedy forward selection: the passing candidate that removes the most held-out r
 (in the input's unit, so that axes compare by what matters, not by the share of a residual that
 may be tiny) is added to the model, and the others are scored again against what remains;
 repeat until none passes, or until a pick, once the model is refitted with it, no longer lowers
-its axis's held-out error (the pick is then undone). A candidate passes when, at its step, it
-removes at least ``min_explained`` of its axis's held-out residual energy *at that step*, at least
-``LATE_FACTOR`` x ``min_explained`` of the *baseline* one (the model alone: a late pick must still
-matter against the original error, not only chase the structure that is left; an axis's original
-error is its baseline less what picks on *other* axes removed from it: a large effect on one axis
-leaks into the others through the shared rigid-body fit, and once it is in, that leak is no
-error of theirs), and the removed part has an RMS of at least ``min_rms`` of its axis (the noise floor: a nearly perfect model
-otherwise makes a few millivolts of quantization structure look like a large share). A large effect can hide a
-second one on the same axis until it is in: the FlexArm's payload hides its joints' Coulomb
-friction, which then removes 78-79 % of what is left, 9.7-10 % of the original error. The second
-condition keeps out what chases structure no static effect explains: on the IX after the true
-friction is in, a Stribeck curve still takes 14-16 % of what is left, but 2.6-3.3 % of the
-original error (``studies/diagnose_hidden_effects.py``, the cases that a 1 % bar let through). Among candidates on the same axis
-within ``tie`` of the best, the one with the fewest parameters is taken (the simpler of two
-friction curves that fit equally well).
+its axis's held-out error (the pick is then undone). A candidate passes when, at its step,
+
+1. it removes at least ``min_explained`` of its axis's held-out residual energy *at that step*;
+2. it removes at least ``LATE_FACTOR`` x ``min_explained`` of the axis's *original* error (a late
+   pick must still matter against the original error, not only chase the structure that is left).
+   An axis's original error is its baseline (the model alone) less what picks on *other* axes
+   removed from it: a large effect on one axis leaks into the others through the shared
+   rigid-body fit, and once it is in, that leak is no error of theirs;
+3. the removed part has an RMS of at least ``min_rms`` of its axis (the noise floor: a nearly
+   perfect model otherwise makes a few millivolts of quantization structure look like a large
+   share);
+4. both folds fit the coefficients that are positive physically (``Effect.positive``: a friction
+   level, a stiffness, an inertia) with that sign: a negative friction level or rotor inertia is
+   some other structure, not the effect.
+
+A large effect can hide a second one on the same axis until it is in: the FlexArm's payload
+hides its joints' Coulomb friction, which then removes 78-79 % of what is left, 9.7-10 % of the
+original error. Rule 2 keeps out what chases structure no static effect explains: on the IX after
+the true friction is in, a Stribeck curve still takes 14-16 % of what is left, but 2.6-3.3 % of
+the original error (``studies/diagnose_hidden_effects.py``, the cases that a 1 % bar let through).
+Among candidates on the same axis within ``tie`` of the best, the one with the fewest parameters
+is taken (the simpler of two friction curves that fit equally well).
 """
 
 from __future__ import annotations
@@ -168,8 +175,9 @@ class Scorer:
         """Held-out SSE per axis of the design alone, summed over the folds."""
         return self.parts[0]["test_sse"] + self.parts[1]["test_sse"]
 
-    def evaluate(self, cols: np.ndarray, axis: int, f: int) -> tuple[float, float]:
-        """(training SSE of all axes, held-out SSE of ``axis``) of fold f with ``cols`` (R, k) added on ``axis``."""
+    def evaluate(self, cols: np.ndarray, axis: int, f: int) -> tuple[float, float, np.ndarray]:
+        """(training SSE of all axes, held-out SSE of ``axis``, the columns' fitted coefficients (k,)) of
+        fold f with ``cols`` (R, k) added on ``axis``."""
         P = self.parts[f]
         E = cols[P["tr"]]
         C = P["D_axis"][axis].T @ E
@@ -182,7 +190,7 @@ class Scorer:
         train = P["uu"] - 2 * theta @ b + theta @ G @ theta
         te = P["te"]
         pred = P["test_axis"][axis] @ theta[:p] + cols[te] @ theta[p:]
-        return float(train), float(((P["u_te"][axis] - pred) ** 2).sum())
+        return float(train), float(((P["u_te"][axis] - pred) ** 2).sum()), theta[p:]
 
     def with_columns(self, cols: np.ndarray, axis: int) -> Scorer:
         """A scorer whose design has ``cols`` (R, k) added on ``axis`` (a selected effect)."""
@@ -225,13 +233,15 @@ def period_peaks(r: np.ndarray, q: np.ndarray, weight: np.ndarray | None, n_peak
 @dataclass
 class Score:
     """A candidate on one axis: held-out SSE with it, its nonlinear parameters (fitted on all
-    data), and the reduced columns at those parameters."""
+    data), the reduced columns at those parameters, and whether both folds' fits gave its signed
+    coefficients the physical sign (``Effect.positive``: a friction level, a stiffness, an inertia)."""
 
     candidate: Candidate
     axis: int
     held_out_sse: float
     params: dict
     cols: np.ndarray = field(repr=False)
+    physical: bool = True
 
 
 class ColumnCache:
@@ -284,17 +294,20 @@ def score_candidate(scorer: Scorer, cand: Candidate, axis: int, prep: Prepared, 
         periods = list(dict.fromkeys(peaks(0) + peaks(1))) if f is None else peaks(f)
         return [{**g, cand.period: float(p)} for g in grid for p in periods]
 
-    held_out = 0.0
+    held_out, physical = 0.0, True
+    signed = [cand.effect.linear.index(n) for n in cand.effect.positive]
     for f in (0, 1):
         options = settings(f)
         if not options:
             return None
         results = [scorer.evaluate(cache(cand, axis, s), axis, f) for s in options]
-        held_out += min(results, key=lambda r: r[0])[1]  # chosen by the training fit alone
+        chosen = min(results, key=lambda r: r[0])  # chosen by the training fit alone
+        held_out += chosen[1]
+        physical &= bool(np.all(chosen[2][signed] > 0))
     options = settings(None)
     totals = [sum(scorer.evaluate(cache(cand, axis, s), axis, f)[0] for f in (0, 1)) for s in options]
     best = options[int(np.argmin(totals))]
-    return Score(cand, axis, held_out, best, cache(cand, axis, best))
+    return Score(cand, axis, held_out, best, cache(cand, axis, best), physical)
 
 
 @dataclass
@@ -320,7 +333,7 @@ class Ranking:
         return math.sqrt(max(self.baseline[s.axis] - s.held_out_sse, 0.0) / self.n_rows)
 
     def passes_alone(self, s: Score) -> bool:
-        return self.explained(s) >= self.min_explained and self.removed_rms(s) >= self.min_rms[s.axis]
+        return s.physical and self.explained(s) >= self.min_explained and self.removed_rms(s) >= self.min_rms[s.axis]
 
 
 def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes: Sequence[str],
@@ -370,7 +383,7 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
             removed = current[s.axis] - s.held_out_sse
             share = removed / current[s.axis] if current[s.axis] > 0 else 0.0
             of_baseline = removed / own[s.axis] if own[s.axis] > 0 else 0.0
-            if (share >= min_explained and of_baseline >= LATE_FACTOR * min_explained
+            if (s.physical and share >= min_explained and of_baseline >= LATE_FACTOR * min_explained
                     and math.sqrt(max(removed, 0.0) / n_rows) >= min_rms[s.axis]):
                 passing.append((s, share, removed))
         if not passing:

@@ -41,7 +41,7 @@ from .report import Diagnosis
 from .search import check_length, prepare, rank
 
 DEG = math.pi / 180.0
-NOISE_SHARE = 0.005  # a machine without its own noise_rms: 0.5 % of each axis's low-passed input RMS
+NOISE_SHARE = 0.01  # a machine without its own noise_rms: 1 % of each axis's low-passed input RMS
 KINEMATICS = {"reference": "measured", "measured": "position"}  # option -> PhysicalModel.positions
 
 
@@ -73,13 +73,15 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
     candidates: effects to try (default ``candidates.candidates_for(system)``).
     min_explained, min_rms [input unit]: the significance rule (``search.py``); min_rms
     defaults to the machine's ``noise_rms``, else to ``NOISE_SHARE`` of each axis's low-passed
-    input RMS. add: effects (``name@axis`` or Effect objects) to add after the search. replay:
-    re-run the plant recorded in the trials' metadata. kinematics: "reference" (the reference
+    input RMS (an effect that changes the input by less is no matter for a feedforward).
+    add: effects (``name@axis`` or Effect objects) to add after the search. replay: re-run the
+    plant recorded in the trials' metadata. kinematics: "reference" (the reference
     corrected by the measured error; a trial without a reference uses its measured position) or
     "measured" (the measured position, low-passed and differentiated). Candidates are tried on the
     axes that move (reference range above the axis's ``min_travel``: a joint that stands still shows
     neither friction nor inertia); max_steps: most effects selected (default two per moving axis).
     """
+    spec = system if isinstance(system, str) else None
     system = systems.get(system)
     _check_trials(trials, system)
     if not 0.0 < min_explained < 1.0:
@@ -147,7 +149,7 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
                                    "ref_velocity": _velocity(trials, fs)[prep.rows]},
                            kinematics=_kinematics_note(trials, prep.model), identified=(info["rank"], info["n_free"]),
                            displays={a.name: a.display for a in system.axes},
-                           resampled=_resampled_note(trials))
+                           resampled=_resampled_note(trials), spec=spec)
         report.found = {f"{s.candidate.name}@{axes[s.axis]}": s.candidate.build(axes[s.axis], **s.params)
                         for s in ranking.alone}
         if added:

@@ -95,6 +95,7 @@ LIBRARY: tuple[Candidate, ...] = (
                                          "side": (-1.0, 1.0)}),
     Candidate(fx.CableInertia, "inertia", {"q0": lambda q, qd, i: angle_quantiles(q, qd, i, 5),
                                            "width": Scaled((0.05, 0.15), "position")}),
+    Candidate(fx.RotorInertia, "inertia"),
     Candidate(fx.GearHarmonic, "periodic", period="period"),
     Candidate(fx.TorqueRipple, "periodic", period="period"),
     Candidate(fx.CableDrape, "gravity"),

@@ -138,6 +138,7 @@ class Effect:
     index: int | None = field(default=None, kw_only=True, repr=False, compare=False)
     name: ClassVar[str] = ""
     linear: ClassVar[tuple[str, ...]] = ()  # coefficient attribute names (linear parameters)
+    positive: ClassVar[tuple[str, ...]] = ()  # the coefficients that are positive physically (a level, a stiffness)
     nonlinear: ClassVar[tuple[str, ...]] = ()  # nonlinear parameter attribute names
     plant_only: ClassVar[bool] = False
     needs_base_torque: ClassVar[bool] = False
@@ -214,6 +215,7 @@ class ViscousFriction(Effect):
     d: float = 0.0
     name: ClassVar[str] = "viscous_friction"
     linear: ClassVar[tuple[str, ...]] = ("d",)
+    positive: ClassVar[tuple[str, ...]] = ("d",)
 
     def _columns(self, q, qd, qdd, base):
         return (self._v(qd),)
@@ -227,6 +229,7 @@ class CoulombFriction(Effect):
     eps: float = 1e-3
     name: ClassVar[str] = "coulomb_friction"
     linear: ClassVar[tuple[str, ...]] = ("Fc",)
+    positive: ClassVar[tuple[str, ...]] = ("Fc",)
     nonlinear: ClassVar[tuple[str, ...]] = ("eps",)
 
     def _columns(self, q, qd, qdd, base):
@@ -246,6 +249,7 @@ class StribeckFriction(Effect):
     eps: float = 1e-3
     name: ClassVar[str] = "stribeck_friction"
     linear: ClassVar[tuple[str, ...]] = ("dF",)
+    positive: ClassVar[tuple[str, ...]] = ("dF",)
     nonlinear: ClassVar[tuple[str, ...]] = ("vs", "eps")
 
     def _columns(self, q, qd, qdd, base):
@@ -285,6 +289,7 @@ class CableSpring(Effect):
     side: float = 1.0
     name: ClassVar[str] = "cable_spring"
     linear: ClassVar[tuple[str, ...]] = ("k",)
+    positive: ClassVar[tuple[str, ...]] = ("k",)
     nonlinear: ClassVar[tuple[str, ...]] = ("q0", "width", "side")
 
     def _columns(self, q, qd, qdd, base):
@@ -304,11 +309,29 @@ class CableInertia(Effect):
     width: float = 10 * DEG
     name: ClassVar[str] = "cable_inertia"
     linear: ClassVar[tuple[str, ...]] = ("dJ",)
+    positive: ClassVar[tuple[str, ...]] = ("dJ",)
     nonlinear: ClassVar[tuple[str, ...]] = ("q0", "width")
 
     def _columns(self, q, qd, qdd, base):
         i = self._i()
         return (cable_inertia_basis(q[..., i], qd[..., i], qdd[..., i], self.q0, self.width)[1],)
+
+
+@dataclass(frozen=True)
+class RotorInertia(Effect):
+    """Inertia of a motor and gear on the axis that the rigid body lacks (a URDF holds the links
+    only): J qdd, J [input unit s^2/rad, or per m] linear (the motor's J_m times the gear ratio
+    squared, seen on the joint). Constant and on its own axis alone, unlike a link's inertia, which
+    the other axes feel too (model side; a plant's rotor is part of its rigid body).
+    """
+
+    J: float = 0.0
+    name: ClassVar[str] = "rotor_inertia"
+    linear: ClassVar[tuple[str, ...]] = ("J",)
+    positive: ClassVar[tuple[str, ...]] = ("J",)
+
+    def _columns(self, q, qd, qdd, base):
+        return (qdd[..., self._i()],)
 
 
 @dataclass(frozen=True)
@@ -466,7 +489,7 @@ EFFECTS: dict[str, type[Effect]] = {
     cls.name: cls
     for cls in (
         ViscousFriction, CoulombFriction, StribeckFriction, Stiction,
-        CableSpring, CableInertia, TorqueRipple, GearHarmonic, CableDrape, DrivetrainFlexibility,
+        CableSpring, CableInertia, RotorInertia, TorqueRipple, GearHarmonic, CableDrape, DrivetrainFlexibility,
         TabulatedForce,
     )
 }

@@ -100,8 +100,9 @@ class PhysicalModel:
 
     @classmethod
     def for_diagnosis(cls, system, fs: float) -> PhysicalModel:
-        """The nominal model ``diagnose`` starts from: this one, fitted to the measured motion."""
-        return cls(system=system, fs=fs, positions="measured")
+        """The nominal model ``diagnose`` starts from: this one, fitted to the measured motion, the
+        reduced rows at least 4 per period of the low-pass's corner (every 10th sample from 200 Hz up)."""
+        return cls(system=system, fs=fs, positions="measured", decimate=diagnosis_decimation(fs, cls.filter_hz))
 
     def parts(self) -> tuple[str, ...]:
         """What this model has without its effects (the diagnosis does not offer these again)."""
@@ -241,7 +242,7 @@ class PhysicalModel:
         mask = self.free_mask()
         vector[: self.system.n_linear][mask] = theta[: int(mask.sum())]
         self.params_ = self.system.params_from_vector(vector)
-        self.fit_info_ = {"n_free": int(mask.sum()), "rank": _rank(X[:, :, : int(mask.sum())], self.rcond)}
+        self.fit_info_ = {"n_free": int(mask.sum()), "rank": column_rank(X[:, :, : int(mask.sum())], self.rcond)}
         # the reduced design and input as fitted: unchanged by the fit where no effect scales the model's
         # torque, so the diagnosis reuses them (``diagnose.search.prepare``) instead of filtering them again
         self.reduced_ = None if base is not fixed else (X, y.reshape(X.shape[:2]))
@@ -272,15 +273,27 @@ class PhysicalModel:
             p = np.concatenate([theta[:n], zeta_n])
             base = self.system.inverse_dynamics(p, *kin)
         self.params_ = self.system.params_from_vector(p)
-        self.fit_info_ = {"n_free": n, "rank": _rank(rigid(zeta_n), self.rcond)}
+        self.fit_info_ = {"n_free": n, "rank": column_rank(rigid(zeta_n), self.rcond)}
         return theta, resid
 
 
-def _rank(A: np.ndarray, rcond: float) -> int:
-    """Numerical rank of the column-scaled design A (R, A, k): the directions a fit identifies."""
-    A = A.reshape(-1, A.shape[-1])
+def diagnosis_decimation(fs: float, filter_hz: float) -> int:
+    """Every how many samples the diagnosis keeps after its ``filter_hz`` low-pass: 10, or fewer
+    where that would leave fewer than 4 rows per period of the corner frequency."""
+    if not fs > 4 * filter_hz:
+        raise ValueError(f"the diagnosis low-passes at {filter_hz:g} Hz: it needs data sampled above "
+                         f"{4 * filter_hz:g} Hz, got {fs:g} Hz")
+    return int(min(10, fs // (4 * filter_hz)))
+
+
+def column_rank(A: np.ndarray, rcond: float = 1e-9, zero: float = 1e-10) -> int:
+    """Numerical rank of a design A (R, ..., k) stacked to (R ..., k): the parameter combinations a
+    fit identifies. A column at most ``zero`` times the largest column's norm is round-off (a
+    parameter nothing depends on); the others are scaled to unit norm (their units differ), and
+    singular values above ``rcond`` times the largest count."""
+    A = np.asarray(A, dtype=float).reshape(-1, np.shape(A)[-1])
     scale = np.linalg.norm(A, axis=0)
-    used = scale > 1e-12 * scale.max(initial=0.0)
+    used = scale > zero * scale.max(initial=0.0)
     if not used.any():
         return 0
     s = np.linalg.svd(A[:, used] / scale[used], compute_uv=False)

@@ -123,8 +123,8 @@ class System:
     ``physical_model`` / ``diagnosis_model``. fs [Hz]: the machine's sample rate (None: the data's).
     advance [samples]: how far ahead of a sample the feedforward's kinematics are evaluated
     (computation delay plus half the hold interval of the machine's controller). noise_rms [input
-    unit]: the RMS below which the diagnosis does not count an improvement as real (None: 0.5 %
-    of each axis's low-passed input RMS). constraint_configs: at most this many configurations per
+    unit]: the RMS below which the diagnosis does not count an improvement as real (None: 1 % of
+    each axis's low-passed input RMS). constraint_configs: at most this many configurations per
     batch enter the PGNN's mass-matrix constraint (None: all). effects: effect classes of this
     machine beyond ``physics.effects`` (their formulas use its geometry); candidates: the
     diagnosis's candidate effects on it beyond the library's (``physics.candidates.Candidate``);

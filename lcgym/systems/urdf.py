@@ -43,6 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..physics.model import column_rank
 from .system import Axis, ParameterVector, System
 
 try:
@@ -299,18 +300,9 @@ def base_parameters(system: System, samples: int = RANK_SAMPLES, seed: int = 0) 
 
 
 def structural_rank(X) -> int:
-    """Rank of a regressor X (T, n_axes, n) stacked to (T n_axes, n). A column whose norm is at
-    most ``ZERO_COLUMN`` of the largest is round-off (a parameter no torque depends on) and counts
-    as zero; the others are scaled to unit norm (their units differ), and singular values above
-    ``RANK_TOLERANCE`` of the largest count."""
-    X = np.asarray(X, dtype=float)
-    X = X.reshape(-1, X.shape[-1])
-    norms = np.linalg.norm(X, axis=0)
-    keep = norms > ZERO_COLUMN * norms.max() if norms.size and norms.max() > 0 else np.zeros(norms.size, dtype=bool)
-    if not keep.any():
-        return 0
-    s = np.linalg.svd(X[:, keep] / norms[keep], compute_uv=False)
-    return int(np.sum(s > RANK_TOLERANCE * s[0]))
+    """Rank of a regressor X (T, n_axes, n) stacked to (T n_axes, n) (``physics.model.column_rank``:
+    round-off columns dropped, the others scaled to unit norm)."""
+    return column_rank(X, RANK_TOLERANCE, ZERO_COLUMN)
 
 
 def _read_joint_table(path: Path) -> tuple[str, dict[str, tuple[str, str | None]]]:

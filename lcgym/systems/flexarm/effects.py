@@ -32,6 +32,7 @@ class Payload(Effect):
     Izz: float = 0.0
     name: ClassVar[str] = "payload"
     linear: ClassVar[tuple[str, ...]] = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz")
+    positive: ClassVar[tuple[str, ...]] = ("m",)
 
     def _columns(self, q, qd, qdd, base):
         from .motor import link_columns

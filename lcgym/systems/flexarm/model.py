@@ -33,7 +33,7 @@ from typing import ClassVar
 import numpy as np
 
 from ...physics.kinematics import reference_kinematics, reference_positions
-from ...physics.model import PhysicalModel
+from ...physics.model import PhysicalModel, diagnosis_decimation
 from . import dynamics as arm
 from . import motor as arm_motor
 
@@ -62,7 +62,8 @@ class ArmModel(PhysicalModel):
         no Coulomb friction; fitted to the motion the motor encoders measured."""
         nominal = arm_motor.ArmMotorParameters()
         return cls(system=system, params=dataclasses.replace(nominal, c=(0.0,) * arm_motor.N), fs=fs,
-                   positions="measured", fit_inertia=False, fit_coulomb=False)
+                   positions="measured", decimate=diagnosis_decimation(fs, cls.filter_hz), fit_inertia=False,
+                   fit_coulomb=False)
 
     def parts(self) -> tuple[str, ...]:
         return (("rigid_body" if self.fit_inertia else "rigid_body (inertial parameters as given)"),
