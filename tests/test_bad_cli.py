@@ -47,7 +47,8 @@ def inputs(tmp_path_factory):
 CASES = [
     # simulate
     (["simulate", "--controller", "magic"], "unknown controller"),
-    (["simulate", "--controller", "basic"], "unknown controller basic"),  # the FlexArm's; and ilc, rl: bench only
+    (["simulate", "--controller", "basic"], "unknown controller basic on ix"),  # the FlexArm's; and ilc, rl: bench only
+    (["simulate", "--controller", "ilc"], "unknown controller ilc"),
     (["simulate", "--controller", "physical,physical"], "physical listed twice"),
     (["simulate", "--out", "{tmp}/run.txt"], "use a file name ending in .csv or .parquet or .pq"),
     (["simulate", "--plot", "{tmp}/errors.txt"], "use a file name ending in .png or .pdf or .svg"),

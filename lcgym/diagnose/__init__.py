@@ -2,7 +2,7 @@
 learn which physical effect is missing, add it, and watch the error fall (`lcgym diagnose`).
 
     from lcgym.diagnose import diagnose
-    report = diagnose(trials, system="ix", add=["coulomb_friction@roll"])
+    report = diagnose(trials, system="ix", add=["coulomb_friction@roll"])   # or a System: a URDF, your own
     print(report.text())
 
 Steps in ``workflow.py``; the candidate search in ``search.py``; candidates and the registry of

@@ -223,7 +223,7 @@ class ViscousFriction(Effect):
 
 @dataclass(frozen=True)
 class CoulombFriction(Effect):
-    """Coulomb friction Fc * tanh(qd / eps). Fc [V or N m] linear; eps [rad/s] nonlinear (smoothing)."""
+    """Coulomb friction Fc * tanh(qd / eps). Fc [input unit] linear; eps [rad/s or m/s] nonlinear (smoothing)."""
 
     Fc: float = 0.0
     eps: float = 1e-3
@@ -240,7 +240,7 @@ class CoulombFriction(Effect):
 class StribeckFriction(Effect):
     """Stribeck increase at low speed: dF exp(-(qd/vs)^2) tanh(qd/eps).
 
-    dF = Fs - Fc [V or N m] linear (static minus Coulomb level); vs [rad/s], eps [rad/s] nonlinear.
+    dF = Fs - Fc [input unit] linear (static minus Coulomb level); vs, eps [rad/s or m/s] nonlinear.
     In a plant it adds to the friction level of the same axis (with or without stiction).
     """
 
@@ -279,7 +279,7 @@ class Stiction(Effect):
 class CableSpring(Effect):
     """One-sided cable spring: k * side * width * softplus(side (q - q0) / width).
 
-    k [V/rad] linear; q0 [rad] where the cable starts to tension, width [rad] smoothing,
+    k [input unit per rad or m] linear; q0 [rad or m] where the cable starts to tension, width smoothing,
     side (+1: tensions above q0, -1: below) nonlinear.
     """
 
@@ -300,7 +300,7 @@ class CableSpring(Effect):
 class CableInertia(Effect):
     """Configuration-dependent inertia of a cable: J(q) = dJ sigmoid((q - q0) / width).
 
-    Adds J(q) qdd + 1/2 J'(q) qd^2 (Euler-Lagrange). dJ [V s^2/rad] linear; q0, width [rad]
+    Adds J(q) qdd + 1/2 J'(q) qd^2 (Euler-Lagrange). dJ [input unit s^2 per rad or m] linear; q0, width [rad or m]
     nonlinear.
     """
 
@@ -369,7 +369,7 @@ class GearHarmonic(Effect):
 
         (s1 + s1v |qd| / v_ref) sin x + (c1 + c1v |qd| / v_ref) cos x + s2 sin 2x + c2 cos 2x
 
-    with x = 2 pi q / period. s1, c1, s1v, c1v, s2, c2 [V] linear; period [rad], v_ref [rad/s]
+    with x = 2 pi q / period. s1, c1, s1v, c1v, s2, c2 [input unit] linear; period [rad or m], v_ref [per s]
     nonlinear. It shows up at |qd| / period Hz in the input.
     """
 
@@ -448,7 +448,7 @@ class DrivetrainFlexibility(Effect):
 class TabulatedForce(Effect):
     """A force curve of any shape over the axis's velocity or position (plant only).
 
-    ``variable`` "velocity" [rad/s] or "position" [rad]; ``values`` [V] on a uniform grid of
+    ``variable`` "velocity" [rad/s or m/s] or "position" [rad or m]; ``values`` [input unit] on a uniform grid of
     ``len(values)`` points (2 to 1024) over [lo, hi], linear in between and held constant outside.
     It is no model of a physical effect: it makes plants whose hidden effects
     follow none of the library's formulas (a differently shaped friction curve, a spring that
@@ -480,7 +480,7 @@ class TabulatedForce(Effect):
         return cls(axis, variable, lo, hi, tuple(float(v) for v in function(grid)))
 
     def force(self, x) -> np.ndarray:
-        """The curve [V] at the values x of its variable (the plant's own formula)."""
+        """The curve [input unit] at the values x of its variable (the plant's own formula)."""
         values = np.asarray(self.values, dtype=float)
         return np.array([table_lookup(float(v), self.lo, self.hi, values) for v in np.ravel(x)]).reshape(np.shape(x))
 

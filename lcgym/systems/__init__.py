@@ -23,6 +23,13 @@ from .system import Axis, ParameterVector, SimulationDiverged, System
 BUILT_IN = {"ix": ("lcgym.systems.ix", "IX"), "flexarm": ("lcgym.systems.flexarm", "FLEXARM")}
 """Name -> (module, attribute) of each built-in machine."""
 
+ENVS = {
+    "lcgym/IX-v0": {"entry_point": "lcgym.systems.ix.env:IXEnv", "vector_entry_point": "lcgym.systems.ix.env:IXVectorEnv"},
+    "lcgym/FlexArm-v0": {"entry_point": "lcgym.systems.flexarm.env:FlexArmEnv"},
+}
+"""The built-in machines' Gymnasium ids and entry points (their ``System.envs`` take them from here), so
+that ``import lcgym`` registers them without importing the machines (plants, kernels, scipy)."""
+
 
 def get(spec: str | System, joints: Sequence[str] | None = None, **options) -> System:
     """The machine ``spec`` names: a ``System`` (returned as is), a built-in name (``BUILT_IN``), a
@@ -87,14 +94,13 @@ def of_trials(trials) -> System:
 
 
 def register_envs() -> None:
-    """Register every built-in machine's Gymnasium ids (``System.envs``) with Gymnasium, once."""
+    """Register the built-in machines' Gymnasium ids (``ENVS``) with Gymnasium, once."""
     import gymnasium as gym
 
-    for system in built_in():
-        for env_id, entry in system.envs.items():
-            if env_id not in gym.registry:
-                gym.register(id=env_id, **entry)
+    for env_id, entry in ENVS.items():
+        if env_id not in gym.registry:
+            gym.register(id=env_id, **entry)
 
 
-__all__ = ["Axis", "BUILT_IN", "ParameterVector", "SimulationDiverged", "System", "built_in", "from_python", "get",
+__all__ = ["Axis", "BUILT_IN", "ENVS", "ParameterVector", "SimulationDiverged", "System", "built_in", "from_python", "get",
            "of_trials", "register_envs"]

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 
+from .. import ENVS
 from ..system import Axis, System
 from . import dynamics, motor
 from .bench import FlexArmBench
@@ -44,7 +45,7 @@ FLEXARM = System(
     joint_axes=lambda: dynamics.joint_axes(dynamics.HOME),
     caching=motor.cached_regressors,
     bench=FlexArmBench,
-    envs={"lcgym/FlexArm-v0": {"entry_point": "lcgym.systems.flexarm.env:FlexArmEnv"}},
+    envs={"lcgym/FlexArm-v0": ENVS["lcgym/FlexArm-v0"]},
     observation_error=slice(30, 36),
     nominal=BasicFeedforward(),
 )

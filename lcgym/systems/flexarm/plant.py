@@ -1,7 +1,7 @@
 """The FlexArm plant: a 6-joint arm with gear compliance under motor-side PID, at 1 kHz
-(paper 002, sections 2 and 5.1). First part of its issue: the closed loop, the true dynamics with
-their mismatch against the nominal model, and the sensors; the nominal feedforward structure
-(F1, F2, tau_nl,0 of eqs. 9-15) and the Gymnasium env come next.
+(paper 002, sections 2 and 5.1): the closed loop, the true dynamics with their mismatch against
+the nominal model, and the sensors. The nominal feedforward structure (F1, F2, tau_nl,0 of eqs.
+9-15) is ``nominal.py``, the Gymnasium env ``env.py``.
 
 What one run does, per sample k (Ts = 1 ms):
 
@@ -247,7 +247,7 @@ def loop_sample(st, q_ref_k, q_ref_next, ff_k, off_k, dh, pi, drive, C, cfg, acc
     return False
 
 
-@numba.njit(cache=True, nogil=True)  # nogil: references run in parallel threads (leaderboard.systems)
+@numba.njit(cache=True, nogil=True)  # nogil: references run in parallel threads (bench.py)
 def simulate(q_ref, ff, off, dh, pi, drive, C, cfg, accel_offset, sig):
     """Closed loop over the reference after a pre-roll of cfg[6] samples at its first sample;
     fills sig (T, N_SIG); returns -1, or the sample where the state left the safe range."""

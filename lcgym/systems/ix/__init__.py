@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from .. import ENVS
 from ..system import Axis, System
 from . import dynamics
 from .bench import IXBench
@@ -48,8 +49,7 @@ IX = System(
     description="interventional X-ray C-arm of paper 000: propeller and roll, input in V",
     joint_axes=joint_axes,
     bench=IXBench,
-    envs={"lcgym/IX-v0": {"entry_point": "lcgym.systems.ix.env:IXEnv",
-                          "vector_entry_point": "lcgym.systems.ix.env:IXVectorEnv"}},
+    envs={"lcgym/IX-v0": ENVS["lcgym/IX-v0"]},
     observation_error=slice(34, 36),
 )
 

@@ -311,7 +311,7 @@ def simulate_batch(ref, ff, lengths, p, E, C, cfg, preroll, sig_out, status, fai
 
 
 # ---------------------------------------------------------------------------------------------
-# Gymnasium environments: one control sample per env step (envs/ix_env.py)
+# Gymnasium environments: one control sample per env step (env.py)
 # ---------------------------------------------------------------------------------------------
 ENV_OK, ENV_DIVERGED, ENV_BAD_ACTION = 0, 1, 2
 # env signals: loop signals, then feedforward, tracking error at t_k, next encoder reading
@@ -324,7 +324,7 @@ SC_ERR, SC_CLIP, SC_REWARD, SC_BOUND = range(4)  # env scales: obs error, obs cl
 def env_step_one(b, st, work, ref_pos, feats, base_ff, lengths, ref_idx, k, action, scales, p, E, C, cfg,
                  obs, reward, status, clipped, sig):
     """Step env b by one sample with feedforward base_ff + clip(action); write its observation,
-    reward and status. See envs/ix_env.py for the meaning of each quantity."""
+    reward and status. See env.py for the meaning of each quantity."""
     r, kb = ref_idx[b], k[b]
     if not (math.isfinite(action[b, 0]) and math.isfinite(action[b, 1])):
         status[b] = ENV_BAD_ACTION
