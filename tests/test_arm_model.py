@@ -143,4 +143,4 @@ def test_regressor_cache_lives_only_inside_its_block():
         X = arm_motor.regressor(None, q, qd, qdd)
         assert arm_motor.regressor(None, q.copy(), qd, qdd) is X and not X.flags.writeable
         assert arm_motor.regressor(None, q + 1e-9, qd, qdd) is not X  # keyed by the values
-    assert arm_motor._CACHE is None
+    assert arm_motor._CACHE._store is None  # nothing kept after the block

@@ -23,8 +23,11 @@ axis's ``input_unit`` (N m or N; the IX's amplifier input in V).
 
 from __future__ import annotations
 
+import hashlib
 import math
+from collections import OrderedDict
 from collections.abc import Callable, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -35,6 +38,46 @@ KINDS = ("revolute", "prismatic")
 
 class SimulationDiverged(RuntimeError):
     """A simulated plant left its safe range (unstable gains, huge feedforward, ...)."""
+
+
+class RegressorCache:
+    """The last ``size`` results of an expensive function of arrays (a machine's regressor), keyed
+    by the arrays' bytes, kept only while an ``active()`` block runs and returned read-only: a
+    diagnosis evaluates the model, its effects and its refits on the same kinematics many times,
+    and a long-lived process must not hold hundreds of MB between uses. ``System.caching`` is a
+    machine's ``active``."""
+
+    def __init__(self, size: int = 3):
+        self.size = size
+        self._store: OrderedDict | None = None
+
+    def get(self, compute: Callable[[], np.ndarray], *arrays: np.ndarray) -> np.ndarray:
+        """``compute()``, or the result kept for arrays of the same bytes and shapes."""
+        if self._store is None:
+            return compute()
+        h = hashlib.blake2b(digest_size=16)
+        for x in arrays:
+            h.update(np.ascontiguousarray(x).tobytes())
+        key = (h.digest(), *(np.shape(x) for x in arrays))
+        if key in self._store:
+            self._store.move_to_end(key)
+            return self._store[key]
+        result = compute()
+        result.flags.writeable = False
+        self._store[key] = result
+        while len(self._store) > self.size:
+            self._store.popitem(last=False)
+        return result
+
+    @contextmanager
+    def active(self):
+        """Keep results while the block runs (nested blocks share the outer one's store)."""
+        outer = self._store
+        self._store = OrderedDict() if outer is None else outer
+        try:
+            yield
+        finally:
+            self._store = outer
 
 
 @dataclass(frozen=True)

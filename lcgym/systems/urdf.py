@@ -29,14 +29,12 @@ such a pair is locked (the default leaves them out of the axes).
 
 from __future__ import annotations
 
-import hashlib
 import math
 import os
 import sys
 import tempfile
 import warnings
 import xml.etree.ElementTree as ET
-from collections import OrderedDict
 from collections.abc import Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -44,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from ..physics.model import column_rank
-from .system import Axis, ParameterVector, System
+from .system import Axis, ParameterVector, RegressorCache, System
 
 try:
     import pinocchio as pin
@@ -91,7 +89,7 @@ class URDFRobot:
         self._cols = np.concatenate([np.arange(10 * (i - 1), 10 * i) for i in ids])
         self._in_order = bool(np.array_equal(self._rows, np.arange(self.n_axes))
                               and np.array_equal(self._cols, np.arange(10 * self.n_axes)))
-        self._cache: OrderedDict | None = None
+        self._cache = RegressorCache(CACHE_SIZE)
 
     # ------------------------------------------------------------------ sizes and names
     @property
@@ -164,29 +162,13 @@ class URDFRobot:
         """X (T, n_axes, n_params) with u = X p [N m or N] for kinematics (T, n_axes) [rad or m, per
         s, per s^2]; ``zeta_n`` is unused (the machine is linear in all its parameters).
 
-        Inside ``with caching():`` the last ``CACHE_SIZE`` results are kept, keyed by the bytes of
-        the kinematics, and returned read-only (a diagnosis evaluates the model and its refits on
-        the same kinematics many times). Outside, nothing is kept."""
+        Inside ``with caching():`` the last ``CACHE_SIZE`` results are kept (``RegressorCache``)."""
         q, qd, qdd = (np.ascontiguousarray(np.atleast_2d(np.asarray(x, dtype=float))) for x in (q, qd, qdd))
         shapes = {x.shape for x in (q, qd, qdd)}
         if len(shapes) != 1 or q.ndim != 2 or q.shape[1] != self.n_axes:
             raise ValueError(f"{self.name}: q, qd, qdd must share one shape (T, {self.n_axes}), got "
                              f"{[x.shape for x in (q, qd, qdd)]}")
-        if self._cache is None:
-            return self._regressor(q, qd, qdd)
-        h = hashlib.blake2b(digest_size=16)
-        for x in (q, qd, qdd):
-            h.update(x.tobytes())
-        key = (h.digest(), q.shape)
-        if key in self._cache:
-            self._cache.move_to_end(key)
-            return self._cache[key]
-        X = self._regressor(q, qd, qdd)
-        X.flags.writeable = False
-        self._cache[key] = X
-        while len(self._cache) > CACHE_SIZE:
-            self._cache.popitem(last=False)
-        return X
+        return self._cache.get(lambda: self._regressor(q, qd, qdd), q, qd, qdd)
 
     def _regressor(self, q, qd, qdd) -> np.ndarray:
         T, A = q.shape
@@ -203,15 +185,9 @@ class URDFRobot:
         X[:, axes, 10 * A + axes] = qd
         return X
 
-    @contextmanager
     def caching(self):
         """Keep the last ``CACHE_SIZE`` regressors while the block runs (see ``regressor``)."""
-        outer = self._cache
-        self._cache = OrderedDict() if outer is None else outer
-        try:
-            yield
-        finally:
-            self._cache = outer
+        return self._cache.active()
 
     # ------------------------------------------------------------------ geometry
     def joint_axes(self) -> np.ndarray:

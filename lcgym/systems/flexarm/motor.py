@@ -22,14 +22,12 @@ the same RNEA, so plant and model share one implementation of the rigid body.
 
 from __future__ import annotations
 
-import hashlib
-from collections import OrderedDict
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numba
 import numpy as np
 
+from ..system import RegressorCache
 from . import dynamics as arm
 
 N = arm.N_JOINTS
@@ -95,42 +93,15 @@ def regressor(zeta_n, q, qd, qdd) -> np.ndarray:
     """X (T, 6, 78) with u = X theta for kinematics (T, 6) [rad, rad/s, rad/s^2]; ``zeta_n`` is
     unused (the arm has no nonlinear parameter; kept for the ``RigidBodySystem`` signature).
 
-    Inside ``with cached_regressors():`` the last ``CACHE_SIZE`` results are kept, keyed by the
-    kinematics' bytes (read-only arrays): a diagnosis evaluates the model, its effects and its
-    refits on the same kinematics many times, and one evaluation costs about 40 us per sample (60
-    RNEA passes). Outside, nothing is kept (a long-lived process would hold hundreds of MB)."""
+    Inside ``with cached_regressors():`` the last ``CACHE_SIZE`` results are kept (``RegressorCache``):
+    one evaluation costs about 40 us per sample (60 RNEA passes)."""
     q, qd, qdd = (np.ascontiguousarray(np.atleast_2d(np.asarray(x, dtype=float))) for x in (q, qd, qdd))
-    if _CACHE is None:
-        return _regressor(DH_TABLE, GEAR, q, qd, qdd, arm.GRAVITY, EPS)
-    h = hashlib.blake2b(digest_size=16)
-    for x in (q, qd, qdd):
-        h.update(x.tobytes())
-    key = (h.digest(), q.shape)
-    if key in _CACHE:
-        _CACHE.move_to_end(key)
-        return _CACHE[key]
-    X = _regressor(DH_TABLE, GEAR, q, qd, qdd, arm.GRAVITY, EPS)
-    X.flags.writeable = False
-    _CACHE[key] = X
-    while len(_CACHE) > CACHE_SIZE:
-        _CACHE.popitem(last=False)
-    return X
+    return _CACHE.get(lambda: _regressor(DH_TABLE, GEAR, q, qd, qdd, arm.GRAVITY, EPS), q, qd, qdd)
 
 
 CACHE_SIZE = 3
-_CACHE: OrderedDict | None = None
-
-
-@contextmanager
-def cached_regressors():
-    """Keep the last ``CACHE_SIZE`` regressors while the block runs (see ``regressor``)."""
-    global _CACHE
-    outer = _CACHE
-    _CACHE = OrderedDict() if outer is None else outer
-    try:
-        yield
-    finally:
-        _CACHE = outer
+_CACHE = RegressorCache(CACHE_SIZE)
+cached_regressors = _CACHE.active  # the FlexArm's ``System.caching``
 
 
 @numba.njit(cache=True)
