@@ -198,10 +198,9 @@ def cmd_diagnose(args) -> int:
     trials = read_trials(args.data, axes=system, min_samples=100, resample=args.resample)
     try:
         report = diagnose(trials, system=system, add=args.add, replay=args.replay, kinematics=args.kinematics,
-                          min_explained=args.min_explained, progress=sys.stderr.isatty())
+                          min_explained=args.min_explained, progress=sys.stderr.isatty(), spec=args.system)
     except DataTooShort as exc:
         raise MeasurementFileError(f"{args.data}: column 't': {exc}") from None
-    report.spec = args.system
     print(report.text())
     if args.plots is not None:  # plots first, JSON last: a failure leaves no report behind
         for path in report.plot(args.plots):
@@ -246,7 +245,8 @@ def cmd_simulate(args) -> int:
                        n_validation=args.n_validation, duration=args.duration)
     table = metric_table(results)
     with pd.option_context("display.float_format", "{:.4f}".format, "display.width", 120):
-        print(f"{args.system}, {args.n_validation} validation references (seed {args.seed}), norms of eqs. (34)-(36):")
+        print(f"{args.system}, {args.n_validation} validation reference{'s' if args.n_validation > 1 else ''} "
+              f"(seed {args.seed}), norms of eqs. (34)-(36):")
         print(table.to_string(index=False))
     if args.out:
         trials = [t for r in results for t in r.trials]
@@ -308,6 +308,9 @@ def main(argv: list[str] | None = None) -> int:
         with warnings.catch_warnings():
             warnings.showwarning = show_warning
             return commands[args.command](args)
+    except BrokenPipeError:  # the reader went away (lcgym effects | head): nothing left to say
+        sys.stderr.close()
+        return 0
     except (ValueError, OSError, RuntimeError) as exc:
         print(f"lcgym {args.command}: {exc}", file=sys.stderr)
         return 1

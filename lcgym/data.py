@@ -440,7 +440,14 @@ def _check_time(t: np.ndarray, rows: np.ndarray, where: str, resample: float | N
     off = np.flatnonzero(np.abs(dt - step) > UNIFORM_TOLERANCE * step)
     if off.size:
         r = int(rows[off[0] + 1]) + 1
+        gaps = np.flatnonzero(dt > MAX_GAP_STEPS * step)
+        if gaps.size:  # no resampling bridges it: say so first
+            g = int(gaps[0])
+            raise MeasurementFileError(
+                f"{where}: column 't', row {int(rows[g + 1]) + 1}: a gap of {dt[g]:.6g} s ({dt[g] / step:.1f} of the "
+                f"log's {step:.6g} s steps): split the log into trials there (a 'trial' column)")
+        rate = float(f"{1 / step:.3g}")  # the controller's nominal rate, not the jittered mean
         raise MeasurementFileError(
             f"{where}: column 't', row {r}: non-uniform sampling (step {dt[off[0]]:.6g} s, file step {step:.6g} s); "
-            f"to put the log on a uniform grid, resample it (lcgym diagnose --resample {1 / step:.6g})"
+            f"to put the log on a uniform grid, resample it (lcgym diagnose --resample {rate:g})"
         )

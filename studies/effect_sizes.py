@@ -1,5 +1,5 @@
 """How much tracking error each hidden effect of the default IX plant leaves behind the fitted
-rigid-model feedforward (the counterpart of spec/ix-model.md's "effect sizes alone").
+rigid-model feedforward (each effect's size alone, and what all but it leave).
 
 For each group of default effects, a plant carrying only that group is built; the rigid model
 is fitted on its training runs (feedback only) and applied to the validation references. The

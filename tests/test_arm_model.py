@@ -1,4 +1,4 @@
-"""The FlexArm's motor-side model (physics/arm_motor.py) and its least-squares fit (physics/arm_model.py)."""
+"""The FlexArm's motor-side model (systems/flexarm/motor.py) and its least-squares fit (systems/flexarm/model.py)."""
 
 import numpy as np
 import pytest

@@ -13,7 +13,7 @@ from lcgym.systems.flexarm.sensors import estimate_load_acceleration
 
 
 def test_accelerometer_estimate_matches_the_true_load_acceleration():
-    """Documented tolerance (physics/arm_sensors.py): RMS error below 6 % of the RMS load
+    """Documented tolerance (systems/flexarm/sensors.py): RMS error below 6 % of the RMS load
     acceleration for joints 2 and 3, below 30 % for joint 5 (not observable in the plane of motion
     from a 3-axis accelerometer); better than the motor side alone on joints 2 and 3."""
     ref = arm_reference_set("validation", seed=0, n_references=1)[0]

@@ -63,7 +63,7 @@ def test_readme_example_names_the_friction_and_adding_it_halves_the_elbow_residu
     assert first and first.groups() == ("coulomb_friction@elbow", "friction"), out
     before, after = map(float, re.search(r"  elbow\s+([\d.]+)\s+([\d.]+)\s+-\d+%", out).groups())
     assert after <= 0.5 * before, out
-    assert "identified: 8 combinations of the 22" in out  # the planar arm's base parameters, stated
+    assert "identified: 8 combinations of the model's 22" in out  # the planar arm's base parameters, stated
     assert f"--system {URDF} --add" in out  # the hint names the machine as the user gave it
 
 

@@ -171,3 +171,28 @@ def test_the_branch_finder_finds_a_branch(tmp_path):
     p = tmp_path / "probe.py"
     p.write_text('def f(system):\n    return 1 if system == "flexarm" else 2\n\n\nx = "ix" in ("ix",)\n')
     assert len(_name_branches(p, tmp_path)) == 2
+
+
+def test_every_cached_kernel_is_keyed_by_the_sources_it_calls():
+    """Every numba kernel of lcgym caches under ``~/.cache/lcgym/numba/<hash of its sources>``
+    (``physics.compiled.cache_dir``), not in numba's default ``__pycache__``, which watches the
+    kernel's own file only: an edited equation in a file it calls would run stale machine code."""
+    import importlib
+    import os
+    import pkgutil
+
+    import numba.core.registry
+
+    import lcgym
+
+    root = os.path.join(os.environ.get("XDG_CACHE_HOME", os.path.expanduser("~/.cache")), "lcgym", "numba")
+    seen, stale = 0, []
+    for info in pkgutil.walk_packages(lcgym.__path__, "lcgym."):
+        module = importlib.import_module(info.name)
+        for name, obj in vars(module).items():
+            cache = getattr(obj, "_cache", None)
+            if isinstance(obj, numba.core.registry.CPUDispatcher) and hasattr(cache, "_cache_path"):
+                seen += 1
+                if not cache._cache_path.startswith(root):
+                    stale.append(f"{info.name}.{name}: {cache._cache_path}")
+    assert seen > 10 and not stale, stale

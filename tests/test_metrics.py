@@ -1,4 +1,4 @@
-"""Error norms of paper 000, eqs. (34)-(36) (lcgym/leaderboard/metrics.py), against hand computations.
+"""Error norms of paper 000, eqs. (34)-(36) (lcgym/metrics.py), against hand computations.
 
 MA = mean |x|, RMS = sqrt(mean x^2), Inf = max |x|, along time, one value per axis.
 """

@@ -1,13 +1,13 @@
 """A user's machine as Python (``--system module:attr``): the README's one-axis example, run as the
-README says, on a log with a hidden friction its model lacks; and the refusals of a bad spec.
+README says, on the README's log with a hidden friction its model lacks; and the refusals of a bad
+spec.
 
-The example is read from the README itself (the code block that starts with ``# my_axis.py``), so
-the README's code cannot rot.
+The example is read from the README itself (the code blocks that start with ``# my_axis.py`` and
+``# make_log.py``), so the README's code cannot rot.
 """
 
 from __future__ import annotations
 
-import math
 import re
 import sys
 from pathlib import Path
@@ -18,7 +18,6 @@ import pytest
 
 from lcgym import systems
 from lcgym.cli import main
-from lcgym.references import AxisProfile, sample
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 FS = 1000.0
@@ -42,28 +41,25 @@ def my_axis(tmp_path, monkeypatch):
     sys.modules.pop("my_axis", None)
 
 
-def _log(path: Path, machine: systems.System, friction: float) -> Path:
-    """Moves of the carriage with force = the machine's model at its nominal parameters + a hidden
-    Coulomb friction ``friction`` [N] (tanh-smoothed at 2 mm/s); the carriage follows the reference
-    within 0.1 mm."""
-    rng = np.random.default_rng(1)
-    p = AxisProfile(0.0).dwell(0.5)
-    while p.end_time < 40.0:
-        p.move(float(rng.uniform(-0.4, 0.4)), float(rng.uniform(0.2, 0.5)), 2.0, 20.0).dwell(float(rng.uniform(0.2, 0.8)))
-    ref = sample("log", [p], FS)
-    x, v, a = ref.positions, ref.velocities, ref.accelerations
-    nominal = machine.nominal_params().to_vector()
-    u = machine.inverse_dynamics(nominal, x, v, a) + friction * np.tanh(v / 2e-3)
-    u = u + rng.normal(0.0, 0.2, u.shape)  # N: the amplifier's noise
-    pos = x + 1e-4 * np.sin(2 * math.pi * 0.3 * ref.t)[:, None]
-    pd.DataFrame({"t": ref.t, "ref_x": x[:, 0], "pos_x": pos[:, 0], "u_x": u[:, 0]}).to_csv(path, index=False)
-    return path
+def readme_log_maker() -> str:
+    blocks = re.findall(r"```python\n(# make_log\.py.*?)```", README.read_text(), flags=re.S)
+    assert len(blocks) == 1, "the README has one code block starting with '# make_log.py'"
+    return blocks[0]
+
+
+def _log(folder: Path, friction: float) -> Path:
+    """The README's log of the carriage (``make_log.py``) with its ``FRICTION`` set to ``friction`` [N]."""
+    code = readme_log_maker()
+    assert "FRICTION = 8.0" in code
+    exec(compile(code.replace("FRICTION = 8.0", f"FRICTION = {friction!r}"), "README make_log.py", "exec"),
+         {"__name__": "make_log"})
+    return folder / "log.csv"
 
 
 def test_readme_machine_is_diagnosed_and_the_friction_found(my_axis, capsys):
     machine = systems.get("my_axis:AXIS")
     assert machine.axis_names == ("x",) and machine.axes[0].kind == "prismatic" and machine.input_unit == "N"
-    log = _log(my_axis / "log.csv", machine, friction=8.0)
+    log = _log(my_axis, friction=8.0)
     assert main(["diagnose", str(log), "--system", "my_axis:AXIS", "--add", "coulomb_friction@x"]) == 0
     out = capsys.readouterr().out
     first = re.search(r"  1\. (\S+)", out)
@@ -74,7 +70,7 @@ def test_readme_machine_is_diagnosed_and_the_friction_found(my_axis, capsys):
 
 
 def test_without_the_hidden_friction_nothing_is_claimed(my_axis, capsys):
-    log = _log(my_axis / "log.csv", systems.get("my_axis:AXIS"), friction=0.0)
+    log = _log(my_axis, friction=0.0)
     assert main(["diagnose", str(log), "--system", "my_axis:AXIS"]) == 0
     assert "no missing effect found" in capsys.readouterr().out
 
@@ -83,11 +79,11 @@ def test_without_the_hidden_friction_nothing_is_claimed(my_axis, capsys):
 @pytest.mark.parametrize("spec, message", [
     ("no_such_module_xyz:AXIS", "cannot import module 'no_such_module_xyz'"),
     ("my_axis:NOPE", "module 'my_axis' has no 'NOPE'"),
-    ("my_axis:math", "is a module, not a lcgym.systems.System"),
+    ("my_axis:math", "is an object of type module, not a lcgym.systems.System"),
     ("my_axis:regressor", "calling it raised TypeError"),
 ])
 def test_a_bad_module_attr_is_refused_in_one_line(my_axis, capsys, spec, message):
-    log = _log(my_axis / "log.csv", systems.get("my_axis:AXIS"), friction=0.0)
+    log = _log(my_axis, friction=0.0)
     listing = sorted(p.name for p in my_axis.iterdir())
     assert main(["diagnose", str(log), "--system", spec]) == 1
     err = capsys.readouterr().err
@@ -125,3 +121,30 @@ def test_from_regressor_derives_the_mass_matrix_and_the_torch_path():
     with pytest.raises(ValueError, match="regressor returned shape"):
         systems.System.from_regressor("bad", ["a1"], {"a": 1.0}, lambda q, qd, qdd: np.zeros((3, 3))).regressor(
             None, np.zeros((2, 1)), np.zeros((2, 1)), np.zeros((2, 1)))
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize("build, message", [
+    (lambda: systems.Axis("x", "linear"), "kind must be 'revolute' or 'prismatic'"),
+    (lambda: systems.Axis("x@1"), "without '@'"),
+    (lambda: systems.System.from_regressor("m", ["a", "a"], {"p": 1.0}, lambda q, qd, qdd: qdd[..., None]),
+     "axis names must be unique"),
+    (lambda: systems.System.from_regressor("m", ["a"], {"p": 1.0}, lambda q, qd, qdd: qdd[..., None], positive=("mass",)),
+     "positive names ['mass'] are not parameters"),
+    (lambda: systems.System.from_regressor("m", ["a"], {"p": 1.0}, lambda q, qd, qdd: qdd[..., None], fs=-1.0),
+     "fs must be > 0"),
+    (lambda: systems.get("crane"), "unknown machine 'crane'"),
+])
+def test_a_machine_described_wrongly_is_refused(build, message):
+    with pytest.raises(ValueError, match=re.escape(message)):
+        build()
+
+
+def test_a_machine_binds_effects_to_its_own_axes():
+    machine = systems.System.from_regressor("m", [systems.Axis("x", "prismatic")], {"m": 1.0},
+                                            lambda q, qd, qdd: qdd[..., None])
+    assert machine.effect("coulomb_friction@x", Fc=2.0).index == 0
+    with pytest.raises(ValueError, match="does not apply to a prismatic axis"):
+        machine.effect("cable_drape@x")
+    with pytest.raises(ValueError, match="m has no axis 'y'"):
+        machine.effect("coulomb_friction@y")

@@ -2,7 +2,7 @@
 
 * Independent derivation: kinetic and potential energy built from the body kinematics (rotation
   matrices, CoM positions, inertia tensors), differentiated by torch autograd (Euler-Lagrange),
-  compared with M and H of physics/ix.py (the paper's closed form).
+  compared with M and H of systems/ix/dynamics.py (the paper's closed form).
 * Christoffel consistency: the velocity terms of H equal C(q, qd) qd computed from M alone, and
   Mdot - 2C is skew-symmetric.
 * Energy conservation of the unforced, undamped system; the paper's printed h2 sign breaks it.
@@ -192,7 +192,7 @@ def test_numpy_and_torch_agree():
 
 
 def test_values_by_hand():
-    """m22 and m33 of eq. (5) by hand for the default parameters (spec/ix-model.md set).
+    """m22 and m33 of eq. (5) by hand for the default IXParameters.
 
     m22(th3) = 0.96275 + 0.1027 cos^2 th3 + 0.009 sin 2 th3, so m22(0) = 1.06545 and
     m22(90 deg) = 0.96275 (the spec quotes [0.98, 1.07]; its lower end is not reproduced by its

@@ -91,7 +91,7 @@ class Diagnosis:
                  f"model: {', '.join(self.model_effects)} (least squares; residual = u - f after a 5 Hz zero-phase low-pass)",
                  f"kinematics: {self.kinematics}" if self.kinematics else None,
                  f"data: {self.resampled}" if self.resampled else None,
-                 (f"identified: {self.identified[0]} combinations of the {self.identified[1]} free rigid-body parameters "
+                 (f"identified: {self.identified[0]} combinations of the model's {self.identified[1]} free parameters "
                   "(the rest keep their nominal values)") if self.identified and self.identified[0] < self.identified[1]
                  else None,
                  "", f"residual{head}:", f"  {'axis':12s} {'MA':>8s} {'RMS':>8s} {'Inf':>8s}{col}"]

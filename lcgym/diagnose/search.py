@@ -359,8 +359,9 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
     baseline = scorer.test_sse.copy()
     own = baseline.copy()  # each axis's original error without what picks on other axes removed from it
     n_rows = prep.u.shape[0]
+    have = {e.key for e in prep.model.effects}  # a start model's own effects are not offered again
     pairs = [(c, a) for a in (range(len(axes)) if search_axes is None else search_axes) for c in candidates
-             if kinds is None or c.effect.applies_to(kinds[a])]
+             if (kinds is None or c.effect.applies_to(kinds[a])) and f"{c.name}@{axes[a]}" not in have]
     alone, selected, model = [], [], prep.model
     for step in range(max_steps):
         current = scorer.test_sse

@@ -65,7 +65,8 @@ def _check_trials(trials, system: systems.System) -> None:
 def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequence[str | Effect] = (),
              replay: bool = False, candidates: Sequence[Candidate] | None = None, model: PhysicalModel | None = None,
              min_explained: float = 0.1, min_rms: float | None = None, block_seconds: float = 4.0,
-             max_steps: int | None = None, kinematics: str = "reference", progress: bool = False) -> Diagnosis:
+             max_steps: int | None = None, kinematics: str = "reference", progress: bool = False,
+             spec: str | None = None) -> Diagnosis:
     """Run the workflow of this module on measured ``trials`` of ``system`` (a ``systems.System`` or
     what ``systems.get`` accepts).
 
@@ -80,8 +81,10 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
     "measured" (the measured position, low-passed and differentiated). Candidates are tried on the
     axes that move (reference range above the axis's ``min_travel``: a joint that stands still shows
     neither friction nor inertia); max_steps: most effects selected (default two per moving axis).
+    spec: the machine as the user named it (a URDF path, ``module:attr``) for the report's hints
+    (default ``system`` when it is a name).
     """
-    spec = system if isinstance(system, str) else None
+    spec = spec or (system if isinstance(system, str) else None)
     system = systems.get(system)
     _check_trials(trials, system)
     if not 0.0 < min_explained < 1.0:
@@ -95,7 +98,7 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
         if kinematics == "measured":
             model.positions = KINEMATICS[kinematics]
     cands = candidates_for(system) if candidates is None else list(candidates)
-    added = [_parse_add(a, model, system) for a in add]  # every check before the work
+    added = [_parse_add(a, model, system, spec or system.name) for a in add]  # every check before the work
     keys = [e.key for e in added]
     if len(set(keys)) < len(keys):
         raise ValueError(f"an effect is added twice: {keys}")
@@ -218,8 +221,9 @@ def _resampled_note(trials) -> str | None:
     return f"resampled to {done[0]['fs']:g} Hz by linear interpolation (largest gap in the log {gap:.6g} s)"
 
 
-def _parse_add(item, model: PhysicalModel, system: systems.System) -> Effect:
-    """An effect to add, bound to the machine: an Effect, or a ``name@axis`` label of a candidate."""
+def _parse_add(item, model: PhysicalModel, system: systems.System, spec: str) -> Effect:
+    """An effect to add, bound to the machine: an Effect, or a ``name@axis`` label of a candidate
+    (``spec``: the machine as the user named it, for the hint)."""
     if isinstance(item, Effect):
         return system.effect(item)
     name, axis = parse_key(item)
@@ -228,7 +232,7 @@ def _parse_add(item, model: PhysicalModel, system: systems.System) -> Effect:
     available = [c.name for c in candidates_for(system)]
     if name not in available:
         raise ValueError(f"cannot add {item}: {name!r} is not an effect diagnose can add on {system.name}; choose from "
-                         f"{', '.join(available)} (`lcgym effects --system {system.name}`)")
+                         f"{', '.join(available)} (`lcgym effects --system {spec}`)")
     return system.effect(item)
 
 

@@ -1,8 +1,9 @@
-"""Settings shared by every compiled (numba) kernel of lcgym: fast-math flags and the cache folder.
+"""Settings of lcgym's compiled (numba) kernels: the cache folder of every kernel, and the fast-math
+flags of those that use them (the IX's and the URDF plant's; the FlexArm's kernels run without).
 
 The kernels themselves live with their machines (``systems/ix/kernel.py``, ``systems/ix/compiled.py``,
-``systems/flexarm/plant.py``); they call the same ``register_jitable`` equations as the numpy and
-torch paths (no second implementation).
+``systems/flexarm/*.py``, ``systems/urdf_plant.py``); they call the same ``register_jitable``
+equations as the numpy and torch paths (no second implementation).
 """
 
 from __future__ import annotations

@@ -65,15 +65,18 @@ def from_python(module_name: str, attr: str) -> System:
     if not hasattr(module, attr):
         raise ValueError(f"machine {where}: module {module_name!r} has no {attr!r}")
     obj = getattr(module, attr)
-    if not isinstance(obj, System) and callable(obj):
-        try:
-            obj = obj()
-        except Exception as exc:
-            raise ValueError(f"machine {where}: calling it raised {type(exc).__name__}: {exc}") from None
-    if not isinstance(obj, System):
-        raise ValueError(f"machine {where} is a {type(obj).__name__}, not a lcgym.systems.System "
+    if isinstance(obj, System):
+        return obj
+    if not callable(obj):
+        raise ValueError(f"machine {where} is an object of type {type(obj).__name__}, not a lcgym.systems.System "
                          "(nor a function returning one)")
-    return obj
+    try:
+        made = obj()
+    except Exception as exc:
+        raise ValueError(f"machine {where}: calling it raised {type(exc).__name__}: {exc}") from None
+    if not isinstance(made, System):
+        raise ValueError(f"machine {where} returned an object of type {type(made).__name__}, not a lcgym.systems.System")
+    return made
 
 
 def built_in() -> list[System]:

@@ -10,11 +10,14 @@ inertias, friction coefficients; Lemma 1 of paper 000) and may be nonlinear in t
 * ``inverse_dynamics(p, q, qd, qdd) -> (T, n_axes)``, numpy or torch (autograd in p, the PGNN);
 * ``mass_matrix(p, q) -> (T, n_axes, n_axes)``, numpy or torch;
 * ``positive``: the parameters that are positive physically (masses, inertias, damping);
-* ``parameters``: a class with ``from_vector(p)`` / ``to_vector()`` whose default is the nominal
-  machine (``ParameterVector`` for machines given as a regressor).
+* ``parameters``: what makes the parameter objects (with ``to_vector()``): called without arguments
+  it gives the nominal ones; a class with ``from_vector(p)`` (the IX's ``IXParameters``) or a
+  function of the vector p (machines given by their regressor: ``ParameterVector``; see
+  ``params_from_vector``).
 
-Machines given only by their regressor (a URDF, a user's Python class; ``System.from_regressor``)
-are linear in all their parameters: inverse dynamics and mass matrix then follow from the
+Machines given only by their regressor (a URDF, a user's Python class; ``System.from_regressor``,
+whose user-side regressor is the simpler ``regressor(q, qd, qdd)``) are linear in all their
+parameters: inverse dynamics and mass matrix then follow from the
 regressor (M e_j = X(q, 0, e_j) p - X(q, 0, 0) p), with one implementation for all.
 
 Units: SI on every axis (rad or m, rad/s or m/s, rad/s^2 or m/s^2); the actuator input in the
@@ -349,6 +352,7 @@ class System:
         Other keyword arguments are ``System`` fields (fs, advance, noise_rms, description, ...)."""
         names = tuple(parameters)
         values = tuple(float(parameters[n]) for n in names)
+        axes_names = [getattr(a, "name", a) for a in axes]
         unknown = [n for n in positive if n not in names]
         if unknown:
             raise ValueError(f"{name}: positive names {unknown} are not parameters ({', '.join(names)})")
@@ -360,10 +364,18 @@ class System:
             return ParameterVector(names, v)
 
         def full(zeta_n, q, qd, qdd):
-            X = np.asarray(regressor(q, qd, qdd), dtype=float)
+            try:
+                X = np.asarray(regressor(q, qd, qdd), dtype=float)
+            except Exception as exc:  # a user's function: say whose it is, in one line
+                raise ValueError(f"{name}: the regressor raised {type(exc).__name__}: {exc}") from exc
             T, A = np.shape(q)[0], len(axes)
             if X.shape != (T, A, len(names)):
                 raise ValueError(f"{name}: the regressor returned shape {X.shape}, expected ({T}, {A}, {len(names)})")
+            bad = np.argwhere(~np.isfinite(X))
+            if len(bad):
+                k, a, j = bad[0]
+                raise ValueError(f"{name}: the regressor returned {X[k, a, j]} at sample {k}, axis {axes_names[a]}, "
+                                 f"parameter {names[j]} (q={np.asarray(q)[k].tolist()})")
             return X
 
         return cls(name=name, axes=tuple(axes), param_names=names, regressor=full, parameters=vector,

@@ -36,6 +36,8 @@ import numba
 import numpy as np
 from numba.extending import register_jitable
 
+from ...physics.compiled import cache_dir
+
 N_JOINTS = 6
 N_PARAMS_LINK = 10
 N_PARAMS = N_JOINTS * N_PARAMS_LINK
@@ -363,6 +365,12 @@ def energy(dh, pi, q, qd, gravity):
 # ---------------------------------------------------------------------------------------------
 
 
+# numba reads CACHE_DIR when a function is decorated: this module's kernels cache in a folder named
+# by a hash of the sources they call (``physics.compiled.cache_dir``), so an edited equation recompiles
+_previous_cache_dir = numba.config.CACHE_DIR
+numba.config.CACHE_DIR = cache_dir(__file__)
+
+
 @numba.njit(cache=True)
 def _rnea_batch(dh, pi, q, qd, qdd, gravity):
     out = np.empty(q.shape)
@@ -449,3 +457,5 @@ energy_compiled = numba.njit(cache=True)(energy)
 flexible_derivatives_compiled = numba.njit(cache=True)(flexible_derivatives)
 flexible_energy_compiled = numba.njit(cache=True)(flexible_energy)
 specific_force_compiled = numba.njit(cache=True)(specific_force)
+
+numba.config.CACHE_DIR = _previous_cache_dir

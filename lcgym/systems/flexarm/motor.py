@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
+from ...physics.compiled import cache_dir
 from ..system import RegressorCache
 from . import dynamics as arm
 
@@ -104,6 +105,12 @@ _CACHE = RegressorCache(CACHE_SIZE)
 cached_regressors = _CACHE.active  # the FlexArm's ``System.caching``
 
 
+# numba reads CACHE_DIR when a function is decorated: this module's kernels cache in a folder named
+# by a hash of the sources they call (``physics.compiled.cache_dir``), so an edited equation recompiles
+_previous_cache_dir = numba.config.CACHE_DIR
+numba.config.CACHE_DIR = cache_dir(__file__, arm.__file__)
+
+
 @numba.njit(cache=True)
 def _regressor(dh, gear, q, qd, qdd, gravity, eps):
     T = q.shape[0]
@@ -178,3 +185,5 @@ def _diag(v):
 
         return torch.diag_embed(v)
     return np.diag(v)
+
+numba.config.CACHE_DIR = _previous_cache_dir

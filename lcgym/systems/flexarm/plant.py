@@ -37,6 +37,7 @@ import numba
 import numpy as np
 
 from ...data import Trial
+from ...physics.compiled import cache_dir
 from ...references import Reference
 from ..system import SimulationDiverged
 from . import dynamics as arm
@@ -168,6 +169,12 @@ S_QM, S_U, S_QL, S_ACC, S_TCP = 0, 6, 12, 18, 21
 N_SIG = 24
 
 
+# numba reads CACHE_DIR when a function is decorated: this module's kernels cache in a folder named
+# by a hash of the sources they call (``physics.compiled.cache_dir``), so an edited equation recompiles
+_previous_cache_dir = numba.config.CACHE_DIR
+numba.config.CACHE_DIR = cache_dir(__file__, arm.__file__)
+
+
 @numba.njit(cache=True)
 def _rk4(x, u, dh, pi, drive, h, n, eps):
     for _ in range(n):
@@ -262,3 +269,5 @@ def simulate(q_ref, ff, off, dh, pi, drive, C, cfg, accel_offset, sig):
                        sig[k], True):
             return k
     return -1
+
+numba.config.CACHE_DIR = _previous_cache_dir

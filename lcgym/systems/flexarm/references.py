@@ -19,6 +19,7 @@ import math
 import numba
 import numpy as np
 
+from ...physics.compiled import cache_dir
 from ...references import AxisProfile, Reference, stream
 from . import dynamics as arm
 
@@ -28,6 +29,12 @@ LENGTHS = (0.60, 1.00)  # m: line lengths (paper: 60-100 cm)
 LIMITS = {"v": (0.3, 1.0), "a": (1.0, 4.0), "j": (10.0, 40.0)}  # m/s, m/s^2, m/s^3: TCP setpoint limits
 MOVING = (1, 2, 4)  # joints 2, 3, 5 (0-based)
 START_GUESS = arm.HOME  # the IK starts from the home pose (elbow up, tool down)
+
+
+# numba reads CACHE_DIR when a function is decorated: this module's kernels cache in a folder named
+# by a hash of the sources they call (``physics.compiled.cache_dir``), so an edited equation recompiles
+_previous_cache_dir = numba.config.CACHE_DIR
+numba.config.CACHE_DIR = cache_dir(__file__, arm.__file__)
 
 
 _fk = numba.njit(cache=True)(arm.forward_kinematics)
@@ -112,3 +119,5 @@ def arm_reference_set(name: str, seed: int = 0, n_references: int | None = None,
     if n < 1:
         raise ValueError(f"n_references must be >= 1 (set {name!r}), got {n}")
     return [tcp_line(f"arm-{name}-{seed}-{i}", rng, fs) for i in range(n)]
+
+numba.config.CACHE_DIR = _previous_cache_dir
