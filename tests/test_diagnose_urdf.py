@@ -189,3 +189,21 @@ def test_write_read_round_trip_keeps_urdf_axes(tmp_path):
     run = URDFPlant(arm).run(random_references(arm, n=1, duration=3.0, seed=1))[0]
     (back,) = read_trials(write_trials(tmp_path / "r.parquet", [run]), axes=arm)
     assert back.axes == JOINTS and np.array_equal(back.pos, run.pos)
+
+
+def test_a_larger_start_model_is_searched_from(example):
+    """The README's start-model recipe: the friction already in the model is not offered again."""
+    arm = systems.get(URDF, joints=JOINTS)
+    trials = read_trials(example, axes=arm)
+    start = arm.diagnosis_model(trials[0].fs).with_effect("coulomb_friction@elbow")
+    report = diagnose(trials, arm, model=start)
+    assert "coulomb_friction@elbow" in report.model_effects and "coulomb_friction@elbow" not in report.missing
+    assert report.residual["elbow"]["RMS"] < 0.4  # N m: the friction is in from the start (0.67 without it)
+
+
+@pytest.mark.bad_input
+def test_a_gap_is_named_before_resampling_is_suggested(example, tmp_path, capsys):
+    log = _jittered(example, tmp_path, gap_at=5000)
+    assert main(["diagnose", str(log), "--system", URDF]) == 1
+    err = capsys.readouterr().err
+    assert "row 5001" in err and "split the log into trials there" in err and "--resample" not in err, err

@@ -148,3 +148,27 @@ def test_a_machine_binds_effects_to_its_own_axes():
         machine.effect("cable_drape@x")
     with pytest.raises(ValueError, match="m has no axis 'y'"):
         machine.effect("coulomb_friction@y")
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize("regressor, message", [
+    (lambda q, qd, qdd: np.stack([qdd / 0.0 * 0.0, qd], axis=-1), "the regressor returned nan at sample 0, axis x"),
+    (lambda q, qd, qdd: 1 / 0, "the regressor raised ZeroDivisionError: division by zero"),
+])
+def test_a_user_regressor_that_fails_is_named_in_one_line(tmp_path, monkeypatch, capsys, regressor, message):
+    machine = systems.System.from_regressor("bad", [systems.Axis("x", "prismatic")], {"m": 1.0, "d": 1.0}, regressor)
+    module = tmp_path / "bad_machine.py"
+    module.write_text("")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import importlib
+
+    mod = importlib.import_module("bad_machine")
+    monkeypatch.setattr(mod, "AXIS", machine, raising=False)
+    t = np.arange(20_000) / 1000.0
+    log = tmp_path / "log.csv"
+    pd.DataFrame({"t": t, "pos_x": np.sin(t), "u_x": np.cos(t)}).to_csv(log, index=False)
+    with np.errstate(all="ignore"):
+        assert main(["diagnose", str(log), "--system", "bad_machine:AXIS"]) == 1
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1, err
+    sys.modules.pop("bad_machine", None)
