@@ -5,10 +5,11 @@
     lcgym leaderboard [results.csv] [--reference-set SET] [--config HASH] [--markdown OUT.md] [--html OUT.html]
     lcgym simulate [--system ix|flexarm] [--controller feedback,physical] [--out run.csv] [--plot run.png]
     lcgym diagnose DATA --system MACHINE [--add EFFECT@AXIS ...] [--kinematics reference|measured]
-                   [--resample HZ] [--json OUT.json] [--plots DIR] [--replay]
+                   [--validate OTHER] [--resample HZ] [--json OUT.json] [--plots DIR] [--replay]
     lcgym effects [--system MACHINE] [--data DATA]
+    lcgym import emps FILE.mat --out OUT.csv
 
-MACHINE: a built-in machine (ix, flexarm), a URDF file (robot.urdf: its joints named in the data
+MACHINE: a built-in machine (ix, flexarm), an example one (emps), a URDF file (robot.urdf: its joints named in the data
 are the axes, the others are locked), or module:attr naming a ``lcgym.systems.System``.
 """
 
@@ -22,6 +23,7 @@ import warnings
 from pathlib import Path
 
 SIMULATE_SYSTEMS = ("ix", "flexarm")  # the built-in machines: lcgym simulate needs a plant
+DATASETS = ("emps",)  # lcgym import: readers of lcgym.datasets
 
 
 def _controllers(text: str) -> list[str]:
@@ -175,6 +177,12 @@ def build_parser() -> argparse.ArgumentParser:
                            "a file without ref_ columns uses the measured position) or from the measured position")
     diag.add_argument("--resample", type=_rate, metavar="HZ",
                       help="put a log with non-uniform time stamps on a uniform grid at HZ (linear interpolation)")
+    diag.add_argument("--validate", type=Path, metavar="OTHER",
+                      help="another measurement file of the machine: residuals there, not fitted, before and after")
+    imp = sub.add_parser("import", help="convert a public benchmark's files into a measurement file")
+    imp.add_argument("dataset", choices=DATASETS, help="emps: the EMPS benchmark's DATA_EMPS*.mat files")
+    imp.add_argument("file", type=Path, help="the data set's file")
+    imp.add_argument("--out", required=True, type=_file_of(".csv", ".parquet", ".pq"), help="measurement file to write")
     eff = sub.add_parser("effects", help="list the effects diagnose can rank and add")
     eff.add_argument("--system", default="ix", metavar="MACHINE", help="ix, flexarm, a URDF file or module:attr")
     eff.add_argument("--data", type=Path, help="a measurement file whose pos_<joint> columns name a URDF's axes")
@@ -196,9 +204,12 @@ def cmd_diagnose(args) -> int:
             raise ValueError(f"--plots {args.plots}: cannot make a folder in {existing} ({exc.strerror})") from None
     system = _machine(args.system, args.data)
     trials = read_trials(args.data, axes=system, min_samples=100, resample=args.resample)
+    other = None if args.validate is None else read_trials(args.validate, axes=system, min_samples=100,
+                                                           resample=args.resample)
     try:
         report = diagnose(trials, system=system, add=args.add, replay=args.replay, kinematics=args.kinematics,
-                          min_explained=args.min_explained, progress=sys.stderr.isatty(), spec=args.system)
+                          min_explained=args.min_explained, progress=sys.stderr.isatty(), spec=args.system,
+                          validate=other)
     except DataTooShort as exc:
         raise MeasurementFileError(f"{args.data}: column 't': {exc}") from None
     print(report.text())
@@ -217,6 +228,17 @@ def _machine(spec: str, data: Path | None):
 
     joints = file_axes(data) if data is not None and str(spec).lower().endswith(".urdf") else None
     return systems.get(spec, joints=joints)
+
+
+def cmd_import(args) -> int:
+    from . import datasets
+    from .data import write_trials
+
+    trial = getattr(datasets, args.dataset)(args.file)
+    write_trials(args.out, [trial], meta=trial.meta)
+    print(f"wrote {args.out}: {trial.n_samples} samples at {trial.fs:g} Hz, axes {', '.join(trial.axes)} "
+          f"(lcgym diagnose {args.out} --system {args.dataset})")
+    return 0
 
 
 def cmd_effects(args) -> int:
@@ -299,7 +321,7 @@ def cmd_leaderboard(args) -> int:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     commands = {"simulate": cmd_simulate, "bench": cmd_bench, "leaderboard": cmd_leaderboard,
-                "diagnose": cmd_diagnose, "effects": cmd_effects}
+                "diagnose": cmd_diagnose, "effects": cmd_effects, "import": cmd_import}
 
     def show_warning(message, category, filename, lineno, file=None, line=None):  # one line, no source
         print(f"lcgym {args.command}: warning: {message}", file=sys.stderr)

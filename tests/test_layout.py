@@ -7,7 +7,7 @@ functions, relative ones resolved). Each module belongs to a *unit*: its folder
 The graph of units must have no cycle, and every import must go down the layers
 
     cli -> leaderboard, diagnose, simulate -> baselines, pgnn, rbf_expert -> systems -> envs
-        -> physics, references -> data, metrics, provenance
+        -> physics, references, datasets -> data, metrics, provenance
 
 (a unit may import its own layer's units where that is listed below, and any lower layer). The
 machine packages are found by name at run time (``systems.get``: ``importlib``), not imported by
@@ -29,7 +29,7 @@ LAYERS = [
     {"baselines", "pgnn", "rbf_expert"},
     {"systems", "systems.ix", "systems.flexarm", "systems.examples"},
     {"envs"},
-    {"physics", "references"},
+    {"physics", "references", "datasets"},
     {"data", "metrics", "provenance"},
 ]
 SAME_LAYER = {  # imports allowed within one layer (unit -> units)

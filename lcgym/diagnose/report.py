@@ -13,6 +13,7 @@ from ..data import atomic_write
 
 DEG = math.pi / 180.0
 NOTHING_FOUND = "no missing effect found"
+MAX_PRINTED_PARAMETERS = 8  # a machine with more (a URDF's 10 per link) has its fitted parameters in the JSON only
 
 
 @dataclass
@@ -26,7 +27,11 @@ class Diagnosis:
     ``min_rms`` {axis: noise floor [input unit]}; ``kinematics``: where the fit's kinematics came
     from; ``identified``: (rank, number) of the free linear parameters, the combinations the data
     identified (a rank-deficient regressor's base parameters); ``displays`` {axis: (factor, unit)}
-    of positions in reports (deg, mm); ``resampled``: how the log was put on a uniform grid, or None."""
+    of positions in reports (deg, mm); ``resampled``: how the log was put on a uniform grid, or None.
+    ``validation``: residual norms on another experiment, not fitted, before and after the effects
+    (``workflow.validation``), or None. ``steps``: the greedy selection step by step (what each
+    axis had left, what every candidate removed of it and its verdict; ``workflow._step_row``),
+    ``stop`` why it ended."""
 
     system: str
     axes: tuple[str, ...]
@@ -44,6 +49,8 @@ class Diagnosis:
     displays: dict = field(default_factory=dict)
     resampled: str | None = None
     spec: str | None = None  # the machine as the user named it (a URDF path, module:attr), for the hints
+    steps: list = field(default_factory=list)
+    stop: str = ""
     model: object = field(repr=False, default=None)
     suggested_model: object = field(repr=False, default=None)
     series: dict = field(repr=False, default_factory=dict)
@@ -51,6 +58,7 @@ class Diagnosis:
     after: dict | None = None
     after_model: object = field(repr=False, default=None)
     replay: dict | None = None
+    validation: dict | None = None
 
     @property
     def missing(self) -> list[str]:
@@ -63,6 +71,7 @@ class Diagnosis:
                "identified": None if self.identified is None else {"rank": self.identified[0],
                                                                     "parameters": self.identified[1]},
                "residual": self.residual, "regions": self.regions, "candidates": self.candidates,
+               "selection": {"steps": self.steps, "stop": self.stop},
                "significance": {"min_explained": self.min_explained, "min_rms": self.min_rms,
                                 "unit": {ax: r["unit"] for ax, r in self.residual.items()},
                              "order": "greedy forward selection (selected: true), then the other passing "
@@ -74,6 +83,8 @@ class Diagnosis:
             out["after"] = self.after
         if self.replay is not None:
             out["replay"] = self.replay
+        if self.validation is not None:
+            out["validation"] = self.validation
         return out
 
     def write_json(self, path: str | Path) -> Path:
@@ -81,8 +92,8 @@ class Diagnosis:
         atomic_write(path, lambda tmp: Path(tmp).write_text(json.dumps(self.to_dict(), indent=1)))
         return path
 
-    def text(self, n_regions: int = 4) -> str:
-        """The printed report."""
+    def text(self, n_regions: int = 4, n_shown: int = 3) -> str:
+        """The printed report (``n_shown``: candidates per selection step, besides those that pass)."""
         unit = {ax: r["unit"] for ax, r in self.residual.items()}
         one_unit = len(set(unit.values())) == 1
         head = f" [{self.unit}]" if one_unit else ""
@@ -122,11 +133,42 @@ class Diagnosis:
         if self.candidates:
             lines.append(f"  add the selected ones: lcgym diagnose DATA --system {self.spec or self.system} "
                          + " ".join(f"--add {m}" for m in self.missing))
+        if self.steps:
+            lines += ["", "selection step by step (held-out RMS each axis had left; the candidates that removed most "
+                      "of it, share of what was left / of the original error; all of them in the JSON):"]
+            for st in self.steps:
+                left = ", ".join(f"{ax} {v:.4g}" + ("" if one_unit else f" {unit[ax]}") for ax, v in st["left_RMS"].items())
+                revised = "".join(f"; then {r}" for r in st.get("revised", []))
+                lines.append(f"  step {st['step']}: left {left}{head}" + (f" -> add {st['picked']}" if st["picked"] else "")
+                             + revised)
+                shown = st["candidates"][:n_shown]
+                shown += [c for c in st["candidates"][n_shown:] if c["verdict"] == "passes"]
+                for c in shown:
+                    lines.append(f"    {c['effect'] + '@' + c['axis']:34s} {100 * c['share_of_left']:4.0f}% / "
+                                 f"{100 * c['share_of_original']:4.0f}%  {c['verdict']}")
+            lines.append(f"  stopped: {self.stop}")
         if self.after is not None:
             lines += ["", f"after adding {', '.join(self.after['added'])} and refitting, residual RMS{head}:",
                       f"  {'axis':12s} {'before':>8s} {'after':>8s} {'change':>8s}"]
             for ax in self.axes:
                 b, a = self.residual[ax]["RMS"], self.after["residual"][ax]["RMS"]
+                change = f"{100 * (a - b) / b:+7.0f}%" if b > 0 else "       -"
+                lines.append(f"  {ax:12s} {b:8.4f} {a:8.4f} {change}" + ("" if one_unit else f" {unit[ax]}"))
+            params = self.after.get("parameters", {})
+            if 0 < len(params) <= MAX_PRINTED_PARAMETERS:
+                lines.append("  fitted parameters: " + ", ".join(f"{n} {v:.4g}" for n, v in params.items()))
+            for e in self.after["effects"]:
+                display = self.displays.get(e["effect"].partition("@")[2], (180 / math.pi, "deg"))
+                lines.append(f"  fitted {e['effect']}: " + ", ".join(f"{n} {_fmt(n, v, display)}" for n, v in e.items()
+                                                                  if n != "effect"))
+        if self.validation is not None:
+            v = self.validation
+            what = f"with {', '.join(v['added'])}" if v["added"] else "with no effect added (none selected)"
+            lines += ["", f"validation on {v['n_samples']} samples of other data, not fitted (the model as fitted "
+                      f"above, before and {what}), residual RMS{head}:",
+                      f"  {'axis':12s} {'before':>8s} {'after':>8s} {'change':>8s}"]
+            for ax in self.axes:
+                b, a = v["residual"][ax]["RMS"], v["residual_after"][ax]["RMS"]
                 change = f"{100 * (a - b) / b:+7.0f}%" if b > 0 else "       -"
                 lines.append(f"  {ax:12s} {b:8.4f} {a:8.4f} {change}" + ("" if one_unit else f" {unit[ax]}"))
         if self.replay is not None:

@@ -21,18 +21,25 @@ axis position, |sum_k r_k w_k exp(-2 pi i q_k / P)|^2 (w = 1, or the model torqu
 ripple), at the frequency resolution the position range allows; the strongest peaks are tried
 (periods from 1 % of the axis's position scale up: 1 deg on the IX).
 
-Greedy forward selection: the passing candidate that removes the most held-out residual energy
+Greedy forward selection: at every step *every* candidate on every axis is scored again against
+what the model with the picks so far leaves (a candidate that failed before can pass once the
+effect that hid it is in). The passing candidate that removes the most held-out residual energy
 (in the input's unit, so that axes compare by what matters, not by the share of a residual that
-may be tiny) is added to the model, and the others are scored again against what remains;
-repeat until none passes, or until a pick, once the model is refitted with it, no longer lowers
-its axis's held-out error (the pick is then undone). A candidate passes when, at its step,
+may be tiny) is added to the model, its continuous nonlinear parameters refined (``refine``), and
+the model refitted. Stopping rule: the selection ends when no candidate passes, when a pick, once
+the model is refitted with it, no longer lowers its axis's held-out error (the pick is then
+undone), or after ``max_steps`` picks. Each step is recorded (``Step``: what each axis had left,
+what every candidate removed of it, and why it passed or not); the report prints and writes
+them. A candidate passes when, at its step,
 
 1. it removes at least ``min_explained`` of its axis's held-out residual energy *at that step*;
 2. it removes at least ``LATE_FACTOR`` x ``min_explained`` of the axis's *original* error (a late
-   pick must still matter against the original error, not only chase the structure that is left).
-   An axis's original error is its baseline (the model alone) less what picks on *other* axes
-   removed from it: a large effect on one axis leaks into the others through the shared
-   rigid-body fit, and once it is in, that leak is no error of theirs;
+   pick must still matter against the original error, not only chase the structure that is left),
+   or at least ``REVEALED`` of what is left (a real effect a larger one hid: once the larger one
+   is in, it explains most of the rest, where chasing explains a little of it). An axis's
+   original error is its baseline (the model alone) less what picks on *other* axes removed from
+   it: a large effect on one axis leaks into the others through the shared rigid-body fit, and
+   once it is in, that leak is no error of theirs;
 3. the removed part has an RMS of at least ``min_rms`` of its axis (the noise floor: a nearly
    perfect model otherwise makes a few millivolts of quantization structure look like a large
    share);
@@ -42,15 +49,21 @@ its axis's held-out error (the pick is then undone). A candidate passes when, at
 
 A large effect can hide a second one on the same axis until it is in: the FlexArm's payload
 hides its joints' Coulomb friction, which then removes 78-79 % of what is left, 9.7-10 % of the
-original error. Rule 2 keeps out what chases structure no static effect explains: on the IX after
-the true friction is in, a Stribeck curve still takes 14-16 % of what is left, but 2.6-3.3 % of
-the original error (``studies/diagnose_hidden_effects.py``, the cases that a 1 % bar let through).
-Among candidates on the same axis within ``tie`` of the best, the one with the fewest parameters
+original error; on the IX a one-sided cable spring of 4.5 times the RMS of a Coulomb friction on
+the same axis hides it: once the spring is in, the friction removes 47 % of what is left but, its
+energy being 1/20 of the spring's, 1.8 % of the original error, which ``REVEALED`` lets through.
+Rule 2 keeps out what chases structure no static effect explains: on the IX after the true
+friction is in, a Stribeck curve still takes 14-16 % of what is left, 2.6-3.3 % of the original
+error (``studies/diagnose_hidden_effects.py``, the cases that a 1 % bar let through).
+A candidate that ``extends`` a simpler one (asymmetric friction contains Coulomb friction) passes
+only if what it removes beyond the simpler one passes rules 1-3 against what the simpler one
+leaves. Among candidates on the same axis within ``tie`` of the best, the one with the fewest parameters
 is taken (the simpler of two friction curves that fit equally well).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -61,7 +74,8 @@ from ..physics.model import PhysicalModel
 from .candidates import Candidate
 
 DEG = math.pi / 180.0
-LATE_FACTOR = 0.5  # a pick must also remove this fraction of min_explained of its axis's original error
+LATE_FACTOR = 0.5  # a pick must also remove this fraction of min_explained of its axis's original error ...
+REVEALED = 1 / 3  # ... unless it removes at least this share of what is left: an effect a larger one hid
 
 
 @dataclass
@@ -124,7 +138,7 @@ def prepare(trials: Sequence, model: PhysicalModel, block_seconds: float = 4.0) 
     else:
         effect_cols = model._effect_columns(kin, rigid_torque)  # ripple columns scale the rigid torque
         design = model.reduce(np.concatenate([free, effect_cols], axis=2), lengths)
-        u = model.reduce(np.concatenate([tr.u for tr in trials]) - fixed, lengths)
+        u = model.reduce(model.inputs(trials) - fixed, lengths)
     dec = max(1, model.decimate)
     rows, trial, fold = [], [], []
     start = 0
@@ -136,6 +150,24 @@ def prepare(trials: Sequence, model: PhysicalModel, block_seconds: float = 4.0) 
         start += n
     fold = np.concatenate(fold)
     return Prepared(model, kin, lengths, torque, rigid_torque, u, design, fold, np.concatenate(rows), np.concatenate(trial))
+
+
+def verdict(removed: float, left: float, own: float, min_explained: float, min_rms: float, n_rows: int,
+            physical: bool = True) -> str:
+    """Why a candidate that removes ``removed`` of an axis's held-out SSE ``left`` (the axis's
+    original error ``own``) does or does not pass the significance rule of the module docstring:
+    "passes", or the first rule it fails."""
+    share = removed / left if left > 0 else 0.0
+    of_original = removed / own if own > 0 else 0.0
+    if not physical:
+        return "unphysical sign"
+    if share < min_explained:
+        return "removes too little of what is left"
+    if of_original < LATE_FACTOR * min_explained and share < REVEALED:
+        return "too little of the original error"
+    if math.sqrt(max(removed, 0.0) / n_rows) < min_rms:
+        return "below the noise floor"
+    return "passes"
 
 
 def _solve(G, b, rtol=1e-10):
@@ -255,15 +287,18 @@ class ColumnCache:
         self.prep = prep
         self.store = {k: v for k, v in self.store.items() if not k[3]}
 
-    def __call__(self, cand: Candidate, axis: int, params: dict) -> np.ndarray:
+    def __call__(self, cand: Candidate, axis: int, params: dict, keep: bool = True) -> np.ndarray:
+        """The reduced columns; ``keep=False``: not stored (a refinement's trial parameters)."""
         key = (cand.name, axis, tuple(sorted(params.items())), cand.effect.needs_base_torque)
-        if key not in self.store:
-            eff = cand.build(self.axes[axis], **params).bound(self.axes)
-            q, qd, qdd = self.prep.kin
-            base = self.prep.rigid_torque[:, axis] if eff.needs_base_torque else None
-            cols = eff.columns(q, qd, qdd, base=base)
-            self.store[key] = self.prep.reduce(cols)
-        return self.store[key]
+        if key in self.store:
+            return self.store[key]
+        eff = cand.build(self.axes[axis], **params).bound(self.axes)
+        q, qd, qdd = self.prep.kin
+        base = self.prep.rigid_torque[:, axis] if eff.needs_base_torque else None
+        cols = self.prep.reduce(eff.columns(q, qd, qdd, base=base))
+        if keep:
+            self.store[key] = cols
+        return cols
 
 
 def score_candidate(scorer: Scorer, cand: Candidate, axis: int, prep: Prepared, cache: ColumnCache,
@@ -311,12 +346,28 @@ def score_candidate(scorer: Scorer, cand: Candidate, axis: int, prep: Prepared, 
 
 
 @dataclass
+class Step:
+    """One step of the greedy selection: ``left`` (n_axes,) each axis's held-out SSE before it,
+    ``original`` each axis's original error then (rule 2), ``scores`` every candidate scored at
+    this step as (Score, held-out SSE it removes from its axis, verdict: "passes" or the rule it
+    fails), ``picked`` the Score selected (None: the selection stopped here); ``revised``: earlier
+    picks put in another form of theirs once this one was in (``rank``)."""
+
+    left: np.ndarray
+    original: np.ndarray
+    scores: list[tuple[Score, float, str]]
+    picked: Score | None = None
+    revised: list[str] = field(default_factory=list)  # earlier picks put in another form once this one is in
+
+
+@dataclass
 class Ranking:
     """Outcome of the search: ``baseline`` held-out SSE per axis of the model alone;
     ``alone`` every candidate's Score against the model alone; ``selected`` the greedy picks
     as (Score at its step, share of what was left removed at that step, held-out SSE of its axis
     before that step); ``model`` the model refitted with
-    the selected effects; ``min_rms`` (n_axes,) the noise floor per axis."""
+    the selected effects; ``min_rms`` (n_axes,) the noise floor per axis; ``steps`` every step's
+    record (``Step``); ``stop`` why the selection ended."""
 
     baseline: np.ndarray
     n_rows: int
@@ -325,6 +376,8 @@ class Ranking:
     model: PhysicalModel
     min_explained: float
     min_rms: np.ndarray
+    steps: list[Step] = field(default_factory=list)
+    stop: str = ""
 
     def explained(self, s: Score) -> float:
         return max(0.0, 1.0 - s.held_out_sse / self.baseline[s.axis]) if self.baseline[s.axis] > 0 else 0.0
@@ -343,10 +396,10 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
     """Score every candidate on every axis, then select greedily (module docstring). After each
     pick the model is refitted with it (centres of mass included) before the rest are rescored.
 
-    The pass rule at every step (module docstring): the candidate removes at least
+    The pass rule at every step (module docstring, ``verdict``): the candidate removes at least
     ``min_explained`` of its axis's current held-out residual energy, ``LATE_FACTOR`` times that
-    share of the baseline one, with a removed RMS of at least ``min_rms`` (one value, or one per
-    axis). ``search_axes``: the axis indices candidates are tried on (default all); ``scales``:
+    share of the original one (or ``REVEALED`` of what is left), with a removed RMS of at least
+    ``min_rms`` (one value, or one per axis). ``search_axes``: the axis indices candidates are tried on (default all); ``scales``:
     each axis's grid scales (``score_candidate``; default the IX's 20 deg/s and 100 deg); ``kinds``:
     the ``systems.Axis`` of each axis, where a candidate whose formula does not apply to the axis
     (``Effect.applies_to``) is skipped.
@@ -362,16 +415,18 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
     have = {e.key for e in prep.model.effects}  # a start model's own effects are not offered again
     pairs = [(c, a) for a in (range(len(axes)) if search_axes is None else search_axes) for c in candidates
              if (kinds is None or c.effect.applies_to(kinds[a])) and f"{c.name}@{axes[a]}" not in have]
-    alone, selected, model = [], [], prep.model
+    alone, selected, steps, model = [], [], [], prep.model
+    stop = f"{max_steps} effects selected (the most allowed)"
     for step in range(max_steps):
         current = scorer.test_sse
         if progress is not None:
             progress.total = progress.n + len(pairs) - len(selected)
             progress.refresh()
         scores = []
+        in_model = {(s.candidate.name, s.axis) for s, _, _ in selected}
         for cand, a in pairs:
-            if any(s.candidate.name == cand.name and s.axis == a for s, _, _ in selected):
-                continue
+            if (cand.name, a) in in_model or any((c, a) in in_model for c in _forms(cand, candidates)):
+                continue  # in the model already, or another form of it is (revisited below)
             s = score_candidate(scorer, cand, a, prep, cache, scales[a])
             if progress is not None:
                 progress.update()
@@ -379,28 +434,123 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
                 scores.append(s)
         if step == 0:
             alone = scores
-        passing = []
+        rows = []  # (score, removed, verdict) of every candidate at this step
+        by_key = {(s.candidate.name, s.axis): s for s in scores}
         for s in scores:
-            removed = current[s.axis] - s.held_out_sse
-            share = removed / current[s.axis] if current[s.axis] > 0 else 0.0
-            of_baseline = removed / own[s.axis] if own[s.axis] > 0 else 0.0
-            if (s.physical and share >= min_explained and of_baseline >= LATE_FACTOR * min_explained
-                    and math.sqrt(max(removed, 0.0) / n_rows) >= min_rms[s.axis]):
-                passing.append((s, share, removed))
+            a = s.axis
+            why = verdict(current[a] - s.held_out_sse, current[a], own[a], min_explained, min_rms[a], n_rows, s.physical)
+            inner = by_key.get((s.candidate.extends, a))
+            if why == "passes" and inner is not None:  # its extra parameters must pass against the simpler form
+                if verdict(inner.held_out_sse - s.held_out_sse, inner.held_out_sse, own[a], min_explained, min_rms[a],
+                           n_rows) != "passes":
+                    why = f"adds too little to {inner.candidate.name}"
+            rows.append((s, float(current[a] - s.held_out_sse), why))
+        record = Step(left=current.copy(), original=own.copy(), scores=rows)
+        steps.append(record)
+        passing = [(s, removed / current[s.axis], removed) for s, removed, why in rows if why == "passes"]
         if not passing:
+            stop = "no candidate passes the significance rule"
             break
         top = max(passing, key=lambda x: x[2])
         near = [x for x in passing if x[0].axis == top[0].axis and x[1] >= top[1] - tie]
         pick = min(near, key=lambda x: (x[0].candidate.n_params, -x[1]))[:2]
-        new_model = model.with_effect(pick[0].candidate.build(axes[pick[0].axis], **pick[0].params))
+        params = refine(scorer, pick[0], cache)
+        new_model = model.with_effect(pick[0].candidate.build(axes[pick[0].axis], **params))
         new_prep = prepare(trials, new_model, block_seconds)
         new_scorer = Scorer(new_prep.design, new_prep.u, new_prep.fold)
         if new_scorer.test_sse[pick[0].axis] >= current[pick[0].axis]:
-            break  # refitted with it, the model does no better held-out: do not keep it
+            stop = (f"{pick[0].candidate.name}@{axes[pick[0].axis]} passed, but refitted with it the model does no "
+                    "better held-out (not kept)")
+            break
+        record.picked = pick[0]
         selected.append((*pick, float(current[pick[0].axis])))
         others = np.arange(len(axes)) != pick[0].axis
         own[others] -= np.clip(current - new_scorer.test_sse, 0.0, None)[others]
         model, prep, scorer = new_model, new_prep, new_scorer
         cache.use(prep)
-    return Ranking(baseline, n_rows, alone, selected, model, min_explained, min_rms)
+        for k, (s, share, before) in enumerate(selected[:-1]):  # with the new pick in, is another form better now?
+            other = _other_form(s, model, trials, candidates, axes, own, min_explained, min_rms, n_rows, scorer,
+                                block_seconds, scales)
+            if other is not None:
+                record.revised.append(f"{s.candidate.name}@{axes[s.axis]} -> {other[0].candidate.name}@{axes[s.axis]}")
+                selected[k] = (other[0], share, before)
+                model, prep, scorer = other[1], other[2], Scorer(other[2].design, other[2].u, other[2].fold)
+                cache.use(prep)
+    return Ranking(baseline, n_rows, alone, selected, model, min_explained, min_rms, steps, stop)
+
+
+def _without(model: PhysicalModel, key: str) -> PhysicalModel:
+    """A new, unfitted model without effect ``key`` (``name@axis``), from ``model``'s fitted values."""
+    return dataclasses.replace(model, params=model.fitted_params,
+                               effects=tuple(e for e in model.fitted_effects if e.key != key))
+
+
+def _forms(cand: Candidate, candidates: Sequence[Candidate]) -> list[str]:
+    """Names of the other forms of ``cand``: the simpler one it extends and those that extend it."""
+    return [c.name for c in candidates if c.name != cand.name and (c.name == cand.extends or c.extends == cand.name)]
+
+
+def _other_form(s: Score, model: PhysicalModel, trials, candidates, axes, own, min_explained, min_rms, n_rows,
+                scorer: Scorer, block_seconds: float, scales) -> tuple[Score, PhysicalModel, Prepared] | None:
+    """Revisit a pick that has another form (asymmetric friction and the Coulomb friction it extends)
+    once later picks are in: each form is scored against the model without the pick, and the richer
+    one is kept only where its extra parameters pass the significance rule against what the
+    simpler one leaves (a direction-dependent level can stand in for part of a one-sided spring
+    until the spring is in; a spring picked first can hide a friction's asymmetry). Returns (the
+    other form's Score, the model with it instead, prepared), or None to keep ``s``."""
+    a = s.axis
+    others = [c for c in candidates if c.name in _forms(s.candidate, candidates)]
+    if not others:
+        return None
+    without = prepare(trials, _without(model, f"{s.candidate.name}@{axes[a]}"), block_seconds)
+    base, cache = Scorer(without.design, without.u, without.fold), ColumnCache(without, axes)
+    best = None
+    for other in others:
+        alt = score_candidate(base, other, a, without, cache, scales[a])
+        if alt is None or not alt.physical:
+            continue
+        richer, simpler = (alt, None) if other.extends == s.candidate.name else (None, alt)
+        richer_sse = scorer.test_sse[a] if richer is None else alt.held_out_sse
+        simpler_sse = scorer.test_sse[a] if simpler is None else alt.held_out_sse
+        richer_needed = verdict(simpler_sse - richer_sse, simpler_sse, own[a], min_explained, min_rms[a], n_rows) == "passes"
+        if (richer is not None and richer_needed) or (simpler is not None and not richer_needed):
+            if best is None or alt.held_out_sse < best.held_out_sse:
+                best = alt
+    if best is None:
+        return None
+    swapped = without.model.with_effect(best.candidate.build(axes[a], **best.params))
+    return best, swapped, prepare(trials, swapped, block_seconds)
+
+
+def refine(scorer: Scorer, score: Score, cache: ColumnCache, iterations: int = 60) -> dict:
+    """The picked candidate's continuous nonlinear parameters (those its grid spans as a range or
+    from the data, and a period; not a grid of fixed values such as a spring's side) refined from
+    the grid's best by Nelder-Mead on the training SSE of both folds: a spring found on a 9-point
+    grid of onsets at 25.7 deg, 1 deg wide, where the truth is 20 deg, 3 deg, leaves its own
+    shape's mismatch in the residual, and that can hide a five-times-smaller effect on its axis.
+    Positive parameters (widths, smoothing speeds, periods) are searched in log space."""
+    cand, axis = score.candidate, score.axis
+    names = [n for n, g in cand.grid.items() if not isinstance(g, tuple)] + ([cand.period] if cand.period else [])
+    if not names:
+        return dict(score.params)
+    logged = [n != "q0" for n in names]  # every continuous parameter but an onset position is > 0
+    x0 = np.array([math.log(score.params[n]) if lg else score.params[n] for n, lg in zip(names, logged, strict=True)])
+
+    def params(x) -> dict:
+        return {**score.params, **{n: float(math.exp(v) if lg else v) for n, v, lg in zip(names, x, logged, strict=True)}}
+
+    def cost(x) -> float:
+        cols = cache(cand, axis, params(x), keep=False)
+        return sum(scorer.evaluate(cols, axis, f)[0] for f in (0, 1))
+
+    from scipy.optimize import minimize
+
+    start = cost(x0)
+    result = minimize(cost, x0, method="Nelder-Mead", options={"maxiter": iterations * len(names), "xatol": 1e-3,
+                                                                 "fatol": 1e-9 * max(start, 1e-300)})
+    if result.fun >= start:
+        return dict(score.params)
+    refined = params(result.x)
+    held_out = sum(scorer.evaluate(cache(cand, axis, refined, keep=False), axis, f)[1] for f in (0, 1))
+    return refined if held_out < score.held_out_sse else dict(score.params)  # a better training fit that holds
 

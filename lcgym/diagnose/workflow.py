@@ -66,7 +66,7 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
              replay: bool = False, candidates: Sequence[Candidate] | None = None, model: PhysicalModel | None = None,
              min_explained: float = 0.1, min_rms: float | None = None, block_seconds: float = 4.0,
              max_steps: int | None = None, kinematics: str = "reference", progress: bool = False,
-             spec: str | None = None) -> Diagnosis:
+             spec: str | None = None, validate: Sequence | None = None) -> Diagnosis:
     """Run the workflow of this module on measured ``trials`` of ``system`` (a ``systems.System`` or
     what ``systems.get`` accepts).
 
@@ -82,7 +82,9 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
     axes that move (reference range above the axis's ``min_travel``: a joint that stands still shows
     neither friction nor inertia); max_steps: most effects selected (default two per moving axis).
     spec: the machine as the user named it (a URDF path, ``module:attr``) for the report's hints
-    (default ``system`` when it is a name).
+    (default ``system`` when it is a name). validate: trials of another experiment of the same
+    machine, not fitted: the residuals there of the model fitted here, before and after its effects
+    (those of ``add``, else the selected ones), computed the same way (``Diagnosis.validation``).
     """
     spec = spec or (system if isinstance(system, str) else None)
     system = systems.get(system)
@@ -102,6 +104,11 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
     keys = [e.key for e in added]
     if len(set(keys)) < len(keys):
         raise ValueError(f"an effect is added twice: {keys}")
+    if validate is not None:
+        _check_trials(validate, system)
+        if abs(validate[0].fs - trials[0].fs) > 1e-6 * trials[0].fs:
+            raise ValueError(f"diagnose: the validation data are sampled at {validate[0].fs:g} Hz, the data fitted at "
+                             f"{trials[0].fs:g} Hz; resample one of them (--resample)")
     if replay and not isinstance(trials[0].meta.get("plant"), dict):
         raise ValueError("--replay needs data simulated by lcgym: the file's sidecar has no 'plant' record")
     if replay and system.bench is None:
@@ -135,13 +142,14 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
         for k, (s, share, before) in enumerate(ranking.selected, 1):  # explained, RMS_after: the effect alone
             row = _candidate_row(ranking, alone.get((s.candidate.name, s.axis), s), axes, units, selected=True, step=share)
             row.update(step=k, RMS_before_at_selection=math.sqrt(before / ranking.n_rows),
-                       RMS_after_at_selection=math.sqrt(s.held_out_sse / ranking.n_rows))
+                       RMS_after_at_selection=math.sqrt(max(before * (1.0 - share), 0.0) / ranking.n_rows))
             rows.append(row)
         picked = {(s.candidate.name, s.axis) for s, _, _ in ranking.selected}
         rest = [s for s in ranking.alone if (s.candidate.name, s.axis) not in picked and ranking.passes_alone(s)]
         for s in sorted(rest, key=lambda s: -ranking.explained(s)):
             rows.append(_candidate_row(ranking, s, axes, units, selected=False, step=None))
 
+        steps = [_step_row(k, st, axes, ranking.n_rows) for k, st in enumerate(ranking.steps, 1)]
         info = prep.model.fit_info_
         report = Diagnosis(system=system.name, axes=axes, unit=system.input_unit, n_samples=sum(prep.lengths), fs=fs,
                            model_effects=[*prep.model.parts(), *(e.key for e in prep.model.effects)],
@@ -152,7 +160,7 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
                                    "ref_velocity": _velocity(trials, fs)[prep.rows]},
                            kinematics=_kinematics_note(trials, prep.model), identified=(info["rank"], info["n_free"]),
                            displays={a.name: a.display for a in system.axes},
-                           resampled=_resampled_note(trials), spec=spec)
+                           resampled=_resampled_note(trials), spec=spec, steps=steps, stop=ranking.stop)
         report.found = {f"{s.candidate.name}@{axes[s.axis]}": s.candidate.build(axes[s.axis], **s.params)
                         for s in ranking.alone}
         if added:
@@ -162,9 +170,13 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
                 after_model = after_model.with_effect(e)
             after = prepare(trials, after_model, block_seconds)
             report.after = {"added": [e.key for e in effects], "residual": norms(after.residual, axes, units),
-                            "effects": [_effect_params(e) for e in after.model.fitted_effects]}
+                            "effects": [_effect_params(e) for e in after.model.fitted_effects],
+                            "parameters": dict(zip(system.param_names,
+                                                   map(float, after.model.fitted_params.to_vector()), strict=True))}
             report.after_model = after.model
             report.series["residual_after"] = after.residual
+        if validate is not None:
+            report.validation = validation(validate, report, axes, units)
         if replay:
             after_model = report.after_model if report.after_model is not None else report.suggested_model
             report.replay = replay_tracking(trials, report.model, after_model, system)
@@ -206,7 +218,7 @@ def _velocity(trials, fs) -> np.ndarray:
 
 def _kinematics_note(trials, model: PhysicalModel) -> str:
     if model.positions == "position" or all(tr.ref is None for tr in trials):
-        return (f"measured position, {model.error_filter_hz:g} Hz zero-phase low-pass, then differentiated"
+        return (f"measured position, {model.kinematics_filter_hz:g} Hz zero-phase low-pass, then differentiated"
                 + (" (the data have no reference)" if model.positions != "position" else ""))
     if model.positions == "measured":
         return "reference corrected by the measured tracking error (low-passed), differentiated"
@@ -246,6 +258,33 @@ def _candidate_row(ranking, s, axes, units, selected: bool, step: float | None) 
             "RMS_before": math.sqrt(ranking.baseline[s.axis] / ranking.n_rows),
             "RMS_after": math.sqrt(s.held_out_sse / ranking.n_rows), "unit": units[s.axis], "selected": selected,
             "explained_at_selection": step, "parameters": {k: float(v) for k, v in s.params.items()}}
+
+
+def validation(trials: Sequence, report: Diagnosis, axes, units) -> dict:
+    """Residual norms on ``trials`` (not fitted) of the report's fitted model before and after its
+    effects (``after_model`` with ``add``, else the model refitted with the selected effects)."""
+    after_model = report.after_model if report.after_model is not None else report.suggested_model
+    added = [e.key for e in after_model.effects if e.key not in {f.key for f in report.model.effects}]
+    return {"trials": len(trials), "n_samples": int(sum(tr.n_samples for tr in trials)), "added": added,
+            "residual": norms(report.model.residual(trials), axes, units),
+            "residual_after": norms(after_model.residual(trials), axes, units)}
+
+
+def _step_row(k: int, step, axes, n_rows: int) -> dict:
+    """One greedy step for the report: each axis's held-out RMS left, and every candidate scored
+    then, the most removed first (``removed_RMS``: RMS of what it removes; ``share_of_left`` of
+    the axis's held-out energy then; ``share_of_original`` of its original error; ``verdict``);
+    ``revised``: earlier picks put in another form of theirs once this one was in."""
+    rows = []
+    for s, removed, why in sorted(step.scores, key=lambda x: -x[1]):
+        a = s.axis
+        rows.append({"effect": s.candidate.name, "axis": axes[a], "removed_RMS": math.sqrt(max(removed, 0.0) / n_rows),
+                     "share_of_left": max(removed, 0.0) / step.left[a] if step.left[a] > 0 else 0.0,
+                     "share_of_original": max(removed, 0.0) / step.original[a] if step.original[a] > 0 else 0.0,
+                     "verdict": why})
+    picked = None if step.picked is None else f"{step.picked.candidate.name}@{axes[step.picked.axis]}"
+    return {"step": k, "left_RMS": {ax: math.sqrt(float(step.left[i]) / n_rows) for i, ax in enumerate(axes)},
+            "picked": picked, "revised": list(step.revised), "candidates": rows}
 
 
 def replay_tracking(trials: Sequence, before: PhysicalModel, after: PhysicalModel,

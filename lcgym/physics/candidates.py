@@ -50,12 +50,16 @@ class Candidate:
     ``family`` (friction, spring, inertia, periodic, gravity, user) and ``grid``: for each
     nonlinear parameter, a tuple of values, a ``Scaled`` or a function ``(q, qd, axis_index) ->
     values``. ``period``: the name of a nonlinear parameter that is a period over the axis position,
-    found from the spectrum of the residual (not gridded), or None."""
+    found from the spectrum of the residual (not gridded), or None. ``extends``: the name of a
+    simpler candidate whose form this one contains (asymmetric friction contains Coulomb friction):
+    it is taken only where its extra parameters pass the significance rule against what the
+    simpler one leaves (``diagnose.search``)."""
 
     effect: type[fx.Effect]
     family: str
     grid: dict[str, tuple | Scaled | Callable] = field(default_factory=dict)
     period: str | None = None
+    extends: str | None = None
 
     @property
     def name(self) -> str:
@@ -91,6 +95,9 @@ LIBRARY: tuple[Candidate, ...] = (
     # Stribeck velocities stop at 40 % of the speed scale: a wider bump is Coulomb friction
     Candidate(fx.StribeckFriction, "friction", {"vs": Scaled(tuple(np.geomspace(0.005, 0.4, 20))),
                                                 "eps": Scaled((0.0025, 0.01))}),
+    Candidate(fx.AsymmetricFriction, "friction", {"eps": Scaled((0.0025, 0.01, 0.025, 0.05, 0.1))},
+              extends="coulomb_friction"),
+    Candidate(fx.Offset, "offset"),
     Candidate(fx.CableSpring, "spring", {"q0": angle_quantiles, "width": Scaled((0.01, 0.05), "position"),
                                          "side": (-1.0, 1.0)}),
     Candidate(fx.CableInertia, "inertia", {"q0": lambda q, qd, i: angle_quantiles(q, qd, i, 5),

@@ -61,6 +61,15 @@ def stribeck_shape(v, vs):
 
 
 @register_jitable
+def asymmetric_friction_basis(v, eps):
+    """Basis of a friction with levels of its own in each direction: (h, -(1 - h), v (2 h - 1)),
+    h = (1 + tanh(v / eps)) / 2 the smoothed "moving forward" indicator [-]; v (2 h - 1) is |v|
+    smoothed [rad/s or m/s]."""
+    s = smooth_sign(v, eps)
+    return 0.5 * (1.0 + s), -0.5 * (1.0 - s), v * s
+
+
+@register_jitable
 def softplus(x):
     """log(1 + exp(x)), overflow-free."""
     return 0.5 * (x + np.abs(x)) + np.log1p(np.exp(-np.abs(x)))
@@ -255,6 +264,46 @@ class StribeckFriction(Effect):
     def _columns(self, q, qd, qdd, base):
         v = self._v(qd)
         return (stribeck_shape(v, self.vs) * smooth_sign(v, self.eps),)
+
+
+@dataclass(frozen=True)
+class AsymmetricFriction(Effect):
+    """Friction whose levels differ by direction of motion (a worn screw, a preloaded guide):
+
+        Fc_pos h(qd) - Fc_neg (1 - h(qd)) + dFv qd (2 h(qd) - 1),    h(qd) = (1 + tanh(qd / eps)) / 2
+
+    Fc_pos, Fc_neg [input unit] the Coulomb levels moving forward and backward, dFv [input unit
+    s/rad or s/m] half the difference of the viscous coefficients (the model's own viscous d is
+    their mean: Fv_pos = d + dFv, Fv_neg = d - dFv; qd (2h - 1) is |qd| smoothed), linear; eps
+    [rad/s or m/s] nonlinear (smoothing). The form of the EMPS benchmark's asymmetric friction
+    (Janot, Gautier and Brunot 2019, eq. 12), smoothed; a constant input offset lies in its span
+    (Fc_pos - Fc_neg moves both levels alike).
+    """
+
+    Fc_pos: float = 0.0
+    Fc_neg: float = 0.0
+    dFv: float = 0.0
+    eps: float = 1e-3
+    name: ClassVar[str] = "asymmetric_friction"
+    linear: ClassVar[tuple[str, ...]] = ("Fc_pos", "Fc_neg", "dFv")
+    positive: ClassVar[tuple[str, ...]] = ("Fc_pos", "Fc_neg")
+    nonlinear: ClassVar[tuple[str, ...]] = ("eps",)
+
+    def _columns(self, q, qd, qdd, base):
+        return asymmetric_friction_basis(self._v(qd), self.eps)
+
+
+@dataclass(frozen=True)
+class Offset(Effect):
+    """A constant input on the axis: an amplifier's or a force sensor's bias, a constant load (an
+    unbalance the rigid body lacks, a cable's pull). c [input unit], linear, of either sign."""
+
+    c: float = 0.0
+    name: ClassVar[str] = "offset"
+    linear: ClassVar[tuple[str, ...]] = ("c",)
+
+    def _columns(self, q, qd, qdd, base):
+        return (np.ones_like(self._v(qd)),)
 
 
 @dataclass(frozen=True)
@@ -488,7 +537,7 @@ class TabulatedForce(Effect):
 EFFECTS: dict[str, type[Effect]] = {
     cls.name: cls
     for cls in (
-        ViscousFriction, CoulombFriction, StribeckFriction, Stiction,
+        ViscousFriction, CoulombFriction, StribeckFriction, AsymmetricFriction, Offset, Stiction,
         CableSpring, CableInertia, RotorInertia, TorqueRipple, GearHarmonic, CableDrape, DrivetrainFlexibility,
         TabulatedForce,
     )

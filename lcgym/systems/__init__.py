@@ -2,6 +2,7 @@
 
     from lcgym import systems
     ix = systems.get("ix")                              # a built-in benchmark machine
+    emps = systems.get("emps")                          # a worked example of real data (``EXAMPLES``)
     arm = systems.get("path/to/robot.urdf", joints=("shoulder", "elbow"))   # a URDF (pinocchio)
     mine = systems.get("my_module:MY_MACHINE")          # a System (or a function returning one)
 
@@ -23,6 +24,10 @@ from .system import Axis, ParameterVector, SimulationDiverged, System
 BUILT_IN = {"ix": ("lcgym.systems.ix", "IX"), "flexarm": ("lcgym.systems.flexarm", "FLEXARM")}
 """Name -> (module, attribute) of each built-in machine."""
 
+EXAMPLES = {"emps": ("lcgym.systems.examples.emps", "EMPS")}
+"""Name -> (module, attribute) of machines shipped as worked examples of real data (no plant: the
+diagnosis and the physical model run on them, the benchmark does not)."""
+
 ENVS = {
     "lcgym/IX-v0": {"entry_point": "lcgym.systems.ix.env:IXEnv", "vector_entry_point": "lcgym.systems.ix.env:IXVectorEnv"},
     "lcgym/FlexArm-v0": {"entry_point": "lcgym.systems.flexarm.env:FlexArmEnv"},
@@ -39,8 +44,8 @@ def get(spec: str | System, joints: Sequence[str] | None = None, **options) -> S
     if isinstance(spec, System):
         return spec
     spec = str(spec)
-    if spec in BUILT_IN:
-        module, attr = BUILT_IN[spec]
+    if spec in BUILT_IN or spec in EXAMPLES:
+        module, attr = {**BUILT_IN, **EXAMPLES}[spec]
         return getattr(importlib.import_module(module), attr)
     if spec.lower().endswith(".urdf"):
         from .urdf import from_urdf
@@ -49,7 +54,7 @@ def get(spec: str | System, joints: Sequence[str] | None = None, **options) -> S
     module_name, sep, attr = spec.partition(":")
     if sep and module_name and attr:
         return from_python(module_name, attr)
-    raise ValueError(f"unknown machine {spec!r}: give a built-in one ({', '.join(BUILT_IN)}), a .urdf file, "
+    raise ValueError(f"unknown machine {spec!r}: give a built-in one ({', '.join([*BUILT_IN, *EXAMPLES])}), a .urdf file, "
                      "or module:attr naming a lcgym.systems.System")
 
 
@@ -105,5 +110,5 @@ def register_envs() -> None:
             gym.register(id=env_id, **entry)
 
 
-__all__ = ["Axis", "BUILT_IN", "ENVS", "ParameterVector", "SimulationDiverged", "System", "built_in", "from_python", "get",
-           "of_trials", "register_envs"]
+__all__ = ["Axis", "BUILT_IN", "ENVS", "EXAMPLES", "ParameterVector", "SimulationDiverged", "System", "built_in",
+           "from_python", "get", "of_trials", "register_envs"]

@@ -18,10 +18,12 @@ does, per sample k (Ts = 1 / fs):
    advance by ``substeps`` classical RK4 steps, the accelerations by pinocchio's ``aba``.
 
 The effects' formulas are the library's own (``register_jitable`` functions of ``physics.effects``,
-compiled with numba here); only effects whose torque depends on q and qd alone can act: viscous,
-Coulomb and Stribeck friction, cable springs and drapes, gear harmonics and tabulated forces over
-velocity or position. Effects with internal state or that need qdd or the input (stiction,
-drivetrain flexibility, cable inertia, torque ripple) are refused.
+compiled with numba here); effects whose torque depends on q and qd alone act through them:
+viscous, Coulomb, Stribeck and asymmetric friction, offsets, cable springs and drapes, gear
+harmonics and tabulated forces over velocity or position. A rotor inertia J (``rotor_inertia``)
+is added to pinocchio's ``armature`` of its joint, which ``aba`` adds to the diagonal of M(q).
+Effects with internal state or that need qdd or the input otherwise (stiction, drivetrain
+flexibility, cable inertia, torque ripple) are refused.
 
 Step size: a smoothed Coulomb friction Fc tanh(qd / eps) is stiff near standstill (slope Fc / eps
 against the axis's inertia). ``substeps=None`` picks the number of RK4 steps per sample so that
@@ -60,8 +62,8 @@ STEP_RATE = 1.0  # h times the fastest effect rate (RK4's real-axis stability li
 INERTIA_SAMPLES = 64  # random configurations for the axis inertias (gains, step size)
 DEFAULT_MAX_ERROR = {"revolute": 30 * math.pi / 180, "prismatic": 0.1}  # rad, m
 
-SUPPORTED = (fx.ViscousFriction, fx.CoulombFriction, fx.StribeckFriction, fx.CableSpring, fx.CableDrape,
-             fx.GearHarmonic, fx.TabulatedForce)
+SUPPORTED = (fx.ViscousFriction, fx.CoulombFriction, fx.StribeckFriction, fx.AsymmetricFriction, fx.Offset,
+             fx.CableSpring, fx.CableDrape, fx.GearHarmonic, fx.TabulatedForce, fx.RotorInertia)
 REFUSED = {
     fx.Stiction: "has internal state (LuGre bristles)",
     fx.DrivetrainFlexibility: "adds states (a motor inertia behind a spring)",
@@ -73,8 +75,9 @@ REFUSED = {
 (
     VISC, FC, FC_EPS, ST_DF, ST_VS, ST_EPS, SP_K, SP_Q0, SP_W, SP_SIDE, DR_S, DR_C,
     GH_S1, GH_C1, GH_S1V, GH_C1V, GH_S2, GH_C2, GH_PER, GH_VREF, TB_N, TB_LO, TB_HI, TB_POS,
-) = range(24)
-N_SLOTS = 24
+    AF_POS, AF_NEG, AF_DFV, AF_EPS, OFFSET, ROTOR,
+) = range(30)
+N_SLOTS = 30
 # controller and mapping slots, one row per axis
 KP, KD, KI, ALPHA, UMAX, RES, MAXERR, IQ, CONT = range(9)
 N_CTRL = 9
@@ -110,7 +113,10 @@ def effect_torque(q, v, e, table):
     if e[TB_N] > 0.0:
         x = q if e[TB_POS] > 0.0 else v
         tau += fx.table_lookup(x, e[TB_LO], e[TB_HI], table[: int(e[TB_N])])
-    return tau
+    if e[AF_EPS] != 0.0:
+        b = fx.asymmetric_friction_basis(v, e[AF_EPS])
+        tau += e[AF_POS] * b[0] + e[AF_NEG] * b[1] + e[AF_DFV] * b[2]
+    return tau + e[OFFSET]
 
 
 @numba.njit(cache=True, fastmath=FASTMATH)
@@ -331,6 +337,14 @@ def _pack(e: fx.Effect, row: np.ndarray, table: np.ndarray) -> None:
         values = np.asarray(e.values, dtype=float)
         row[[TB_N, TB_LO, TB_HI, TB_POS]] = values.size, e.lo, e.hi, float(e.variable == "position")
         table[: values.size] = values
+    elif isinstance(e, fx.AsymmetricFriction):
+        row[[AF_POS, AF_NEG, AF_DFV, AF_EPS]] = e.Fc_pos, e.Fc_neg, e.dFv, e.eps
+    elif isinstance(e, fx.Offset):
+        row[OFFSET] = e.c
+    elif isinstance(e, fx.RotorInertia):
+        if e.J < 0:
+            raise ValueError(f"{e.key}: a rotor inertia must be >= 0, got {e.J}")
+        row[ROTOR] = e.J  # goes into the model's armature (URDFPlant), not into effect_torque
 
 
 def effect_slopes(E: np.ndarray, tables: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -340,8 +354,10 @@ def effect_slopes(E: np.ndarray, tables: np.ndarray) -> tuple[np.ndarray, np.nda
     def over(x, slot, gate):  # x / E[:, slot] where the effect is on, 0 elsewhere
         return np.where(gate, x / np.where(gate, E[:, slot], 1.0), 0.0)
 
-    coulomb, stribeck, gear = E[:, FC] != 0, E[:, ST_DF] != 0, E[:, GH_PER] != 0
+    coulomb, stribeck, gear, asym = E[:, FC] != 0, E[:, ST_DF] != 0, E[:, GH_PER] != 0, E[:, AF_EPS] != 0
     dv = np.abs(E[:, VISC]) + over(np.abs(E[:, FC]), FC_EPS, coulomb)
+    # the asymmetric friction: (Fc_pos + Fc_neg) / (2 eps) from the step, |dFv| from the |v| term
+    dv += over(0.5 * (np.abs(E[:, AF_POS]) + np.abs(E[:, AF_NEG])), AF_EPS, asym) + np.abs(E[:, AF_DFV])
     # the Stribeck term: dF / eps from the sign, at most 0.86 dF / vs from the bump
     dv += over(np.abs(E[:, ST_DF]), ST_EPS, stribeck) + over(0.86 * np.abs(E[:, ST_DF]), ST_VS, stribeck)
     dq = np.abs(E[:, SP_K]) + np.hypot(E[:, DR_S], E[:, DR_C])
@@ -397,6 +413,10 @@ class URDFPlant:
         self.effects = tuple(effects)
         self._E, self._tables, self.bound_effects = pack_effects(self.effects, system, self.robot)
         self._E[self.robot.v_index, VISC] += viscous
+        if np.any(self._E[:, ROTOR] != 0):  # rotor inertias: on a copy, the system's model stays the URDF's
+            self.model = self.model.copy()
+            self.model.armature = self.model.armature + self._E[:, ROTOR]
+            self.data = self.model.createData()
         self.gains = gains if gains is not None else FeedbackGains.tuned(system, fs=fs)
         if len(self.gains.kp) != self.n_axes:
             raise ValueError(f"gains for {len(self.gains.kp)} axes, but {system.name} has {self.n_axes}")
