@@ -35,6 +35,28 @@ def test_torque_is_columns_times_coefficients_on_own_axis():
         np.testing.assert_allclose(tau[:, e.index], e.columns(q, qd, qdd) @ e.coefficients())
 
 
+def test_asymmetric_friction_levels_by_direction():
+    """Well above eps: Fc_pos + (d + dFv) qd moving forward, -Fc_neg + (d - dFv) qd backward (with
+    the model's viscous d); equal levels and dFv = 0 are the Coulomb friction; the levels' mean and
+    half difference are a Coulomb friction plus an offset (the form spans a constant input)."""
+    q, qd, qdd = kin()
+    e = fx.AsymmetricFriction("roll", Fc_pos=0.2, Fc_neg=0.15, dFv=0.03, eps=1e-4).bound(AXES)
+    tau, v = e.torque(q, qd, qdd)[:, 1], qd[:, 1]
+    fast = np.abs(v) > 0.01
+    d = 0.1
+    expected = np.where(v > 0, 0.2 + (d + 0.03) * v, -0.15 + (d - 0.03) * v)
+    np.testing.assert_allclose((tau + d * v)[fast], expected[fast], atol=1e-12)
+    same = fx.AsymmetricFriction("roll", Fc_pos=0.1, Fc_neg=0.1, eps=0.01).bound(AXES)
+    coulomb = fx.CoulombFriction("roll", Fc=0.1, eps=0.01).bound(AXES)
+    np.testing.assert_allclose(same.torque(q, qd, qdd), coulomb.torque(q, qd, qdd), atol=1e-15)
+    split = fx.AsymmetricFriction("roll", Fc_pos=0.3, Fc_neg=0.1, eps=0.01).bound(AXES).torque(q, qd, qdd)
+    parts = (fx.CoulombFriction("roll", Fc=0.2, eps=0.01).bound(AXES).torque(q, qd, qdd)
+             + fx.Offset("roll", c=0.1).bound(AXES).torque(q, qd, qdd))
+    np.testing.assert_allclose(split, parts, atol=1e-15)
+    offset = fx.Offset("propeller", c=-0.05).bound(AXES).torque(q, qd, qdd)
+    assert np.all(offset[:, 0] == -0.05) and np.all(offset[:, 1] == 0)
+
+
 def test_cable_inertia_is_euler_lagrange_of_its_kinetic_energy():
     """T = 1/2 J(q) qd^2 with J = dJ sigmoid((q - q0)/w): d/dt dT/dqd - dT/dq by autograd."""
     e = fx.CableInertia("roll", dJ=0.06, q0=20 * DEG, width=10 * DEG).bound(AXES)

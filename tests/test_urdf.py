@@ -412,6 +412,49 @@ def test_divergence_is_reported(arm, tally):
     tally("fault", 2)
 
 
+def _carriage(tmp_path, mass: float):
+    path = tmp_path / f"carriage_{mass:g}.urdf"
+    path.write_text(f"""<robot name="carriage"><link name="base"/>
+      <link name="slide"><inertial><mass value="{mass}"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/>
+      </inertial></link>
+      <joint name="x" type="prismatic"><parent link="base"/><child link="slide"/><axis xyz="1 0 0"/>
+      <limit lower="0" upper="0.3" effort="100" velocity="0.5"/></joint></robot>""")
+    return from_urdf(path, joints=("x",))
+
+
+def test_rotor_inertia_is_added_mass_on_a_prismatic_axis(tmp_path):
+    """J on a slide is J more kg of slide (M + J) qdd = u, and the URDF's own model stays as it was."""
+    u = np.column_stack([20.0 * np.sin(np.arange(2000) / 150.0)])
+    light = _carriage(tmp_path, 20.0)
+    rotor = URDFPlant(light, effects=[fx.RotorInertia("x", J=5.0)], substeps=2)
+    heavy = URDFPlant(_carriage(tmp_path, 25.0), substeps=2)
+    a, b = rotor.free_response([0.1], [0.0], u), heavy.free_response([0.1], [0.0], u)
+    assert np.abs(a[0] - a[0][0]).max() > 0.05  # it moves (m)
+    np.testing.assert_allclose(a[0], b[0], atol=1e-12)
+    np.testing.assert_allclose(a[1], b[1], atol=1e-11)
+    assert urdf_robot(light).model.armature[0] == 0.0  # the system's model is untouched
+
+
+def test_asymmetric_friction_and_offset_in_the_plant(arm, tmp_path):
+    """Equal levels and no viscous asymmetry are the Coulomb friction; an offset is a constant
+    table; on a slide pushed forward, the forward level acts and the backward one does not."""
+    u = np.tile([0.0, 3.0], (400, 1))
+    run = lambda *e: URDFPlant(arm, effects=list(e), substeps=4).free_response([0.2, 0.1], [0.0, 0.0], u)  # noqa: E731
+    same = run(fx.AsymmetricFriction("elbow", Fc_pos=1.0, Fc_neg=1.0, eps=0.05))
+    np.testing.assert_allclose(same[0], run(fx.CoulombFriction("elbow", Fc=1.0, eps=0.05))[0], atol=1e-12)
+    constant = fx.TabulatedForce("elbow", "position", -10.0, 10.0, (-0.7, -0.7))
+    np.testing.assert_allclose(run(fx.Offset("elbow", c=-0.7))[0], run(constant)[0], atol=1e-12)
+    slide, push = _carriage(tmp_path, 20.0), np.full((500, 1), 30.0)  # N: a = 1.5 m/s^2 without friction
+    travel = {}
+    for label, levels in (("free", (0.0, 0.0)), ("forward", (10.0, 0.0)), ("backward", (0.0, 10.0))):
+        effects = [fx.AsymmetricFriction("x", Fc_pos=levels[0], Fc_neg=levels[1], eps=1e-3)] if any(levels) else []
+        q = URDFPlant(slide, effects=effects, substeps=8).free_response([0.0], [0.0], push)[0][:, 0]
+        travel[label] = q[-1] - q[0]
+    assert travel["free"] == pytest.approx(0.5 * 1.5 * 0.5**2, rel=0.01)  # x = a t^2 / 2 over 0.5 s
+    assert travel["forward"] == pytest.approx(0.5 * 1.0 * 0.5**2, rel=0.01)  # (30 - 10) N / 20 kg
+    assert travel["backward"] == pytest.approx(travel["free"], rel=1e-3)
+
+
 @pytest.mark.bad_input
 def test_plant_refuses_what_it_cannot_simulate(arm, tally):
     for effect, why in ((fx.Stiction("elbow"), "internal state"), (fx.CableInertia("elbow", dJ=0.1), "needs qdd"),
@@ -424,7 +467,9 @@ def test_plant_refuses_what_it_cannot_simulate(arm, tally):
         URDFPlant(arm, effects=[fx.CoulombFriction("elbow", Fc=50.0, eps=1e-5)])
     with pytest.raises(ValueError, match=r"shape \(T >= 2, 2\)"):
         URDFPlant(arm).run(np.zeros((100, 3)))
-    tally("bad_input", 6)
+    with pytest.raises(ValueError, match="rotor inertia must be >= 0"):
+        URDFPlant(arm, effects=[fx.RotorInertia("elbow", J=-0.1)])
+    tally("bad_input", 7)
 
 
 def test_random_references_stay_within_the_limits(arm, panda):

@@ -23,7 +23,8 @@ class Diagnosis:
     by their share alone); ``after`` / ``replay`` with ``add`` / ``replay``. ``model`` is the
     fitted nominal model, ``suggested_model`` the model refitted with the selected effects,
     ``found`` every candidate effect (``name@axis``) with the nonlinear parameters the search
-    chose, ready for ``model.with_effect``. ``series`` holds the reduced signals for plots.
+    chose (a selected one's as the selection refined them), ready for ``model.with_effect``.
+    ``series`` holds the reduced signals for plots.
     ``min_rms`` {axis: noise floor [input unit]}; ``kinematics``: where the fit's kinematics came
     from; ``identified``: (rank, number) of the free linear parameters, the combinations the data
     identified (a rank-deficient regressor's base parameters); ``displays`` {axis: (factor, unit)}
@@ -51,6 +52,7 @@ class Diagnosis:
     spec: str | None = None  # the machine as the user named it (a URDF path, module:attr), for the hints
     steps: list = field(default_factory=list)
     stop: str = ""
+    options: str = ""  # command-line options the hints repeat (--kinematics measured)
     model: object = field(repr=False, default=None)
     suggested_model: object = field(repr=False, default=None)
     series: dict = field(repr=False, default_factory=dict)
@@ -132,7 +134,7 @@ class Diagnosis:
                          f"({how}{'; ' + params if params else ''})")
         if self.candidates:
             lines.append(f"  add the selected ones: lcgym diagnose DATA --system {self.spec or self.system} "
-                         + " ".join(f"--add {m}" for m in self.missing))
+                         + (f"{self.options} " if self.options else "") + " ".join(f"--add {m}" for m in self.missing))
         if self.steps:
             lines += ["", "selection step by step (held-out RMS each axis had left; the candidates that removed most "
                       "of it, share of what was left / of the original error; all of them in the JSON):"]

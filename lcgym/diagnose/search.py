@@ -137,7 +137,9 @@ def prepare(trials: Sequence, model: PhysicalModel, block_seconds: float = 4.0) 
         design, u = model.reduced_
     else:
         effect_cols = model._effect_columns(kin, rigid_torque)  # ripple columns scale the rigid torque
-        design = model.reduce(np.concatenate([free, effect_cols], axis=2), lengths)
+        nonlinear = model.nonlinear_design(kin)  # zeta_n refitted to first order with each candidate
+        parts = [free] + ([] if nonlinear is None else [nonlinear]) + [effect_cols]
+        design = model.reduce(np.concatenate(parts, axis=2), lengths)
         u = model.reduce(model.inputs(trials) - fixed, lengths)
     dec = max(1, model.decimate)
     rows, trial, fold = [], [], []

@@ -15,8 +15,9 @@ one, a URDF, a user's Python class). The steps, in order:
 3. What is missing: every candidate effect on every moving axis, scored on held-out data, greedy
    forward selection (``search.py``); candidates that pass the significance rule, best first.
 4. Add it: ``add=["coulomb_friction@roll", ...]`` refits the model with those effects (their
-   nonlinear parameters as the search found them for the effect alone, step 3) and gives the
-   residual after, computed the same way;
+   nonlinear parameters as the selection refined them, or for an effect not selected as the
+   search found them for the effect alone, step 3) and gives the residual after, computed the
+   same way;
    ``replay`` re-runs the plant the data came from (a built-in machine's simulated data) with the
    feedforward of the model before and after and compares the tracking errors.
 """
@@ -139,10 +140,14 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
 
         rows = []
         alone = {(s.candidate.name, s.axis): s for s in ranking.alone}
+        refined = {e.key: e for e in ranking.model.effects}
         for k, (s, share, before) in enumerate(ranking.selected, 1):  # explained, RMS_after: the effect alone
             row = _candidate_row(ranking, alone.get((s.candidate.name, s.axis), s), axes, units, selected=True, step=share)
             row.update(step=k, RMS_before_at_selection=math.sqrt(before / ranking.n_rows),
                        RMS_after_at_selection=math.sqrt(max(before * (1.0 - share), 0.0) / ranking.n_rows))
+            final = refined.get(f"{s.candidate.name}@{axes[s.axis]}")
+            if final is not None:  # the nonlinear parameters as the selection refined them
+                row["parameters"] = {n: float(getattr(final, n)) for n in row["parameters"]}
             rows.append(row)
         picked = {(s.candidate.name, s.axis) for s, _, _ in ranking.selected}
         rest = [s for s in ranking.alone if (s.candidate.name, s.axis) not in picked and ranking.passes_alone(s)]
@@ -160,9 +165,12 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
                                    "ref_velocity": _velocity(trials, fs)[prep.rows]},
                            kinematics=_kinematics_note(trials, prep.model), identified=(info["rank"], info["n_free"]),
                            displays={a.name: a.display for a in system.axes},
-                           resampled=_resampled_note(trials), spec=spec, steps=steps, stop=ranking.stop)
+                           resampled=_resampled_note(trials), spec=spec, steps=steps, stop=ranking.stop,
+                           options="--kinematics measured" if kinematics == "measured" else "")
         report.found = {f"{s.candidate.name}@{axes[s.axis]}": s.candidate.build(axes[s.axis], **s.params)
                         for s in ranking.alone}
+        picked = {f"{s.candidate.name}@{axes[s.axis]}" for s, _, _ in ranking.selected}
+        report.found.update({e.key: e for e in ranking.model.effects if e.key in picked})  # as selected and refined
         if added:
             effects = [report.found.get(e.key, e) if isinstance(a, str) else e for a, e in zip(add, added, strict=True)]
             after_model = prep.model

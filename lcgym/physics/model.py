@@ -168,6 +168,27 @@ class PhysicalModel:
             return X, np.zeros(X.shape[:2]), p[:n]
         return X[:, :, free], X[:, :, ~free] @ p[:n][~free], p[:n][free]
 
+    def nonlinear_design(self, kin, step: float = 1e-6) -> np.ndarray | None:
+        """First-order columns (T, A, n_nonlinear) of the rigid-body torque in the nonlinear
+        parameters zeta_n at the fitted values (central differences, ``step`` relative, at least
+        ``step`` absolute), or None for a machine linear in its parameters or without
+        ``fit_nonlinear``. The diagnosis adds them to the linear design so that a candidate is
+        scored with the freedom the refit has: on the IX, a constant roll input is partly taken
+        up by the fitted centres of mass, and with zeta_n frozen an offset scored 34 % of what
+        its refit removes, 84 %."""
+        if self.system.fully_linear or not self.fit_nonlinear:
+            return None
+        p = self.fitted_params.to_vector()
+        n = self.system.n_linear
+        cols = []
+        for j in range(n, p.size):
+            h = step * max(1.0, abs(p[j]))
+            hi, lo = p.copy(), p.copy()
+            hi[j] += h
+            lo[j] -= h
+            cols.append((self.system.inverse_dynamics(hi, *kin) - self.system.inverse_dynamics(lo, *kin)) / (2 * h))
+        return np.stack(cols, axis=-1)
+
     def _effect_columns(self, kin, base):
         """Regressor columns (T, A, n_effect_coefficients) of the effects (independent of zeta_n)."""
         q, qd, qdd = kin

@@ -35,11 +35,11 @@ numba.config.CACHE_DIR = cache_dir(__file__, ix.__file__, fx.__file__, ix_effect
     FC, EPS, PD_COS, PD_COS_ROLL, PD_SIN, ST_DF, ST_VS, LG_S0, LG_S1, VISC,
     SP_K, SP_Q0, SP_W, SP_SIDE, CI_DJ, CI_Q0, CI_W, RP_AS, RP_AC, RP_PER,
     GH_S1, GH_C1, GH_S1V, GH_C1V, GH_S2, GH_C2, GH_PER, GH_VREF, DR_S, DR_C,
-    FX_K, FX_C, FX_JM, TV_N, TV_LO, TV_HI, TP_N, TP_LO, TP_HI,
-) = range(39)
+    FX_K, FX_C, FX_JM, TV_N, TV_LO, TV_HI, TP_N, TP_LO, TP_HI, AF_POS, AF_NEG, AF_DFV, AF_EPS, OFFSET,
+) = range(44)
 N_TABLE = fx.TabulatedForce.max_points
-TV_VALUES, TP_VALUES = 39, 39 + N_TABLE  # tabulated forces over velocity and over position
-N_SLOTS = 39 + 2 * N_TABLE
+TV_VALUES, TP_VALUES = 44, 44 + N_TABLE  # tabulated forces over velocity and over position
+N_SLOTS = 44 + 2 * N_TABLE
 N_STATE = 10
 # controller slots (per axis row)
 KP, KD, ALPHA = range(3)
@@ -56,6 +56,7 @@ _inertia = fx.cable_inertia_basis
 _periodic = fx.periodic_basis
 _gear = fx.gear_harmonic_basis
 _table = fx.table_lookup
+_asymmetric = fx.asymmetric_friction_basis
 
 
 @numba.njit(cache=True, fastmath=FASTMATH)
@@ -126,6 +127,11 @@ def axis_terms(s, i, u, e, nb, sin_q, cos_q):
         tau += _table(v, e[TV_LO], e[TV_HI], e[TV_VALUES : TV_VALUES + int(e[TV_N])])
     if e[TP_N] > 0.0:
         tau += _table(q, e[TP_LO], e[TP_HI], e[TP_VALUES : TP_VALUES + int(e[TP_N])])
+    if e[AF_EPS] != 0.0:
+        b = _asymmetric(v, e[AF_EPS])
+        tau += e[AF_POS] * b[0] + e[AF_NEG] * b[1] + e[AF_DFV] * b[2]
+    if e[OFFSET] != 0.0:
+        tau += e[OFFSET]
     # friction: level L(q), Stribeck increment, LuGre bristles or the static smooth-sign curve
     level, strib = friction_level(v, e, nb)
     if e[LG_S0] > 0.0 and level > 0.0:  # LuGre force; z itself is advanced by lugre_relax

@@ -24,8 +24,9 @@ gravity sag and friction states settle. If the state leaves the safe range (trac
 ``SimulationDiverged`` naming the reference, time and state.
 
 Effects: any tuple of effects from `physics.effects` and the IX's own guidance friction
-(``systems/ix/effects.py``): model-side ones and the plant-only ``stiction``,
-``drivetrain_flexibility`` and ``tabulated_force``, each on one axis, each with its parameters.
+(``systems/ix/effects.py``): model-side ones (all but ``rotor_inertia``: the IX's rigid body
+holds its drives' inertia) and the plant-only ``stiction``, ``drivetrain_flexibility`` and
+``tabulated_force``, each on one axis, each with its parameters.
 ``default_hidden_effects()`` reproduces the situation of paper 000 (see its docstring).
 """
 
@@ -143,6 +144,10 @@ def pack_effects(effects: Sequence[fx.Effect], rigid: ix.IXParameters) -> tuple[
             if p[j] - e.Jm <= 0:
                 raise ValueError(f"{e.key}: motor inertia {e.Jm} exceeds the axis inertia {p[j]}")
             p[j] -= e.Jm
+        elif isinstance(e, fx.AsymmetricFriction):
+            row[K.AF_POS], row[K.AF_NEG], row[K.AF_DFV], row[K.AF_EPS] = e.Fc_pos, e.Fc_neg, e.dFv, e.eps
+        elif isinstance(e, fx.Offset):
+            row[K.OFFSET] = e.c
         elif isinstance(e, fx.TabulatedForce):
             n, lo, start = (K.TV_N, K.TV_LO, K.TV_VALUES) if e.variable == "velocity" else (K.TP_N, K.TP_LO, K.TP_VALUES)
             row[n], row[lo], row[lo + 1] = len(e.values), e.lo, e.hi
