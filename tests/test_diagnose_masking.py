@@ -93,6 +93,13 @@ def test_the_selection_is_in_the_printed_report_and_the_json(tmp_path, capsys):
     for step in selection["steps"]:
         for c in step["candidates"]:
             assert 0.0 <= c["share_of_left"] <= 1.0 and c["verdict"]
+    rows = {f"{c['effect']}@{c['axis']}": c for c in json.loads((tmp_path / "r.json").read_text())["candidates"]}
+    for key in ("cable_spring@roll", "coulomb_friction@roll"):  # scored at the grid, then refined: both stated
+        row = rows[key]
+        if "refined_from" in row:
+            assert row["refined_from"].keys() == row["parameters"].keys() and row["refined_from"] != row["parameters"]
+            assert "(refined from " in next(line for line in out.splitlines() if f". {key} [" in line)
+    assert any("refined_from" in rows[k] for k in ("cable_spring@roll", "coulomb_friction@roll"))
 
 
 def test_direction_dependent_friction_of_another_shape_is_named_and_halves_the_roll_residual():

@@ -80,7 +80,9 @@ class Diagnosis:
                                       "candidates by explained; explained and RMS_after: the effect alone, held-out; "
                                       "explained_at_selection: share of the residual left at its greedy step "
                                       "(step), held-out RMS before and after it at that step "
-                                      "(RMS_before_at_selection, RMS_after_at_selection)"}}
+                                      "(RMS_before_at_selection, RMS_after_at_selection), scored at the "
+                                      "grid's nonlinear parameters (refined_from, where the selection then "
+                                      "refined them to parameters)"}}
         if self.after is not None:
             out["after"] = self.after
         if self.replay is not None:
@@ -129,6 +131,9 @@ class Diagnosis:
                    if c["selected"] else "not needed once the selected ones are in")
             display = self.displays.get(c["axis"], (180 / math.pi, "deg"))
             params = ", ".join(f"{n}={_fmt(n, v, display)}" for n, v in c["parameters"].items())
+            if c.get("refined_from"):
+                params += " (refined from " + ", ".join(f"{n}={_fmt(n, v, display)}"
+                                                        for n, v in c["refined_from"].items()) + ")"
             lines.append(f"  {k}. {c['effect']}@{c['axis']} [{c['family']}]: {100 * c['explained']:.0f}%, "
                          f"held-out RMS {c['RMS_before']:.4f} -> {c['RMS_after']:.4f} {c['unit']} "
                          f"({how}{'; ' + params if params else ''})")

@@ -147,7 +147,10 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
                        RMS_after_at_selection=math.sqrt(max(before * (1.0 - share), 0.0) / ranking.n_rows))
             final = refined.get(f"{s.candidate.name}@{axes[s.axis]}")
             if final is not None:  # the nonlinear parameters as the selection refined them
-                row["parameters"] = {n: float(getattr(final, n)) for n in row["parameters"]}
+                scored = row["parameters"]
+                row["parameters"] = {n: float(getattr(final, n)) for n in scored}
+                if row["parameters"] != scored:  # the shares above were scored at the grid's values
+                    row["refined_from"] = scored
             rows.append(row)
         picked = {(s.candidate.name, s.axis) for s, _, _ in ranking.selected}
         rest = [s for s in ranking.alone if (s.candidate.name, s.axis) not in picked and ranking.passes_alone(s)]
