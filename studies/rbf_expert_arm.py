@@ -39,10 +39,10 @@ from lcgym.rbf_expert.influence import task_influence
 from lcgym.rbf_expert.predictor import RBFExpertConfig, RBFExpertPredictor
 from lcgym.rbf_expert.preprocess import PreprocessConfig
 from lcgym.systems.flexarm import FLEXARM
-from lcgym.systems.flexarm import dynamics as arm
+from lcgym.systems.flexarm.errors import paper_errors, period_mask
 from lcgym.systems.flexarm.nominal import BasicFeedforward
 from lcgym.systems.flexarm.plant import FlexArmPlant
-from lcgym.systems.flexarm.references import MOVING, arm_reference_set, tcp_positions
+from lcgym.systems.flexarm.references import MOVING, arm_reference_set
 
 JOINTS = [f"j{j + 1}" for j in MOVING]
 TUNE = {  # the configurations compared by --tune
@@ -65,18 +65,6 @@ def tau_nl_update(reference, e: np.ndarray) -> np.ndarray:
     return nominal_update(BasicFeedforward(), tau_nl, e, reference.fs, ILCConfig()) - tau_nl
 
 
-def signals(plant: FlexArmPlant, trial, reference) -> dict[str, np.ndarray]:
-    """Per sample: joint e_pl (true) of 2, 3, 5; end-effector acceleration error (T, 3) [m/s^2];
-    TCP position error (T,) [mm]."""
-    dh, o = plant.true_arm.dh.table(), np.asarray(plant.accel_offset)
-    f_ref = np.array([arm.specific_force_compiled(dh, q, qd, qdd, o, arm.GRAVITY) for q, qd, qdd in
-                      zip(reference.positions, reference.velocities, reference.accelerations, strict=True)])
-    acc = np.column_stack([trial.extra[f"acc_{c}"] for c in "xyz"]) - np.asarray(plant.accel_bias)
-    tcp = np.column_stack([trial.extra[f"tcp_{c}"] for c in "xyz"]) - tcp_positions(reference.positions, plant.true_arm.dh)
-    return {"joint": e_pl(trial, "e_pl_true")[:, list(MOVING)], "ee_acc": acc - f_ref,
-            "tcp": 1000 * np.linalg.norm(tcp, axis=1)[:, None]}
-
-
 def rms(x: np.ndarray, stacked: bool = False):
     return float(np.sqrt(np.mean(x**2))) if stacked else np.sqrt(np.mean(x**2, axis=0))
 
@@ -96,8 +84,8 @@ def run_lines(plant, predictor, lines, measured=None, progress: bool = True, ora
                 active = predictor.inputs(ref, j)[1] > 0
                 perfect[active, j] = e_pl(basic)[active, j]
             runs["oracle"] = BasicFeedforward().run(plant, ref, tau_nl_update(ref, perfect))
-        moving = np.any(np.abs(ref.velocities) > 1e-6, axis=1)
-        out.append(({name: signals(plant, tr, ref) for name, tr in runs.items()}, moving, outside))
+        moving = period_mask(ref, "dynamic")
+        out.append(({name: paper_errors(plant, tr, ref) for name, tr in runs.items()}, moving, outside))
     return out
 
 

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from lcgym.systems.flexarm.nominal import BasicFeedforward
+from lcgym.systems.flexarm.errors import period_mask
+from lcgym.systems.flexarm.nominal import BasicFeedforward, model_following_error
 from lcgym.systems.flexarm.plant import FlexArmPlant
 from lcgym.systems.flexarm.references import arm_reference_set
 
@@ -71,3 +72,41 @@ def test_basic_feedforward_cuts_the_tracking_error_of_feedback_alone(case):
     assert err["basic"][2] < err["feedback"][2]  # joint 5 (measured: 1.4x): the wrist's own modes remain
     assert b["tau_ff"].shape == (ref.n_samples, 6)
     np.testing.assert_allclose(b["tau_ln"] + b["tau_nl"], b["tau_ff"], atol=1e-12)
+
+
+class _NominalRun:
+    """A trial of the plant the nominal model describes, tracking perfectly: u = tau_ff (no feedback
+    correction needed) and the load follows q_lr exactly."""
+
+    def __init__(self, ref, b):
+        self.u, self.fs, self.ref = b["tau_ff"], ref.fs, ref.positions
+
+
+def test_model_following_error_is_zero_where_the_nominal_model_holds(case):
+    """Eq. (21) with no model error and d compensated: e_pl = 0. What is left is the discretization of
+    F1, F2 and P_lu (gradients and lsim at 1 kHz): below 1e-3 of the load acceleration. The error as
+    u - tau_nl alone (the inner plant's input with F2(r_q) left in) is 200-500 times larger here."""
+    ref, nom, b = case
+    qdd = ref.accelerations
+    e = model_following_error(_NominalRun(ref, b), b, nom, qdd)
+    scale = np.sqrt(np.mean(qdd**2, axis=0))
+    for i in (1, 2, 4):
+        assert np.sqrt(np.mean(e[:, i] ** 2)) < 1e-3 * scale[i]
+        with_rq = nom.load_acceleration(b["tau_ff"] - b["tau_nl"], ref.fs)[:, i] - qdd[:, i]
+        assert np.sqrt(np.mean(with_rq**2)) > 0.02 * scale[i]  # what the paper's literal mu leaves
+
+
+def test_f2_of_r_q_is_f2_of_the_motor_motion_less_f2_of_the_motor_reference(case):
+    """F2 is linear: F2(q_mr + r_q) - F2(q_mr) = F2(r_q), checked against F2 of r_q alone."""
+    ref, nom, b = case
+    r_q = b["r_q"]
+    np.testing.assert_allclose(b["f2_r_q"], nom._f2(r_q, ref.fs), atol=1e-9 * np.abs(b["tau_ln"]).max())
+
+
+@pytest.mark.bad_input
+def test_period_mask_names_the_periods(case):
+    ref = case[0]
+    dynamic, static = period_mask(ref, "dynamic"), period_mask(ref, "static")
+    assert dynamic.any() and static.any() and not (dynamic & static).any() and period_mask(ref, "all").all()
+    with pytest.raises(ValueError, match="period must be one of all, dynamic, static, got 'moving'"):
+        period_mask(ref, "moving")

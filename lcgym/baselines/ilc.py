@@ -100,9 +100,12 @@ def learning_filters(plant, reference, config: ILCConfig) -> tuple[np.ndarray, n
 
 def nominal_update(nominal, tau_nl: np.ndarray, e_pl: np.ndarray, fs: float, config: ILCConfig) -> np.ndarray:
     """Eq. (16) (and eq. (17) with a predicted e_pl): Q_u [tau_nl + P_lu^-1 e_pl] (T, n_axes) [N m],
-    P_lu the ``nominal`` structure's load response."""
+    P_lu the ``nominal`` structure's load response. Its zero-frequency bin is 0 (a constant torque
+    leaves no load acceleration), so a constant e_pl asks for no torque there: the inverse's bin is 0."""
     T = tau_nl.shape[0]
-    inverse = 1.0 / nominal.load_response(2 * T, fs)
+    response = nominal.load_response(2 * T, fs)
+    inverse = np.divide(1.0, response, out=np.zeros_like(response), where=np.abs(response) > 0.0)
+    inverse[0] = 0.0
     return frequency_update(tau_nl, e_pl, inverse, q_filter(2 * T, fs, config.arm_q_hz, config.q_order), config.arm_gain)
 
 

@@ -18,7 +18,11 @@ From the load reference q_lr it gives (all nominal values):
 
 The plant (``systems.flexarm.plant``) takes the motor-reference offset qbar_mr - N q_lr and the total
 feedforward tau_ff,0 = tau_ln + tau_nl,0. ``model_following_error`` gives e_pl = P_lu mu - qdd_l
-(eq. 16's error), with mu = u - tau_nl the inner plant's input; ``BasicFeedforward.run`` runs the
+(eq. 16's error) with mu = u - tau_nl - F2(r_q): the inner plant's input (eq. 20) less the torque
+F2 adds for r_q. r_q is the torsion the *nonlinear* load torque causes, which tau_nl pays for; the
+linear model does not produce it, so without that term a plant the nominal model matches would
+show e_pl = P_lu F2(r_q) != 0, the fixed point of eq. (16) would not be Basic there, and the
+learning would shake the load (eq. 21's e_pl vanishes there). ``BasicFeedforward.run`` runs the
 plant with Basic and records e_pl, ``load_response`` is P_lu on a frequency grid (what the learning
 methods invert). ``FLEXARM.nominal`` is this structure: the start of the methods of paper 002.
 """
@@ -43,7 +47,7 @@ class BasicFeedforward:
     """Nominal feedforward of Fig. 1 for the nominal ``arm`` and ``drive``; ``eps`` [rad/s] smooths
     sgn as tanh(v / eps). ``compute(q_lr, fs)`` returns a dict of (T, 6) arrays: ``motor_offset``
     [rad, motor] = qbar_mr - N q_lr, ``tau_ff``, ``tau_ln``, ``tau_nl`` [N m, motor side],
-    ``r_q`` [rad, motor], ``tau_lr`` [N m, load side]."""
+    ``r_q`` [rad, motor], ``f2_r_q`` [N m, motor side] = F2(r_q), ``tau_lr`` [N m, load side]."""
 
     arm_params: arm.ArmParameters = field(default_factory=arm.ArmParameters)
     drive: arm.DriveParameters = field(default_factory=arm.DriveParameters)
@@ -57,7 +61,8 @@ class BasicFeedforward:
     def load_response(self, n: int, fs: float) -> np.ndarray:
         """P_lu (e^{i w Ts}) (n_freq, 6) [rad/s^2 per N m] on the rfft grid of n samples: the nominal
         linear model from motor torque to load acceleration per joint (``load_model``), discretized
-        with a zero-order hold."""
+        with a zero-order hold. The zero-frequency bin is 0: a constant torque ends in a constant
+        velocity against the dampers (``load_model`` has no free integrator, so z = 1 is regular)."""
         ts = 1.0 / fs
         z = np.exp(1j * 2 * math.pi * np.fft.rfftfreq(n, ts) * ts)
         out = np.empty((z.size, 6), dtype=complex)
@@ -107,10 +112,16 @@ class BasicFeedforward:
         r_q = N / KJ * (tau_lr - linear_load)  # eq. (11)
         qbar = q_mr + r_q
         _, qbd, qbdd = reference_kinematics(qbar, fs)
-        tau_ln = np.column_stack([self._motor_torque(i, qbar[:, i], qbd[:, i], qbdd[:, i], t) for i in range(6)])  # F2
+        tau_ln = self._f2(qbar, fs)  # eq. (10)
         tau_ff = Jm * qbdd + Dm * qbd + Fmc * sgn(qbd) + tau_lr / N  # eqs. (13), (15)
         return {"motor_offset": qbar - N * q, "reference_offset": (qbar - N * q) / N, "tau_ff": tau_ff, "tau_ln": tau_ln,
-                "tau_nl": tau_ff - tau_ln, "r_q": r_q, "tau_lr": tau_lr}
+                "tau_nl": tau_ff - tau_ln, "r_q": r_q, "f2_r_q": tau_ln - self._f2(q_mr, fs), "tau_lr": tau_lr}
+
+    def _f2(self, y: np.ndarray, fs: float) -> np.ndarray:
+        """F2 = P_mu^-1 (eq. 10): the linear model's motor torque (T, 6) [N m] for motor motions y (T, 6) [rad]."""
+        _, yd, ydd = reference_kinematics(y, fs)
+        t = np.arange(y.shape[0]) / fs
+        return np.column_stack([self._motor_torque(i, y[:, i], yd[:, i], ydd[:, i], t) for i in range(6)])
 
     def _motor_torque(self, i, y, yd, ydd, t):
         """P_mu^-1 y of joint i: the load answers the motor motion y through the joint spring."""
@@ -123,29 +134,29 @@ class BasicFeedforward:
         tau_s = KJ * (y / N - ql) + DJ * (yd / N - qld)
         return Jm * ydd + Dm * yd + tau_s / N
 
-    def load_acceleration(self, mu: np.ndarray, fs: float, q0: np.ndarray) -> np.ndarray:
+    def load_acceleration(self, mu: np.ndarray, fs: float) -> np.ndarray:
         """P_lu mu: the nominal linear model's load acceleration (T, 6) [rad/s^2] for inner-plant
-        torques mu (T, 6) [N m], starting at rest at q0 (the spring unloaded)."""
+        torques mu (T, 6) [N m], starting at rest with the spring unloaded."""
         t = np.arange(mu.shape[0]) / fs
         out = np.empty_like(mu, dtype=float)
         for i in range(6):
             A, B, C = self.load_model(i)
-            N = self.drive.N[i]
-            _, y, _ = signal.lsim((A, B, C, np.zeros((1, 1))), mu[:, i], t, X0=[q0[i], 0.0, N * q0[i], 0.0])
+            _, y, _ = signal.lsim((A, B, C, np.zeros((1, 1))), mu[:, i], t, X0=np.zeros(3))
             out[:, i] = y
         return out
 
     def load_model(self, i: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(A, B, C) of joint i's nominal linear model P_lu (eqs. 3-4): states [q_l, qd_l, q_m, qd_m],
-        input the motor torque [N m], output the load acceleration qdd_l [rad/s^2]."""
+        """(A, B, C) of joint i's nominal linear model P_lu (eqs. 3-4): states [phi, qd_l, qd_m] with
+        phi = q_m / N - q_l the joint's torsion [rad] (the common position of motor and load is no
+        state: the load acceleration does not depend on it), input the motor torque [N m], output
+        the load acceleration qdd_l [rad/s^2]."""
         d = self.drive
         N, Jm, Dm, KJ, DJ, Dl = d.N[i], d.Jm[i], d.Dm[i], d.KJ[i], d.DJ[i], d.Dl[i]
         Mn = self.Mn[i]
-        A = np.array([[0, 1, 0, 0],
-                      [-KJ / Mn, -(DJ + Dl) / Mn, KJ / (N * Mn), DJ / (N * Mn)],
-                      [0, 0, 0, 1],
-                      [KJ / (N * Jm), DJ / (N * Jm), -KJ / (N * N * Jm), -(Dm + DJ / (N * N)) / Jm]])
-        B = np.array([[0.0], [0.0], [0.0], [1.0 / Jm]])
+        A = np.array([[0, -1, 1 / N],
+                      [KJ / Mn, -(DJ + Dl) / Mn, DJ / (N * Mn)],
+                      [-KJ / (N * Jm), DJ / (N * Jm), -(Dm + DJ / (N * N)) / Jm]])
+        B = np.array([[0.0], [0.0], [1.0 / Jm]])
         return A, B, A[1:2].copy()  # C: the qdd_l row
 
 
@@ -161,7 +172,8 @@ def _lsim(system, u, t, x0_output: float = 0.0) -> np.ndarray:
 
 
 def model_following_error(trial, basic: dict, nominal: BasicFeedforward, qdd_l: np.ndarray) -> np.ndarray:
-    """e_pl = P_lu mu - qdd_l (T, 6) [rad/s^2] with mu = u - tau_nl (eq. 16's error); ``qdd_l`` the
-    load-side joint acceleration (true, or estimated from the accelerometer)."""
-    mu = trial.u - basic["tau_nl"]
-    return nominal.load_acceleration(mu, trial.fs, trial.ref[0]) - qdd_l
+    """e_pl = P_lu mu - qdd_l (T, 6) [rad/s^2] with mu = u - tau_nl - F2(r_q) (eq. 16's error; the
+    module docstring says why F2(r_q) is taken out); ``qdd_l`` the load-side joint acceleration
+    (true, or estimated from the accelerometer)."""
+    mu = trial.u - basic["tau_nl"] - basic["f2_r_q"]
+    return nominal.load_acceleration(mu, trial.fs) - qdd_l

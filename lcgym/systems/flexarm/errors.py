@@ -1,0 +1,40 @@
+"""The errors paper 002 reports (section 5.3, Table 6), per sample of a FlexArm trial:
+
+- ``joint``: the model-following error e_pl of joints 2, 3 and 5 (eq. 16's error, from the true
+  load acceleration: ``BasicFeedforward.run`` stores it as ``e_pl_true_<joint>``) [rad/s^2];
+- ``ee_acc``: the end-effector acceleration error, the accelerometer's reading less its known bias
+  less the specific force the reference would give at the sensor (T, 3) [m/s^2];
+- ``tcp``: the TCP position error |p_tcp - p_tcp,ref| [mm];
+
+and the periods the paper splits them into: ``dynamic`` (the reference moves) and ``static``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import dynamics as arm
+from .references import MOVING, tcp_positions
+
+PERIODS = ("all", "dynamic", "static")
+
+
+def paper_errors(plant, trial, reference) -> dict[str, np.ndarray]:
+    """{"joint": (T, 3) [rad/s^2], "ee_acc": (T, 3) [m/s^2], "tcp": (T, 1) [mm]} of a trial run by
+    ``BasicFeedforward.run`` on ``plant`` (a ``FlexArmPlant``: its true kinematics, sensor offset
+    and bias) for ``reference``."""
+    dh, offset = plant.true_arm.dh, np.asarray(plant.accel_offset)
+    f_ref = np.array([arm.specific_force_compiled(dh.table(), q, qd, qdd, offset, arm.GRAVITY) for q, qd, qdd in
+                      zip(reference.positions, reference.velocities, reference.accelerations, strict=True)])
+    acc = np.column_stack([trial.extra[f"acc_{c}"] for c in "xyz"]) - np.asarray(plant.accel_bias)
+    tcp = np.column_stack([trial.extra[f"tcp_{c}"] for c in "xyz"]) - tcp_positions(reference.positions, dh)
+    joint = np.column_stack([trial.extra[f"e_pl_true_{trial.axes[j]}"] for j in MOVING])
+    return {"joint": joint, "ee_acc": acc - f_ref, "tcp": 1000 * np.linalg.norm(tcp, axis=1)[:, None]}
+
+
+def period_mask(reference, period: str) -> np.ndarray:
+    """(T,) bool: the samples of ``period`` ("all", "dynamic": any joint's reference moving, "static")."""
+    if period not in PERIODS:
+        raise ValueError(f"period must be one of {', '.join(PERIODS)}, got {period!r}")
+    moving = np.any(np.abs(reference.velocities) > 1e-6, axis=1)
+    return {"all": np.ones_like(moving), "dynamic": moving, "static": ~moving}[period]
