@@ -3,6 +3,7 @@
     lcgym bench [--systems ix,flexarm] [--methods feedback,physical] [--seeds 0,1,2] [--quick]
                 [--out results.csv] [--jobs N] [--dask ADDRESS] [--resume] [--timeout SECONDS]
     lcgym leaderboard [results.csv] [--reference-set SET] [--config HASH] [--markdown OUT.md] [--html OUT.html]
+                      [--share-of METHOD [--base METHOD]]
     lcgym simulate [--system ix|flexarm] [--controller feedback,physical] [--out run.csv] [--plot run.png]
     lcgym diagnose DATA --system MACHINE [--add EFFECT@AXIS ...] [--kinematics reference|measured]
                    [--validate OTHER] [--resample HZ] [--json OUT.json] [--plots DIR] [--replay]
@@ -147,6 +148,9 @@ def build_parser() -> argparse.ArgumentParser:
     board.add_argument("--config", metavar="HASH", help="configuration hash to rank (default: the newest run's)")
     board.add_argument("--markdown", type=_writable, help="write a Markdown page (figures beside it)")
     board.add_argument("--html", type=_writable, help="write an HTML page (figures beside it)")
+    board.add_argument("--share-of", metavar="METHOD",
+                       help="print paper 002's Table 6: each method's share of what METHOD changed against --base")
+    board.add_argument("--base", metavar="METHOD", default="basic", help="the start the shares are taken from (basic)")
     sim = sub.add_parser("simulate", help="fit controllers on training runs and simulate validation references")
     sim.add_argument("--system", choices=SIMULATE_SYSTEMS, default="ix")
     sim.add_argument("--controller", type=_controllers, default=["feedback", "physical"],
@@ -302,13 +306,15 @@ def cmd_bench(args) -> int:
 
 
 def cmd_leaderboard(args) -> int:
-    from .leaderboard.report import format_text, select, write_html, write_markdown
+    from .leaderboard.report import format_shares, format_text, select, write_html, write_markdown
     from .leaderboard.store import read_results
 
     if not args.csv.exists():
         raise ValueError(f"{args.csv}: no such results file (run lcgym bench first)")
     df, others = select(read_results(args.csv), args.config)
     print(format_text(df, args.reference_set))
+    if args.share_of:
+        print(format_shares(df, args.share_of, args.base, args.reference_set))
     if others:
         print(f"\n(the file also holds configuration(s) {', '.join(others)}: choose one with --config)")
     if args.markdown:

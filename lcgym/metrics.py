@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 
 METRICS = ("MA", "RMS", "Inf")
+PERIODS = ("all", "dynamic", "static")  # the samples a norm is taken over: all, the reference moving, at rest
 
 
 def norms(x) -> dict[str, np.ndarray]:
@@ -52,9 +53,11 @@ def input_residual_table(trials: Sequence, feedforward: Sequence, label: str = "
     return norms_table(eps, trials[0].axes, "input_residual", unit, label)
 
 
-def norms_table(x, axes: Sequence[str], signal: str, unit: str, label: str = "") -> pd.DataFrame:
-    """One row per column of x (T, len(axes)): label, axis, signal, MA, RMS, Inf, unit."""
+def norms_table(x, axes: Sequence[str], signal: str, unit: str, label: str = "", period: str = "all") -> pd.DataFrame:
+    """One row per column of x (T, len(axes)): label, axis, signal, period, MA, RMS, Inf, unit."""
+    if period not in PERIODS:
+        raise ValueError(f"period must be one of {', '.join(PERIODS)}, got {period!r}")
     n = norms(x)
-    rows = [{"label": label, "axis": ax, "signal": signal, **{m: float(n[m][i]) for m in METRICS}, "unit": unit}
-            for i, ax in enumerate(axes)]
+    rows = [{"label": label, "axis": ax, "signal": signal, "period": period, **{m: float(n[m][i]) for m in METRICS},
+             "unit": unit} for i, ax in enumerate(axes)]
     return pd.DataFrame(rows)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from lcgym.systems.flexarm.errors import period_mask
+from lcgym.systems.flexarm.errors import paper_errors, period_mask
 from lcgym.systems.flexarm.nominal import BasicFeedforward, model_following_error
 from lcgym.systems.flexarm.plant import FlexArmPlant
 from lcgym.systems.flexarm.references import arm_reference_set
@@ -88,7 +88,7 @@ def test_model_following_error_is_zero_where_the_nominal_model_holds(case):
     u - tau_nl alone (the inner plant's input with F2(r_q) left in) is 200-500 times larger here."""
     ref, nom, b = case
     qdd = ref.accelerations
-    e = model_following_error(_NominalRun(ref, b), b, nom, qdd)
+    e = model_following_error(_NominalRun(ref, b), b["tau_ff"], b, nom, qdd)
     scale = np.sqrt(np.mean(qdd**2, axis=0))
     for i in (1, 2, 4):
         assert np.sqrt(np.mean(e[:, i] ** 2)) < 1e-3 * scale[i]
@@ -100,7 +100,7 @@ def test_f2_of_r_q_is_f2_of_the_motor_motion_less_f2_of_the_motor_reference(case
     """F2 is linear: F2(q_mr + r_q) - F2(q_mr) = F2(r_q), checked against F2 of r_q alone."""
     ref, nom, b = case
     r_q = b["r_q"]
-    np.testing.assert_allclose(b["f2_r_q"], nom._f2(r_q, ref.fs), atol=1e-9 * np.abs(b["tau_ln"]).max())
+    np.testing.assert_allclose(b["tau_ln"] - b["f2_q_mr"], nom._f2(r_q, ref.fs), atol=1e-9 * np.abs(b["tau_ln"]).max())
 
 
 @pytest.mark.bad_input
@@ -110,3 +110,14 @@ def test_period_mask_names_the_periods(case):
     assert dynamic.any() and static.any() and not (dynamic & static).any() and period_mask(ref, "all").all()
     with pytest.raises(ValueError, match="period must be one of all, dynamic, static, got 'moving'"):
         period_mask(ref, "moving")
+
+
+def test_paper_errors_from_the_feedforward_equal_those_basic_stored(case):
+    """The leaderboard computes e_pl of any method from its feedforward; for a Basic run it must
+    equal what ``BasicFeedforward.run`` stored."""
+    ref, nom, b = case
+    plant = FlexArmPlant()
+    trial = nom.run(plant, ref)
+    stored, computed = paper_errors(plant, trial, ref), paper_errors(plant, trial, ref, b["tau_ff"])
+    for key in ("joint", "ee_acc", "tcp"):
+        np.testing.assert_allclose(computed[key], stored[key], rtol=0, atol=1e-12)

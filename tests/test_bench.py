@@ -14,7 +14,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from lcgym.leaderboard.report import ranking, write_html, write_markdown
+from lcgym.cli import main
+from lcgym.leaderboard.report import ranking, share_table, write_html, write_markdown
 from lcgym.leaderboard.runner import BenchConfig, run_benchmark
 from lcgym.leaderboard.store import COLUMNS, ResultsFileError, append_rows, read_results
 
@@ -67,7 +68,7 @@ def test_rbf_expert_cells_run_on_both_systems(tmp_path):
     assert np.isfinite(df["RMS"]).all()
 
 
-def test_flexarm_cells_score_load_side_and_tcp_errors(tmp_path):
+def test_flexarm_cells_score_load_side_and_tcp_errors(tmp_path, capsys):
     """On the arm: load-side tracking error and input residual of joints 2, 3, 5, and the TCP error;
     the fitted physical model (with its joint-torsion reference offset) beats feedback on all."""
     out = tmp_path / "r.csv"
@@ -77,9 +78,30 @@ def test_flexarm_cells_score_load_side_and_tcp_errors(tmp_path):
     df = read_results(out)
     assert summary["cells_failed"] == 0 and (df["status"] == "ok").all()
     val = df[df.reference_set == "validation"]
-    assert set(zip(val.signal, val.axis, val.unit, strict=True)) == {
-        *(("tracking_error", j, "deg") for j in ("j2", "j3", "j5")),
-        *(("input_residual", j, "N m") for j in ("j2", "j3", "j5")), ("tcp_position_error", "tcp", "mm")}
+    periods = ("all", "dynamic", "static")
+    assert set(zip(val.signal, val.period, val.axis, val.unit, strict=True)) == {
+        *(("tracking_error", "all", j, "deg") for j in ("j2", "j3", "j5")),
+        *(("input_residual", "all", j, "N m") for j in ("j2", "j3", "j5")),
+        *(("tcp_position_error", p, "tcp", "mm") for p in periods),
+        *(("model_following_error", p, j, "rad/s^2") for p in periods for j in ("j2", "j3", "j5")),
+        *(("ee_acceleration_error", p, "ee", "m/s^2") for p in periods)}
+    shares = share_table(df, of="physical", base="basic").set_index(["signal", "period", "method"])
+    for name, axes in (("model_following_error", ["j2", "j3", "j5"]), ("ee_acceleration_error", ["ee"])):
+        part = val[(val.signal == name) & (val.period == "dynamic")].set_index(["method", "axis"])["RMS"]
+        stacked = {m: np.sqrt(np.mean([part[m, a] ** 2 for a in axes])) for m in ("basic", "physical", "feedback")}
+        expected = (stacked["basic"] - stacked["feedback"]) / (stacked["basic"] - stacked["physical"]) * 100
+        assert shares.loc[(name, "dynamic", "feedback"), "signed_share"] == pytest.approx(expected)
+        assert shares.loc[(name, "dynamic", "physical"), "share"] == pytest.approx(100.0)
+        assert shares.loc[(name, "dynamic", "basic"), "share"] == 0.0
+    with pytest.raises(ValueError, match="--share-of ilc: no such method"):
+        share_table(df, of="ilc", base="basic")
+    assert main(["leaderboard", str(out), "--share-of", "physical"]) == 0
+    printed = capsys.readouterr().out
+    assert "share of what physical changed against basic" in printed
+    assert "flexarm / model_following_error (dynamic) / j2" in printed
+    assert main(["leaderboard", str(out), "--share-of", "ilc"]) == 1
+    assert "--share-of ilc: no such method" in capsys.readouterr().err
+    val = val[val.period == "all"]
     rms = val.set_index(["signal", "axis", "method"])["RMS"].unstack()
     assert (rms["physical"] < rms["feedback"]).all(), rms
     assert rms.loc[("tcp_position_error", "tcp"), "physical"] < rms.loc[("tcp_position_error", "tcp"), "basic"]
@@ -118,6 +140,21 @@ def test_store_refuses_a_corrupt_csv(tmp_path):
         read_results(out)
     with pytest.raises(ResultsFileError, match="row 4"):
         append_rows(out, [{c: "x" for c in ("system", "method")}])
+
+
+@pytest.mark.bad_input
+def test_store_reads_files_from_before_the_period_column_and_refuses_an_unknown_period(tmp_path):
+    out = tmp_path / "r.csv"
+    run_benchmark(BenchConfig(methods=("feedback",), **TINY), out, progress=False)
+    df = pd.read_csv(out)
+    df.drop(columns="period").to_csv(tmp_path / "old.csv", index=False)
+    old = read_results(tmp_path / "old.csv")
+    assert list(old.columns) == list(COLUMNS) and (old["period"] == "all").all()
+    pd.testing.assert_frame_equal(old, read_results(out))
+    df.loc[2, "period"] = "moving"
+    df.to_csv(out, index=False)
+    with pytest.raises(ResultsFileError, match="column 'period', row 3: invalid value 'moving'"):
+        read_results(out)
 
 
 def _cells_in(path: Path) -> int:

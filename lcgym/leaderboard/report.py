@@ -5,7 +5,7 @@ code; by default the one of the newest row; other configurations in the file are
 mixed in), and of each (system, method, seed) cell only its newest run.
 
 Ranking (``ranking``): rows with status ok of one reference set (validation by default), grouped
-by (system, signal, axis, method). Each row of the CSV holds the norms of one seed over all the
+by (system, signal, period, axis, method). Each row of the CSV holds the norms of one seed over all the
 set's references taken together (dwells included). MA, RMS and Inf are averaged over seeds (so
 Inf is the mean of the per-seed maxima), ``RMS_std`` is the sample standard deviation of RMS over
 seeds (ddof 1; 0 for one seed) and ``seeds`` their count; methods are ranked by mean RMS (1 = best).
@@ -22,9 +22,12 @@ import numpy as np
 import pandas as pd
 
 from ..data import atomic_write
+from ..metrics import PERIODS
 from .store import SIGNALS
 
-KEYS = ["system", "signal", "axis"]
+SIGNAL_UNITS = {s: u for s, u in SIGNALS.items() if isinstance(u, str)}
+
+KEYS = ["system", "signal", "period", "axis"]
 
 
 def select(df: pd.DataFrame, config_hash: str | None = None) -> tuple[pd.DataFrame, list[str]]:
@@ -46,6 +49,8 @@ def select(df: pd.DataFrame, config_hash: str | None = None) -> tuple[pd.DataFra
 def ranking(df: pd.DataFrame, reference_set: str = "validation") -> pd.DataFrame:
     """Mean norms over seeds and the rank by RMS per (system, signal, axis)."""
     ok = df[(df["status"] == "ok") & (df["reference_set"] == reference_set)]
+    if "period" not in ok.columns:  # a frame of rows made before the column existed
+        ok = ok.assign(period="all")
     if ok.empty:
         return pd.DataFrame(columns=[*KEYS, "rank", "method", "MA", "RMS", "RMS_std", "Inf", "unit", "seeds"])
     g = ok.groupby([*KEYS, "method"], sort=False)
@@ -54,11 +59,53 @@ def ranking(df: pd.DataFrame, reference_set: str = "validation") -> pd.DataFrame
                   env_steps=("env_steps", "mean"), fit_seconds=("fit_seconds", "mean")).reset_index()
     table["RMS_std"] = table["RMS_std"].fillna(0.0)
     table["rank"] = table.groupby(KEYS)["RMS"].rank(method="min").astype(int)
-    signal_order = {s: i for i, s in enumerate(SIGNALS)}  # tracking error first
-    table = table.sort_values([*KEYS, "rank"], key=lambda c: c.map(signal_order) if c.name == "signal" else c,
+    order = {"signal": {s: i for i, s in enumerate(SIGNALS)}, "period": {p: i for i, p in enumerate(PERIODS)}}
+    table = table.sort_values([*KEYS, "rank"], key=lambda c: c.map(order[c.name]) if c.name in order else c,
                               kind="stable")
     return table[[*KEYS, "rank", "method", "MA", "RMS", "RMS_std", "Inf", "unit", "seeds", "plant_trials",
                   "env_steps", "fit_seconds"]].reset_index(drop=True)
+
+
+def share_table(df: pd.DataFrame, of: str, base: str, reference_set: str = "validation") -> pd.DataFrame:
+    """Paper 002's Table 6 for every method: per (system, signal, period), the RMS over the signal's
+    axes together (sqrt of the mean square of the per-axis RMS: the axes have equal sample counts)
+    of ``base``, of ``of`` and of each method, and each method's share of what ``of`` changed:
+    |RMS - RMS_base| / |RMS_of - RMS_base| [%] as the paper computes it (a worsening counts like an
+    improvement), and the signed (RMS_base - RMS) / (RMS_base - RMS_of) [%]. Signals whose rows have
+    periods other than ``all`` only (the paper's errors)."""
+    table = ranking(df, reference_set)
+    periodic = set(table.loc[table["period"] != "all", "signal"])
+    table = table[table["signal"].isin(periodic)]
+    methods = set(table["method"])
+    for name, role in ((of, "--share-of"), (base, "--base")):
+        if name not in methods:
+            present = ", ".join(sorted(methods)) or "none"
+            raise ValueError(f"{role} {name}: no such method among the rows with periods ({present})")
+    stacked = (table.assign(ms=table["RMS"] ** 2).groupby(["system", "signal", "period", "method"], sort=False)["ms"]
+               .mean().pow(0.5).rename("RMS").reset_index())
+    rows = []
+    for (system, signal, period), part in stacked.groupby(["system", "signal", "period"], sort=False):
+        rms = dict(zip(part["method"], part["RMS"], strict=True))
+        if of not in rms or base not in rms:
+            continue
+        change = rms[of] - rms[base]
+        for method, value in rms.items():
+            share = abs(value - rms[base]) / abs(change) * 100 if change else np.nan
+            signed = (rms[base] - value) / (rms[base] - rms[of]) * 100 + 0.0 if change else np.nan  # + 0.0: no -0
+            rows.append({"system": system, "signal": signal, "period": period, "method": method, "RMS": value,
+                         "share": share, "signed_share": signed})
+    return pd.DataFrame(rows)
+
+
+def format_shares(df: pd.DataFrame, of: str, base: str, reference_set: str = "validation") -> str:
+    """``share_table`` as text: one block per system and signal, a row per period and method."""
+    table = share_table(df, of, base, reference_set)
+    out = [f"\nshare of what {of} changed against {base} (paper 002 Table 6: |RMS - RMS_{base}| / "
+           f"|RMS_{of} - RMS_{base}|; signed: whether the method moved the error the way {of} did)"]
+    for (system, signal), part in table.groupby(["system", "signal"], sort=False):
+        out.append(f"\n{system} / {signal} [{SIGNAL_UNITS.get(signal, '')}] (RMS over its axes together)")
+        out.append(part.drop(columns=["system", "signal"]).to_string(index=False, float_format=lambda x: f"{x:.4g}"))
+    return "\n".join(out)
 
 
 def failures(df: pd.DataFrame) -> pd.DataFrame:
@@ -67,8 +114,9 @@ def failures(df: pd.DataFrame) -> pd.DataFrame:
 
 
 def _sections(table: pd.DataFrame):
-    for key, part in table.groupby(KEYS, sort=False):
-        yield key, part.drop(columns=KEYS)
+    """(system, signal, axis), part per section; a signal of one period is titled "signal (period)"."""
+    for (system, signal, period, axis), part in table.groupby(KEYS, sort=False):
+        yield (system, signal if period == "all" else f"{signal} ({period})", axis), part.drop(columns=KEYS)
 
 
 def format_text(df: pd.DataFrame, reference_set: str = "validation") -> str:
@@ -94,6 +142,7 @@ def bar_charts(df: pd.DataFrame, folder: Path, reference_set: str = "validation"
     import matplotlib.pyplot as plt
 
     table = ranking(df, reference_set)
+    table = table[table["period"] == "all"]  # the periods' rows are in the tables
     folder.mkdir(parents=True, exist_ok=True)
     paths = []
     for (system, signal), part in table.groupby(["system", "signal"], sort=False):

@@ -194,10 +194,11 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_th
                 if set_name == "validation":
                     trace = bench.trace(trials[0])
                 nn_rms = dict(zip(bench.axes, _rms_per_axis(nn), strict=True)) if nn else {}
-                for table in bench.tables(trials, ffs):
+                for table in bench.tables(trials, ffs, refs[set_name]):
                     for row in table.to_dict("records"):
                         row.pop("label")
-                        rows.append({**key, **row, "reference_set": set_name, "nn_rms": nn_rms.get(row["axis"], np.nan)})
+                        rows.append({**key, "period": "all", **row, "reference_set": set_name,
+                                     "nn_rms": nn_rms.get(row["axis"], np.nan)})
             cost = getattr(controller, "cost_", Cost())
             for row in rows:
                 row.update(plant_trials=config.n_train + cost.plant_trials, env_steps=cost.env_steps,

@@ -1,7 +1,9 @@
 """The results store: one tidy CSV, one row per (run, system, method, seed, reference set, axis, signal).
 
 Columns (``COLUMNS``): identification (``run_id``, ``system``, ``method``, ``seed``,
-``reference_set``, ``axis``, ``signal``), the norms of paper 000 eqs. (34)-(36) (``MA``, ``RMS``,
+``reference_set``, ``axis``, ``signal``, ``period``: the samples the norms are taken over, ``all``,
+``dynamic`` while the reference moves or ``static``; older files without the column read as
+``all``), the norms of paper 000 eqs. (34)-(36) (``MA``, ``RMS``,
 ``Inf``) with their ``unit``, the method's cost (``plant_trials``: closed-loop runs it learned
 from, the shared training runs included; ``env_steps``; ``fit_seconds``: wall time of fit and
 learn, plus that of learning reused from a cache, ``Cost.cached_seconds``), ``nn_rms`` (RMS of
@@ -27,9 +29,10 @@ import pandas as pd
 
 from .. import systems
 from ..data import atomic_write
+from ..metrics import PERIODS
 
 COLUMNS = (
-    "run_id", "system", "method", "seed", "reference_set", "axis", "signal", "MA", "RMS", "Inf", "unit",
+    "run_id", "system", "method", "seed", "reference_set", "axis", "signal", "period", "MA", "RMS", "Inf", "unit",
     "plant_trials", "env_steps", "fit_seconds", "nn_rms", "status", "error",
     "lcgym_version", "git_commit", "timestamp", "config_hash",
 )
@@ -38,7 +41,7 @@ REFERENCE_SETS = ("train", "validation", "test")
 SIGNALS = {
     "tracking_error": "deg",
     "input_residual": {name: systems.get(name).input_unit for name in systems.BUILT_IN},
-    "model_following_error": "deg",
+    "model_following_error": "rad/s^2",
     "ee_acceleration_error": "m/s^2",
     "tcp_position_error": "mm",
 }
@@ -85,6 +88,8 @@ def read_results(path: str | Path) -> pd.DataFrame:
                                                            "config_hash": str})
     except pd.errors.EmptyDataError:
         raise ResultsFileError(f"{path}: empty results file") from None
+    if "period" not in df.columns and "signal" in df.columns:  # written before the column existed: all samples
+        df.insert(int(df.columns.get_loc("signal")) + 1, "period", "all")
     validate(df, str(path))
     return df
 
@@ -106,6 +111,7 @@ def validate(df: pd.DataFrame, where: str = "results") -> None:
     ok = df["status"] == "ok"
     bad("reference_set", ok & ~df["reference_set"].isin(REFERENCE_SETS))
     bad("signal", ok & ~df["signal"].isin(list(SIGNALS)))
+    bad("period", ok & ~df["period"].isin(PERIODS))
     for col in ("MA", "RMS", "Inf"):
         values = pd.to_numeric(df[col], errors="coerce")
         bad(col, ok & ~(values.notna() & (values >= 0) & values.abs().lt(float("inf"))))

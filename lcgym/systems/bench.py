@@ -6,7 +6,8 @@ A bench machine (``systems/ix/bench.py``, ``systems/flexarm/bench.py``) has
 * ``references(set_name, seed, n, duration)``: the seeded references of a set;
 * ``run(references, feedforward=None, offsets=None)``: closed-loop trials, one per reference, with
   the methods' feedforward (T, n_axes) and, where the machine has that channel, reference offsets;
-* ``tables(trials, feedforward)``: the norm tables (``metrics``) the cell stores;
+* ``tables(trials, feedforward, references=None)``: the norm tables (``metrics``) the cell stores
+  (with the references, also any per-period rows the machine reports);
 * ``trace(trial)``: the tracking error of one trial to plot, per scored axis;
 * ``scored``: the indices of the axes it scores (None: all).
 """

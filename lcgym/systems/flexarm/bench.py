@@ -20,6 +20,7 @@ import pandas as pd
 
 from ...metrics import input_residual_table, norms_table
 from ..bench import trace_frame
+from .errors import paper_errors, period_mask
 from .plant import FlexArmPlant, load_error
 from .references import MOVING, arm_reference_set, tcp_positions
 
@@ -57,14 +58,31 @@ class FlexArmBench:
         tcp = np.column_stack([trial.extra[f"tcp_{c}"] for c in "xyz"])
         return 1000.0 * np.linalg.norm(tcp - tcp_positions(trial.ref, self.plant.true_arm.dh), axis=1)
 
-    def tables(self, trials, feedforward) -> list[pd.DataFrame]:
+    def tables(self, trials, feedforward, references=None) -> list[pd.DataFrame]:
+        """The norms scored (module docstring); with the trials' ``references``, also paper 002's
+        errors for all samples and for the dynamic and static periods: ``model_following_error``
+        of joints 2, 3, 5 [rad/s^2], ``ee_acceleration_error`` (axis ``ee``: the Euclidean norm of
+        the accelerometer's error) [m/s^2] and ``tcp_position_error`` [mm] (``errors.py``)."""
         cols = list(self.scored)
         e = np.degrees(np.concatenate([self.load_error(t) for t in trials]))[:, cols]
         residual = input_residual_table(trials, feedforward, unit="N m")
         tcp = np.concatenate([self.tcp_error(t) for t in trials])[:, None]
-        return [norms_table(e, self.scored_axes, "tracking_error", "deg"),
-                residual[residual["axis"].isin(self.scored_axes)].reset_index(drop=True),
-                norms_table(tcp, ("tcp",), "tcp_position_error", "mm")]
+        out = [norms_table(e, self.scored_axes, "tracking_error", "deg"),
+               residual[residual["axis"].isin(self.scored_axes)].reset_index(drop=True),
+               norms_table(tcp, ("tcp",), "tcp_position_error", "mm")]
+        if references is None:
+            return out
+        parts = [(paper_errors(self.plant, t, r, f), r) for t, r, f in zip(trials, references, feedforward, strict=True)]
+        for period in ("all", "dynamic", "static"):
+            masks = [period_mask(r, period) for _, r in parts]
+            joint = np.concatenate([p["joint"][m] for (p, _), m in zip(parts, masks, strict=True)])
+            ee = np.concatenate([np.linalg.norm(p["ee_acc"][m], axis=1) for (p, _), m in zip(parts, masks, strict=True)])
+            out += [norms_table(joint, self.scored_axes, "model_following_error", "rad/s^2", period=period),
+                    norms_table(ee[:, None], ("ee",), "ee_acceleration_error", "m/s^2", period=period)]
+            if period != "all":  # the whole trial's TCP error is the row above
+                tcp_part = np.concatenate([p["tcp"][m] for (p, _), m in zip(parts, masks, strict=True)])
+                out.append(norms_table(tcp_part, ("tcp",), "tcp_position_error", "mm", period=period))
+        return out
 
     def trace(self, trial) -> pd.DataFrame:
         return trace_frame(trial, self.scored_axes, self.load_error(trial), self.scored)

@@ -1,7 +1,7 @@
 """The errors paper 002 reports (section 5.3, Table 6), per sample of a FlexArm trial:
 
-- ``joint``: the model-following error e_pl of joints 2, 3 and 5 (eq. 16's error, from the true
-  load acceleration: ``BasicFeedforward.run`` stores it as ``e_pl_true_<joint>``) [rad/s^2];
+- ``joint``: the model-following error e_pl of joints 2, 3 and 5 (eq. 16's error with the true
+  load acceleration, ``nominal.model_following_error``) [rad/s^2];
 - ``ee_acc``: the end-effector acceleration error, the accelerometer's reading less its known bias
   less the specific force the reference would give at the sensor (T, 3) [m/s^2];
 - ``tcp``: the TCP position error |p_tcp - p_tcp,ref| [mm];
@@ -13,22 +13,32 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...metrics import PERIODS
 from . import dynamics as arm
+from .nominal import BasicFeedforward, model_following_error
 from .references import MOVING, tcp_positions
+from .sensors import true_load_acceleration
 
-PERIODS = ("all", "dynamic", "static")
 
-
-def paper_errors(plant, trial, reference) -> dict[str, np.ndarray]:
-    """{"joint": (T, 3) [rad/s^2], "ee_acc": (T, 3) [m/s^2], "tcp": (T, 1) [mm]} of a trial run by
-    ``BasicFeedforward.run`` on ``plant`` (a ``FlexArmPlant``: its true kinematics, sensor offset
-    and bias) for ``reference``."""
+def paper_errors(plant, trial, reference, feedforward: np.ndarray | None = None,
+                 nominal: BasicFeedforward | None = None) -> dict[str, np.ndarray]:
+    """{"joint": (T, 3) [rad/s^2], "ee_acc": (T, 3) [m/s^2], "tcp": (T, 1) [mm]} of a trial on
+    ``plant`` (a ``FlexArmPlant``: its true kinematics, sensor offset and bias) for ``reference``.
+    ``feedforward`` (T, 6) [N m]: the torque the run fed forward; without it the trial must come
+    from ``BasicFeedforward.run``, which stored e_pl (extras ``e_pl_true_<joint>``). ``nominal``: the
+    nominal structure e_pl is taken against (default: ``BasicFeedforward()``)."""
     dh, offset = plant.true_arm.dh, np.asarray(plant.accel_offset)
     f_ref = np.array([arm.specific_force_compiled(dh.table(), q, qd, qdd, offset, arm.GRAVITY) for q, qd, qdd in
                       zip(reference.positions, reference.velocities, reference.accelerations, strict=True)])
     acc = np.column_stack([trial.extra[f"acc_{c}"] for c in "xyz"]) - np.asarray(plant.accel_bias)
     tcp = np.column_stack([trial.extra[f"tcp_{c}"] for c in "xyz"]) - tcp_positions(reference.positions, dh)
-    joint = np.column_stack([trial.extra[f"e_pl_true_{trial.axes[j]}"] for j in MOVING])
+    if feedforward is None:
+        joint = np.column_stack([trial.extra[f"e_pl_true_{trial.axes[j]}"] for j in MOVING])
+    else:
+        nominal = nominal or BasicFeedforward()
+        basic = nominal.compute(reference.positions, reference.fs)
+        e = model_following_error(trial, np.asarray(feedforward, dtype=float), basic, nominal, true_load_acceleration(trial))
+        joint = e[:, list(MOVING)]
     return {"joint": joint, "ee_acc": acc - f_ref, "tcp": 1000 * np.linalg.norm(tcp, axis=1)[:, None]}
 
 

@@ -18,11 +18,12 @@ From the load reference q_lr it gives (all nominal values):
 
 The plant (``systems.flexarm.plant``) takes the motor-reference offset qbar_mr - N q_lr and the total
 feedforward tau_ff,0 = tau_ln + tau_nl,0. ``model_following_error`` gives e_pl = P_lu mu - qdd_l
-(eq. 16's error) with mu = u - tau_nl - F2(r_q): the inner plant's input (eq. 20) less the torque
-F2 adds for r_q. r_q is the torsion the *nonlinear* load torque causes, which tau_nl pays for; the
+(eq. 16's error) with mu = u - tau_nl - F2(r_q) = u - tau_ff + F2(q_mr): the inner plant's input
+(eq. 20) less the torque F2 adds for r_q. r_q is the torsion the *nonlinear* load torque causes, which tau_nl pays for; the
 linear model does not produce it, so without that term a plant the nominal model matches would
 show e_pl = P_lu F2(r_q) != 0, the fixed point of eq. (16) would not be Basic there, and the
-learning would shake the load (eq. 21's e_pl vanishes there). ``BasicFeedforward.run`` runs the
+learning would shake the load (eq. 21's e_pl vanishes there). For any method on the arm, tau_ff
+is its feedforward (its split into tau_ln and tau_nl does not enter). ``BasicFeedforward.run`` runs the
 plant with Basic and records e_pl, ``load_response`` is P_lu on a frequency grid (what the learning
 methods invert). ``FLEXARM.nominal`` is this structure: the start of the methods of paper 002.
 """
@@ -36,7 +37,7 @@ from typing import ClassVar
 import numpy as np
 from scipy import signal
 
-from ...physics.kinematics import lowpass_zero_phase, reference_kinematics
+from ...physics.kinematics import reference_kinematics
 from . import dynamics as arm
 
 HOME = arm.HOME  # where M_n is taken
@@ -47,7 +48,7 @@ class BasicFeedforward:
     """Nominal feedforward of Fig. 1 for the nominal ``arm`` and ``drive``; ``eps`` [rad/s] smooths
     sgn as tanh(v / eps). ``compute(q_lr, fs)`` returns a dict of (T, 6) arrays: ``motor_offset``
     [rad, motor] = qbar_mr - N q_lr, ``tau_ff``, ``tau_ln``, ``tau_nl`` [N m, motor side],
-    ``r_q`` [rad, motor], ``f2_r_q`` [N m, motor side] = F2(r_q), ``tau_lr`` [N m, load side]."""
+    ``r_q`` [rad, motor], ``f2_q_mr`` [N m, motor side] = F2(q_mr), ``tau_lr`` [N m, load side]."""
 
     arm_params: arm.ArmParameters = field(default_factory=arm.ArmParameters)
     drive: arm.DriveParameters = field(default_factory=arm.DriveParameters)
@@ -78,18 +79,15 @@ class BasicFeedforward:
         optional update of tau_nl (T, 6) [N m]) and add the model-following error to the trial's
         extras: ``e_pl_<joint>`` [rad/s^2] from the accelerometer-based load acceleration (what the
         paper's learning uses) and ``e_pl_true_<joint>`` from the simulation's true load acceleration."""
-        from .sensors import estimate_load_acceleration
+        from .sensors import estimate_load_acceleration, true_load_acceleration
 
         basic = self.compute(reference.positions, reference.fs)
         update = 0.0 if tau_nl_update is None else np.asarray(tau_nl_update, dtype=float)
-        trial = plant.run(reference, basic["tau_ff"] + update, basic["motor_offset"])
-        split = {**basic, "tau_nl": basic["tau_nl"] + update}
+        feedforward = basic["tau_ff"] + update
+        trial = plant.run(reference, feedforward, basic["motor_offset"])
         qdd_est = estimate_load_acceleration(trial, self.arm_params, self.drive, offset=plant.accel_offset)
-        ql = np.column_stack([trial.extra[f"load_{a}"] for a in trial.axes])
-        qdd_true = lowpass_zero_phase(np.gradient(np.gradient(ql, 1 / trial.fs, axis=0), 1 / trial.fs, axis=0),
-                                      trial.fs, 50.0)
-        for label, qdd in (("e_pl", qdd_est), ("e_pl_true", qdd_true)):
-            e = model_following_error(trial, split, self, qdd)
+        for label, qdd in (("e_pl", qdd_est), ("e_pl_true", true_load_acceleration(trial))):
+            e = model_following_error(trial, feedforward, basic, self, qdd)
             trial.extra.update({f"{label}_{a}": e[:, i] for i, a in enumerate(trial.axes)})
         trial.meta["controller"] = "basic"
         return trial
@@ -115,7 +113,7 @@ class BasicFeedforward:
         tau_ln = self._f2(qbar, fs)  # eq. (10)
         tau_ff = Jm * qbdd + Dm * qbd + Fmc * sgn(qbd) + tau_lr / N  # eqs. (13), (15)
         return {"motor_offset": qbar - N * q, "reference_offset": (qbar - N * q) / N, "tau_ff": tau_ff, "tau_ln": tau_ln,
-                "tau_nl": tau_ff - tau_ln, "r_q": r_q, "f2_r_q": tau_ln - self._f2(q_mr, fs), "tau_lr": tau_lr}
+                "tau_nl": tau_ff - tau_ln, "r_q": r_q, "f2_q_mr": self._f2(q_mr, fs), "tau_lr": tau_lr}
 
     def _f2(self, y: np.ndarray, fs: float) -> np.ndarray:
         """F2 = P_mu^-1 (eq. 10): the linear model's motor torque (T, 6) [N m] for motor motions y (T, 6) [rad]."""
@@ -171,9 +169,12 @@ def _lsim(system, u, t, x0_output: float = 0.0) -> np.ndarray:
     return np.asarray(y, dtype=float)
 
 
-def model_following_error(trial, basic: dict, nominal: BasicFeedforward, qdd_l: np.ndarray) -> np.ndarray:
-    """e_pl = P_lu mu - qdd_l (T, 6) [rad/s^2] with mu = u - tau_nl - F2(r_q) (eq. 16's error; the
-    module docstring says why F2(r_q) is taken out); ``qdd_l`` the load-side joint acceleration
-    (true, or estimated from the accelerometer)."""
-    mu = trial.u - basic["tau_nl"] - basic["f2_r_q"]
+def model_following_error(trial, feedforward: np.ndarray, basic: dict, nominal: BasicFeedforward,
+                          qdd_l: np.ndarray) -> np.ndarray:
+    """e_pl = P_lu mu - qdd_l (T, 6) [rad/s^2] with mu = u - tau_ff + F2(q_mr) (eq. 16's error; the
+    module docstring says why F2(r_q) is taken out). ``feedforward`` (T, 6) [N m] is the torque fed
+    forward in the run (Basic's tau_ff plus any update of tau_nl), ``basic`` is ``nominal.compute``
+    of the reference, and ``qdd_l`` is the load-side joint acceleration (true, or estimated from the
+    accelerometer)."""
+    mu = trial.u - feedforward + basic["f2_q_mr"]
     return nominal.load_acceleration(mu, trial.fs) - qdd_l

@@ -64,3 +64,12 @@ def estimate_load_acceleration(trial, arm_params: arm.ArmParameters, drive: arm.
         x = np.linalg.solve(Am.T @ Am + lam**2 * np.eye(len(m)), Am.T @ b + lam**2 * qdd_m[k, m])
         out[k, m] = x
     return lowpass_zero_phase(out, fs, cutoff)
+
+
+def true_load_acceleration(trial, cutoff: float = 50.0) -> np.ndarray:
+    """The simulation's true load-side joint accelerations (T, 6) [rad/s^2]: the load angles (extras
+    ``load_j*`` [rad]) differentiated twice, zero-phase low-passed at ``cutoff`` [Hz] as the
+    accelerometer estimate is."""
+    ql = np.column_stack([trial.extra[f"load_{a}"] for a in trial.axes])
+    dt = 1.0 / trial.fs
+    return lowpass_zero_phase(np.gradient(np.gradient(ql, dt, axis=0), dt, axis=0), trial.fs, cutoff)

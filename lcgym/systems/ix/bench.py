@@ -29,7 +29,7 @@ class IXBench:
             raise ValueError("the IX has no reference-offset channel: reference_offset must return None")
         return self.plant.run(list(references), feedforward)
 
-    def tables(self, trials, feedforward) -> list[pd.DataFrame]:
+    def tables(self, trials, feedforward, references=None) -> list[pd.DataFrame]:
         return [tracking_error_table(trials), input_residual_table(trials, feedforward)]
 
     @staticmethod
