@@ -20,9 +20,9 @@ import pandas as pd
 
 from ...metrics import input_residual_table, norms_table
 from ..bench import trace_frame
-from .errors import paper_errors, period_mask
+from .errors import paper_errors, period_mask, tcp_error
 from .plant import FlexArmPlant, load_error
-from .references import MOVING, arm_reference_set, tcp_positions
+from .references import MOVING, arm_reference_set
 
 
 class FlexArmBench:
@@ -55,8 +55,7 @@ class FlexArmBench:
 
     def tcp_error(self, trial) -> np.ndarray:
         """|TCP - TCP of the reference| (T,) [mm]."""
-        tcp = np.column_stack([trial.extra[f"tcp_{c}"] for c in "xyz"])
-        return 1000.0 * np.linalg.norm(tcp - tcp_positions(trial.ref, self.plant.true_arm.dh), axis=1)
+        return tcp_error(trial, self.plant.true_arm.dh)
 
     def tables(self, trials, feedforward, references=None) -> list[pd.DataFrame]:
         """The norms scored (module docstring); with the trials' ``references``, also paper 002's

@@ -31,7 +31,6 @@ def paper_errors(plant, trial, reference, feedforward: np.ndarray | None = None,
     f_ref = np.array([arm.specific_force_compiled(dh.table(), q, qd, qdd, offset, arm.GRAVITY) for q, qd, qdd in
                       zip(reference.positions, reference.velocities, reference.accelerations, strict=True)])
     acc = np.column_stack([trial.extra[f"acc_{c}"] for c in "xyz"]) - np.asarray(plant.accel_bias)
-    tcp = np.column_stack([trial.extra[f"tcp_{c}"] for c in "xyz"]) - tcp_positions(reference.positions, dh)
     if feedforward is None:
         joint = np.column_stack([trial.extra[f"e_pl_true_{trial.axes[j]}"] for j in MOVING])
     else:
@@ -39,7 +38,14 @@ def paper_errors(plant, trial, reference, feedforward: np.ndarray | None = None,
         basic = nominal.compute(reference.positions, reference.fs)
         e = model_following_error(trial, np.asarray(feedforward, dtype=float), basic, nominal, true_load_acceleration(trial))
         joint = e[:, list(MOVING)]
-    return {"joint": joint, "ee_acc": acc - f_ref, "tcp": 1000 * np.linalg.norm(tcp, axis=1)[:, None]}
+    return {"joint": joint, "ee_acc": acc - f_ref, "tcp": tcp_error(trial, dh)[:, None]}
+
+
+def tcp_error(trial, dh: arm.DH) -> np.ndarray:
+    """|TCP - TCP of the reference| (T,) [mm]: the trial's true TCP (extras ``tcp_x/y/z`` [m]) against
+    the forward kinematics ``dh`` of its reference ``trial.ref``."""
+    tcp = np.column_stack([trial.extra[f"tcp_{c}"] for c in "xyz"])
+    return 1000.0 * np.linalg.norm(tcp - tcp_positions(trial.ref, dh), axis=1)
 
 
 def period_mask(reference, period: str) -> np.ndarray:
