@@ -40,6 +40,7 @@ class SimulationResult:
     trials: list[Trial]
     feedforward: list[np.ndarray]
     bench: object = None  # the machine's bench (what it scores, ``tables`` and ``trace``)
+    references: list = None  # the validation references the trials ran (per-period rows of ``tables``)
 
 
 def simulate(
@@ -78,16 +79,16 @@ def simulate(
             trials = bench.run(val_refs, ff, offsets)
             for t in trials:
                 t.meta.update(controller=name, seed=seed, reference_set="validation")
-            results.append(SimulationResult(name, trials, ff, bench))
+            results.append(SimulationResult(name, trials, ff, bench, val_refs))
             steps.update()
     return results
 
 
 def metric_table(results: Sequence[SimulationResult]) -> pd.DataFrame:
     """The norms the machine's benchmark scores per controller and axis (IX: tracking error [deg] and
-    input residual [V], Tables II-V; arm: also the TCP error [mm])."""
+    input residual [V], Tables II-V; arm: also the TCP error [mm] and paper 002's errors per period)."""
     parts = []
     for r in results:
-        for table in r.bench.tables(r.trials, r.feedforward):
+        for table in r.bench.tables(r.trials, r.feedforward, r.references):
             parts.append(table.assign(label=r.controller))
     return pd.concat(parts, ignore_index=True).rename(columns={"label": "controller"})
