@@ -64,3 +64,24 @@ def test_bad_feedforward_and_divergence_fail_clearly(line):
     unstable = FlexArmPlant(gains=PIDGains(tuple(-k for k in g.kp), g.ki, g.kd))  # positive feedback
     with pytest.raises(SimulationDiverged, match="safe range"):
         unstable.run(line)
+
+
+def test_settled_start_leaves_gravity_to_a_feedforward_that_carries_it():
+    """With Basic's feedforward (gravity in it), the default start has the integrators hold gravity
+    as well, so the motors jump at t = 0 (over 0.1 rad of the motor); ``settled_start`` makes the
+    integrators hold only what the first feedforward sample lacks. Without a feedforward both
+    starts are the same run."""
+    from lcgym.systems.flexarm.nominal import BasicFeedforward
+
+    ref = arm_reference_set("validation", 0, 1)[0]
+    nom = BasicFeedforward()
+    b = nom.compute(ref.positions, ref.fs)
+    N = np.asarray(nom.drive.N)
+    start_error = {}
+    for settled in (False, True):
+        tr = FlexArmPlant(settled_start=settled).run(ref, b["tau_ff"], b["motor_offset"])
+        motor = np.column_stack([tr.extra[f"motor_{a}"] for a in tr.axes])
+        start_error[settled] = np.abs(N * ref.positions[0] + b["motor_offset"][0] - motor[0]).max()
+    assert start_error[False] > 0.1 and start_error[True] < 0.005, start_error
+    plain = [FlexArmPlant(settled_start=s).run(ref) for s in (False, True)]
+    np.testing.assert_array_equal(plain[0].u, plain[1].u)

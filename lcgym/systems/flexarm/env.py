@@ -118,7 +118,7 @@ class FlexArmEnv(gym.Env):
                       np.asarray(p.accel_offset, dtype=float))
         self._st = np.empty(F.N_LOOP)
         dh, pi, drive, C, cfg, _ = self._args
-        F.loop_start(self._st, ref.positions[0], off[0], dh, pi, drive, C, cfg)
+        F.loop_start(self._st, ref.positions[0], off[0], ff[0], dh, pi, drive, C, cfg)
         zero = np.zeros(F.N_SIG)
         for _ in range(int(cfg[6])):
             F.loop_sample(self._st, ref.positions[0], ref.positions[0], ff[0], off[0], *self._args[:5], self._args[5],
