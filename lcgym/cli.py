@@ -1,10 +1,10 @@
 """The ``lcgym`` command. Thin: parses, calls library functions, prints.
 
-    lcgym bench [--systems ix,flexarm] [--methods feedback,physical] [--seeds 0,1,2] [--quick]
+    lcgym bench [--systems ix-v1,flexarm-v1] [--methods feedback,physical] [--seeds 0,1,2] [--quick]
                 [--out results.csv] [--jobs N] [--dask ADDRESS] [--resume] [--timeout SECONDS]
     lcgym leaderboard [results.csv] [--reference-set SET] [--config HASH] [--markdown OUT.md] [--html OUT.html]
                       [--share-of METHOD [--base METHOD]]
-    lcgym simulate [--system ix|flexarm] [--controller feedback,physical] [--out run.csv] [--plot run.png]
+    lcgym simulate [--system ix|flexarm|ix-v0|...] [--controller feedback,physical] [--out run.csv] [--plot run.png]
     lcgym diagnose DATA --system MACHINE [--add EFFECT@AXIS ...] [--kinematics reference|measured]
                    [--validate OTHER] [--resample HZ] [--json OUT.json] [--plots DIR] [--replay]
     lcgym effects [--system MACHINE] [--data DATA]
@@ -23,7 +23,7 @@ import tempfile
 import warnings
 from pathlib import Path
 
-SIMULATE_SYSTEMS = ("ix", "flexarm")  # the built-in machines: lcgym simulate needs a plant
+SIMULATE_SYSTEMS = ("ix", "ix-v1", "ix-v0", "flexarm", "flexarm-v1", "flexarm-v0")  # lcgym simulate needs a plant
 DATASETS = ("emps",)  # lcgym import: readers of lcgym.datasets
 
 
@@ -131,7 +131,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="lcgym", description="Learning feedforward control benchmark suite")
     sub = parser.add_subparsers(dest="command", required=True)
     bench = sub.add_parser("bench", help="run methods on systems over seeds; append MA/RMS/Inf to a results CSV")
-    bench.add_argument("--systems", type=_names, help="comma-separated systems (default: all: ix,flexarm)")
+    bench.add_argument("--systems", type=_names, help="comma-separated systems with their version, ix-v0, or without "
+                       "it: the newest (default: ix-v1,flexarm-v1)")
     bench.add_argument("--methods", type=_names,
                        help="comma-separated method ids or module:Class (default: every registered method)")
     bench.add_argument("--seeds", type=_seeds, help="comma-separated seeds (default 0,1,2; --quick: 0)")

@@ -49,7 +49,8 @@ def simulate(
 ) -> list[SimulationResult]:
     """Fit each named controller on seeded training references of a built-in machine and run it on
     validation ones. ``duration`` [s]: moving time of an IX reference (an arm reference is one TCP
-    line out and back); ``plant``: the machine's plant (default its benchmark plant)."""
+    line out and back); ``system``: "ix", "flexarm" (their newest versions) or a versioned name,
+    "ix-v0"; ``plant``: the machine's plant (default the plant of that version)."""
     machine = systems.get(system)
     if machine.bench is None:
         raise ValueError(f"simulate needs a built-in machine with a plant ({', '.join(systems.BUILT_IN)}), not {system}")
@@ -58,7 +59,7 @@ def simulate(
     if unknown:
         raise ValueError(f"unknown controller {', '.join(unknown)} on {machine.name}; choose from {', '.join(available)} "
                          "(the others run in lcgym bench)")
-    bench = machine.bench()
+    bench = systems.make_bench(system)
     if plant is not None:
         bench.plant = plant
     # a context manager: a failure closes the bar before its message is printed, not after

@@ -22,12 +22,12 @@ GOOD_STEPS = 3  # good steps before the bad action: the error must name step 3
 
 
 def make_ix():
-    return gym.make("lcgym/IX-v0", **SHORT), (2,), "IX-v0"
+    return gym.make("lcgym/IX-v0", **SHORT), (2,), "IX env"
 
 
 def make_ix_vector():
     venv = gym.make_vec("lcgym/IX-v0", num_envs=2, vectorization_mode="vector_entry_point", **SHORT)
-    return venv, (2, 2), "IX-v0 vector env"
+    return venv, (2, 2), "IX vector env"
 
 
 def make_flexarm():

@@ -51,7 +51,7 @@ def test_tiny_benchmark_rows_and_schema(tmp_path):
     assert (val.loc["physical", "RMS"] < val.loc["feedback", "RMS"]).all()
     assert (df.loc[df.method == "feedback", "fit_seconds"] < 0.1).all()
     assert (df["plant_trials"] == 1).all()
-    trace = pd.read_parquet(out.parent / "r.csv.traces" / "ix_physical_0.parquet")
+    trace = pd.read_parquet(out.parent / "r.csv.traces" / "ix-v1_physical_0.parquet")
     assert list(trace.columns) == ["t", "ref_propeller", "error_propeller", "ref_roll", "error_roll"]
     assert len(trace) > 100 and np.isfinite(trace.to_numpy()).all()
 
@@ -64,7 +64,7 @@ def test_rbf_expert_cells_run_on_both_systems(tmp_path):
                             progress=False)
     df = read_results(out)
     assert summary["cells_failed"] == 0 and (df["status"] == "ok").all(), df["error"].unique()
-    assert set(df["system"]) == {"ix", "flexarm"} and (df["plant_trials"] == 2).all()
+    assert set(df["system"]) == {"ix-v1", "flexarm-v1"} and (df["plant_trials"] == 2).all()
     assert np.isfinite(df["RMS"]).all()
 
 
@@ -73,7 +73,7 @@ def test_flexarm_cells_score_load_side_and_tcp_errors(tmp_path, capsys):
     the fitted physical model (with its joint-torsion reference offset) beats feedback on all."""
     out = tmp_path / "r.csv"
     config = BenchConfig(methods=(*BASE, "basic"), **{**TINY, "systems": ("flexarm", "ix")})
-    assert ("ix", "basic", 0) not in config.cells()  # basic is the arm's nominal structure only
+    assert ("ix-v1", "basic", 0) not in config.cells()  # basic is the arm's nominal structure only
     summary = run_benchmark(replace(config, systems=("flexarm",)), out, progress=False)
     df = read_results(out)
     assert summary["cells_failed"] == 0 and (df["status"] == "ok").all()
@@ -98,7 +98,7 @@ def test_flexarm_cells_score_load_side_and_tcp_errors(tmp_path, capsys):
     assert main(["leaderboard", str(out), "--share-of", "physical"]) == 0
     printed = capsys.readouterr().out
     assert "share of what physical changed against basic" in printed
-    assert "flexarm / model_following_error (dynamic) / j2" in printed
+    assert "flexarm-v1 / model_following_error (dynamic) / j2" in printed
     assert main(["leaderboard", str(out), "--share-of", "ilc"]) == 1
     assert "--share-of ilc: no such method" in capsys.readouterr().err
     val = val[val.period == "all"]
@@ -107,7 +107,7 @@ def test_flexarm_cells_score_load_side_and_tcp_errors(tmp_path, capsys):
     assert rms.loc[("tcp_position_error", "tcp"), "physical"] < rms.loc[("tcp_position_error", "tcp"), "basic"]
     with pytest.raises(ValueError, match="runs on flexarm only"):
         BenchConfig(methods=("basic",), **TINY)
-    trace = pd.read_parquet(out.parent / "r.csv.traces" / "flexarm_physical_0.parquet")
+    trace = pd.read_parquet(out.parent / "r.csv.traces" / "flexarm-v1_physical_0.parquet")
     assert list(trace.columns) == ["t", "ref_j2", "error_j2", "ref_j3", "error_j3", "ref_j5", "error_j5"]
 
 
@@ -234,9 +234,9 @@ def test_report_pages_escape_strings(tmp_path, monkeypatch):
     page = write_html(df, tmp_path / "board.html").read_text()
     assert "<script>" not in page and "&lt;script&gt;" in page
     md = write_markdown(df, tmp_path / "board.md", source=str(out)).read_text()
-    assert "| 1 | physical |" in md and (tmp_path / "board_figures" / "ix_tracking_error.png").exists()
-    assert "ix_traces.png" in md and (tmp_path / "board_figures" / "ix_traces.png").exists()
-    assert not (tmp_path / "r.csv.traces" / "ix_evil_Evil_0.parquet").exists()  # failed cells leave no trace
+    assert "| 1 | physical |" in md and (tmp_path / "board_figures" / "ix-v1_tracking_error.png").exists()
+    assert "ix-v1_traces.png" in md and (tmp_path / "board_figures" / "ix-v1_traces.png").exists()
+    assert not (tmp_path / "r.csv.traces" / "ix-v1_evil_Evil_0.parquet").exists()  # failed cells leave no trace
     table = ranking(df)
     top = table[(table.signal == "tracking_error")].groupby("axis").first()["method"]
     assert (top == "physical").all()

@@ -60,7 +60,7 @@ class BenchConfig:
     arm reference is one TCP line out and back; ``systems.FlexArmBench``).
     """
 
-    systems: tuple[str, ...] = tuple(systems.BUILT_IN)
+    systems: tuple[str, ...] = field(default_factory=systems.newest_benchmarks)
     methods: tuple[str, ...] = field(default_factory=lambda: tuple(CONTROLLERS))
     seeds: tuple[int, ...] = (0, 1, 2)
     n_train: int = 8
@@ -68,13 +68,12 @@ class BenchConfig:
     duration: float = 40.0
 
     def __post_init__(self):
-        unknown = [s for s in self.systems if s not in systems.BUILT_IN]
-        if unknown:
-            raise ValueError(f"unknown system(s) {unknown}; available: {', '.join(systems.BUILT_IN)} (the benchmark "
-                             "needs a machine with a plant)")
+        # versioned names: "ix" is the newest version ("ix-v1"); an unknown name fails with the list
+        object.__setattr__(self, "systems", tuple(dict.fromkeys(systems.benchmark_name(s) for s in self.systems)))
+        families = {systems.family_of(s) for s in self.systems}
         for m in self.methods:
             where = getattr(load_method(m, CONTROLLERS), "systems", None)  # fails early with a clear message
-            if where is not None and not set(where) & set(self.systems):
+            if where is not None and not set(where) & families:
                 raise ValueError(f"method {m!r} runs on {', '.join(where)} only, not on {', '.join(self.systems)}")
         if any(s < 0 for s in self.seeds):
             raise ValueError(f"seeds must be >= 0, got {list(self.seeds)}")
@@ -104,7 +103,7 @@ class BenchConfig:
         """(system, method, seed) of every cell; a method with ``systems`` only on those."""
         runs_on = {m: getattr(load_method(m, CONTROLLERS), "systems", None) for m in self.methods}
         return [(s, m, k) for s in self.systems for m in self.methods for k in self.seeds
-                if runs_on[m] is None or s in runs_on[m]]
+                if runs_on[m] is None or systems.family_of(s) in runs_on[m]]
 
 
 def _single_thread() -> None:
@@ -119,7 +118,7 @@ def _single_thread() -> None:
 def _training_trials(system: str, seed: int, config: BenchConfig) -> list:
     """The feedback-only runs of a cell's training references: the same for every method of a
     (system, seed, budget), so computed once per process (the plants are deterministic)."""
-    bench = systems.get(system).bench()
+    bench = systems.make_bench(system)
     return bench.run(bench.references("train", seed, config.n_train, config.duration))
 
 
@@ -162,7 +161,7 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_th
     if single_thread:
         _single_thread()
     key = {"system": system, "method": method, "seed": seed, "config_hash": config.config_hash()}
-    bench = systems.get(system).bench()
+    bench = systems.make_bench(system)
     refs = {name: bench.references(name, seed, n, config.duration)
             for name, n in (("train", config.n_train), ("validation", config.n_validation))}
     train_trials = copy.deepcopy(_training_trials(system, seed, config))  # a copy: a method may alter its trials

@@ -1,6 +1,7 @@
 """The results store: one tidy CSV, one row per (run, system, method, seed, reference set, axis, signal).
 
-Columns (``COLUMNS``): identification (``run_id``, ``system``, ``method``, ``seed``,
+Columns (``COLUMNS``): identification (``run_id``, ``system``: the machine and its version,
+``ix-v1``, ``method``, ``seed``,
 ``reference_set``, ``axis``, ``signal``, ``period``: the samples the norms are taken over, ``all``,
 ``dynamic`` while the reference moves or ``static``; older files without the column read as
 ``all``), the norms of paper 000 eqs. (34)-(36) (``MA``, ``RMS``,
@@ -36,11 +37,12 @@ COLUMNS = (
     "plant_trials", "env_steps", "fit_seconds", "nn_rms", "status", "error",
     "lcgym_version", "git_commit", "timestamp", "config_hash",
 )
-SYSTEMS = tuple(systems.BUILT_IN)
+SYSTEMS = (*(f"{m}-{v}" for m, versions in systems.VERSIONS.items() for v in versions), *systems.BUILT_IN)
+"""Versioned benchmark machines ("ix-v1"), and the bare names of files written before versions (their v0)."""
 REFERENCE_SETS = ("train", "validation", "test")
 SIGNALS = {
     "tracking_error": "deg",
-    "input_residual": {name: systems.get(name).input_unit for name in systems.BUILT_IN},
+    "input_residual": {name: systems.get(name).input_unit for name in SYSTEMS},
     "model_following_error": "rad/s^2",
     "ee_acceleration_error": "m/s^2",
     "tcp_position_error": "mm",

@@ -28,22 +28,64 @@ EXAMPLES = {"emps": ("lcgym.systems.examples.emps", "EMPS")}
 """Name -> (module, attribute) of machines shipped as worked examples of real data (no plant: the
 diagnosis and the physical model run on them, the benchmark does not)."""
 
+VERSIONS = {"ix": ("v0", "v1"), "flexarm": ("v0", "v1")}
+"""The versions of each built-in machine's plant, oldest first. A version is frozen once released: a
+plant change makes a new one (what changed: the Version History of ``systems/<machine>/env.py``).
+The newest is the benchmark's default; the rigid-body model (diagnosis, physical model) is the
+machine's, shared by its versions."""
+
+_IX_ENV = {"entry_point": "lcgym.systems.ix.env:IXEnv", "vector_entry_point": "lcgym.systems.ix.env:IXVectorEnv"}
+_ARM_ENV = {"entry_point": "lcgym.systems.flexarm.env:FlexArmEnv"}
 ENVS = {
-    "lcgym/IX-v0": {"entry_point": "lcgym.systems.ix.env:IXEnv", "vector_entry_point": "lcgym.systems.ix.env:IXVectorEnv"},
-    "lcgym/FlexArm-v0": {"entry_point": "lcgym.systems.flexarm.env:FlexArmEnv"},
+    "lcgym/IX-v0": {**_IX_ENV, "kwargs": {"version": "v0"}},
+    "lcgym/IX-v1": {**_IX_ENV, "kwargs": {"version": "v1"}},
+    "lcgym/FlexArm-v0": {**_ARM_ENV, "kwargs": {"version": "v0"}},
+    "lcgym/FlexArm-v1": {**_ARM_ENV, "kwargs": {"version": "v1"}},
 }
 """The built-in machines' Gymnasium ids and entry points (their ``System.envs`` take them from here), so
 that ``import lcgym`` registers them without importing the machines (plants, kernels, scipy)."""
 
 
+def benchmark_name(spec: str) -> str:
+    """The versioned name of a benchmark machine: "ix" -> the newest ("ix-v1"), "ix-v0" -> "ix-v0"."""
+    family, sep, version = str(spec).rpartition("-")
+    if not sep:
+        family, version = spec, None
+    if family not in VERSIONS or (version is not None and version not in VERSIONS[family]):
+        names = ", ".join(f"{m} ({', '.join(f'{m}-{v}' for v in vs)})" for m, vs in VERSIONS.items())
+        raise ValueError(f"unknown system {spec!r}; available: {names} (a name without a version is the "
+                         "newest; the benchmark needs a machine with a plant)")
+    return f"{family}-{version or VERSIONS[family][-1]}"
+
+
+def newest_benchmarks() -> tuple[str, ...]:
+    """The newest version of each built-in machine: the benchmark's default systems."""
+    return tuple(benchmark_name(m) for m in VERSIONS)
+
+
+def make_bench(spec: str):
+    """The bench (``systems/bench.py``) of a benchmark machine, "ix", "ix-v0", "flexarm-v1", ...,
+    with the plant of that version."""
+    family, version = benchmark_name(spec).rsplit("-", 1)
+    return get(family).bench(version)
+
+
+def family_of(spec: str) -> str:
+    """The machine a (versioned) benchmark name belongs to: "ix-v0" -> "ix"."""
+    return benchmark_name(spec).rsplit("-", 1)[0]
+
+
 def get(spec: str | System, joints: Sequence[str] | None = None, **options) -> System:
-    """The machine ``spec`` names: a ``System`` (returned as is), a built-in name (``BUILT_IN``), a
+    """The machine ``spec`` names: a ``System`` (returned as is), a built-in name (``BUILT_IN``; a
+    versioned one, "ix-v0", names the same machine: versions differ in their plant only), a
     ``.urdf`` file (``urdf.from_urdf(spec, joints, **options)``: ``joints`` are the axes, the
     URDF's other joints are locked) or ``module:attr`` (a ``System`` or a function returning one,
     imported from the current folder too, like ``python -m``)."""
     if isinstance(spec, System):
         return spec
     spec = str(spec)
+    if spec not in BUILT_IN and spec.rpartition("-")[0] in VERSIONS:  # "ix-v0": the machine of that plant
+        spec = family_of(spec)
     if spec in BUILT_IN or spec in EXAMPLES:
         module, attr = {**BUILT_IN, **EXAMPLES}[spec]
         return getattr(importlib.import_module(module), attr)
@@ -110,5 +152,6 @@ def register_envs() -> None:
             gym.register(id=env_id, **entry)
 
 
-__all__ = ["Axis", "BUILT_IN", "ENVS", "EXAMPLES", "ParameterVector", "SimulationDiverged", "System", "built_in",
-           "from_python", "get", "of_trials", "register_envs"]
+__all__ = ["Axis", "BUILT_IN", "ENVS", "EXAMPLES", "VERSIONS", "ParameterVector", "SimulationDiverged", "System",
+           "benchmark_name", "built_in", "family_of", "from_python", "get", "make_bench", "newest_benchmarks", "of_trials",
+           "register_envs"]

@@ -237,8 +237,8 @@ class System:
 
     @property
     def env_id(self) -> str | None:
-        """The machine's Gymnasium id (its first), or None (a machine without a plant)."""
-        return next(iter(self.envs), None)
+        """The machine's Gymnasium id (its newest version's, the last), or None (a machine without a plant)."""
+        return next(reversed(self.envs), None)
 
     # ------------------------------------------------------------------ axes and units
     @property

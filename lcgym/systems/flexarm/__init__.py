@@ -45,7 +45,7 @@ FLEXARM = System(
     joint_axes=lambda: dynamics.joint_axes(dynamics.HOME),
     caching=motor.cached_regressors,
     bench=FlexArmBench,
-    envs={"lcgym/FlexArm-v0": ENVS["lcgym/FlexArm-v0"]},
+    envs={k: v for k, v in ENVS.items() if k.startswith("lcgym/FlexArm-")},
     observation_error=slice(30, 36),
     nominal=BasicFeedforward(),
 )

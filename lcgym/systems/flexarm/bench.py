@@ -28,11 +28,13 @@ from .references import MOVING, arm_reference_set
 class FlexArmBench:
     """The FlexArm of paper 002 in the benchmark (see the module docstring)."""
 
-    name = "flexarm"
+    family = "flexarm"
     scored = MOVING  # joints 2, 3, 5
 
-    def __init__(self):
-        self.plant = FlexArmPlant()
+    def __init__(self, version: str = "v1"):
+        self.version = version
+        self.name = f"flexarm-{version}"
+        self.plant = FlexArmPlant.of_version(version)
         self.axes = self.plant.axes
         self.scored_axes = tuple(self.axes[i] for i in self.scored)
 

@@ -1,4 +1,4 @@
-"""Gymnasium tracking environment of the FlexArm: ``lcgym/FlexArm-v0`` (paper 002).
+"""Gymnasium tracking environment of the FlexArm: ``lcgym/FlexArm-v1`` (and ``-v0``; paper 002).
 
 One episode tracks one TCP-line reference (``systems/flexarm/references.py``) on the closed-loop plant of
 ``systems/flexarm/plant.py`` (1 kHz, motor-side PID, flexible joints, hidden payload and drive mismatch,
@@ -37,11 +37,23 @@ Info: per step ``u`` (motor torques [N m]) and ``clipped_actions``; at the episo
 Reset: the reference is drawn with the env's seeded generator from the set, or chosen with
     ``options={"reference": i}``; the plant starts in static balance, held for ``plant.preroll`` s.
 
-Vector env: ``gym.make_vec("lcgym/FlexArm-v0", num_envs=n, vectorization_mode="sync")`` steps n
+Arguments: ``references`` (a set name or a list of ``Reference``), ``reference_seed``,
+    ``n_references``, ``base_feedforward``, ``plant`` (a ``FlexArmPlant``; default the plant of
+    ``version``), ``version`` ("v1" or "v0": ``FlexArmPlant.of_version``; the registered ids set it).
+
+Vector env: ``gym.make_vec("lcgym/FlexArm-v1", num_envs=n, vectorization_mode="sync")`` steps n
 independent copies (tested against a single env); "async" runs them in processes. There is no
 batched kernel like the IX's: one step costs about 120 us here (measured 118 us: 4 RK4 steps of
 the 6-joint flexible dynamics plus Python's per-step overhead; the 16 evaluations of the dynamics
 at 3 us each make about 50 us of it).
+
+Version History:
+    - v1: a settled start (``FlexArmPlant(settled_start=True)``): the PID integrators hold only the
+      gravity torque the first feedforward sample lacks, so a run whose feedforward carries gravity
+      (Basic, paper 002's nominal structure) starts without a motor error (1.5 mrad instead of
+      121 mrad at t = 0 on Basic). Same observation, action and reward as v0.
+    - v0: the first release (``FlexArmPlant()``'s defaults): the integrators start holding the whole
+      gravity torque on top of the feedforward's.
 """
 
 from __future__ import annotations
@@ -66,15 +78,15 @@ OBS_BOUND = 25.0
 
 
 class FlexArmEnv(gym.Env):
-    """``lcgym/FlexArm-v0``; see the module docstring."""
+    """``lcgym/FlexArm-v1`` (and -v0); see the module docstring."""
 
     metadata = {"render_modes": []}
 
     def __init__(self, references="train", reference_seed: int = 0, n_references: int | None = None,
-                 base_feedforward: str = "basic", plant: F.FlexArmPlant | None = None):
+                 base_feedforward: str = "basic", plant: F.FlexArmPlant | None = None, version: str = "v1"):
         if base_feedforward not in ("basic", "none"):
             raise ValueError(f"base_feedforward must be 'basic' or 'none', got {base_feedforward!r}")
-        self.plant = plant or F.FlexArmPlant()
+        self.plant = plant or F.FlexArmPlant.of_version(version)
         if isinstance(references, str):
             references = arm_reference_set(references, reference_seed, n_references, fs=self.plant.fs)
         self.references: list[Reference] = list(references)

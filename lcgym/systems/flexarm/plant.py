@@ -85,6 +85,10 @@ class PIDGains:
 HOME = arm.HOME
 
 
+VERSIONS = {"v0": {}, "v1": {"settled_start": True}}
+"""FlexArm versions: the ``FlexArmPlant`` arguments that make each (``FlexArmPlant.of_version``)."""
+
+
 @dataclass
 class FlexArmPlant:
     """Closed-loop FlexArm simulator; see the module docstring. fs [Hz]; u_max [N m] per motor;
@@ -112,6 +116,14 @@ class FlexArmPlant:
     settled_start: bool = False
 
     axes = arm.AXES
+
+    @classmethod
+    def of_version(cls, version: str, **overrides) -> FlexArmPlant:
+        """The plant of FlexArm-``version`` ("v0": the defaults of this class; "v1": the settled
+        start), with ``overrides``."""
+        if version not in VERSIONS:
+            raise ValueError(f"unknown FlexArm version {version!r}; available: {', '.join(VERSIONS)}")
+        return cls(**{**VERSIONS[version], **overrides})
 
     def __post_init__(self):
         if self.substeps < 1 or self.fs <= 0 or self.encoder_counts < 0:

@@ -49,7 +49,7 @@ IX = System(
     description="interventional X-ray C-arm of paper 000: propeller and roll, input in V",
     joint_axes=joint_axes,
     bench=IXBench,
-    envs={"lcgym/IX-v0": ENVS["lcgym/IX-v0"]},
+    envs={k: v for k, v in ENVS.items() if k.startswith("lcgym/IX-")},
     observation_error=slice(34, 36),
 )
 

@@ -14,11 +14,13 @@ from .references import reference_set
 class IXBench:
     """The IX of paper 000 in the benchmark (see the module docstring)."""
 
-    name = "ix"
+    family = "ix"
     scored = None  # both axes
 
-    def __init__(self):
-        self.plant = IXPlant()
+    def __init__(self, version: str = "v1"):
+        self.version = version
+        self.name = f"ix-{version}"
+        self.plant = IXPlant.of_version(version)
         self.axes = self.plant.axes
 
     def references(self, set_name: str, seed: int, n: int, duration: float):

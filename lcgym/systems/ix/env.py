@@ -1,4 +1,4 @@
-"""Gymnasium tracking environments of the IX C-arm: ``lcgym/IX-v0`` and its batched vector env.
+"""Gymnasium tracking environments of the IX C-arm: ``lcgym/IX-v1`` (and ``-v0``) and its batched vector env.
 
 One episode tracks one reference of a reference set on the closed-loop IX plant of
 ``systems/ix/plant.py`` (500 Hz, fixed PD + low-pass feedback, hidden effects, quantized encoders). The
@@ -45,10 +45,18 @@ Reset: the reference is drawn with the env's seeded generator from the set, or c
 Arguments: ``references`` ("train", "validation", "test", "calibration" or a list of
     ``Reference`` / (T, 2) position arrays [rad]), ``reference_seed`` and ``n_references`` /
     ``duration`` of the generated set, ``base_feedforward``, ``plant`` (an ``IXPlant``; default
-    hidden effects), ``render_mode="rgb_array"``.
+    the plant of ``version``), ``version`` ("v1" or "v0": ``IXPlant.of_version``; the registered
+    ids set it), ``render_mode="rgb_array"``.
 
-The vector env (``gym.make_vec("lcgym/IX-v0", num_envs=N, vectorization_mode="vector_entry_point")``)
+The vector env (``gym.make_vec("lcgym/IX-v1", num_envs=N, vectorization_mode="vector_entry_point")``)
 steps N plants in one compiled call (parallel over plants), with Gymnasium's next-step autoreset.
+
+Version History:
+    - v1: the hidden effects and the feedback recalibrated so that the benchmark's machine-describing
+      rows (feedback-only and physical-model tracking error, physical-model input residual) match
+      paper 000's Tables II-V within 25 % (``studies/calibrate_ix.py``; ``plant.V1_SIZES``,
+      ``plant.V1_GAINS``). Same effects, observation, action and reward as v0.
+    - v0: the first release (``IXPlant()``'s defaults).
 """
 
 from __future__ import annotations
@@ -113,13 +121,13 @@ class IXTask:
     with their observation features and base feedforward, and each reference's settled start."""
 
     def __init__(self, references, base_feedforward, plant: IXPlant | None, reference_seed: int,
-                 n_references: int | None, duration: float):
+                 n_references: int | None, duration: float, version: str = "v1"):
         if isinstance(base_feedforward, str) and base_feedforward not in ("none", "physical"):
             raise ValueError(f"base_feedforward must be 'none', 'physical' or a fitted model, got {base_feedforward!r}")
         if not isinstance(base_feedforward, str) and not callable(getattr(base_feedforward, "predict", None)):
             raise ValueError(f"base_feedforward must be 'none', 'physical' or a fitted model with predict(positions), "
                              f"got {type(base_feedforward).__name__}")
-        self.plant = plant if plant is not None else IXPlant()
+        self.plant = plant if plant is not None else IXPlant.of_version(version)
         fs = self.plant.fs
         if isinstance(references, str):
             refs = reference_set(references, reference_seed, n_references, duration, fs)
@@ -188,10 +196,10 @@ class IXEnv(gym.Env):
 
     def __init__(self, references="train", base_feedforward="none", reference_seed: int = 0,
                  n_references: int | None = None, duration: float = 40.0, plant: IXPlant | None = None,
-                 render_mode: str | None = None):
+                 render_mode: str | None = None, version: str = "v1"):
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
-        self.task = IXTask(references, base_feedforward, plant, reference_seed, n_references, duration)
+        self.task = IXTask(references, base_feedforward, plant, reference_seed, n_references, duration, version)
         self.observation_space, self.action_space = self.task.spaces()
         self.render_mode = render_mode
         T = self.task.ref_pos.shape[1]
@@ -224,16 +232,16 @@ class IXEnv(gym.Env):
 
     def step(self, action):
         if not self._started:
-            raise RuntimeError("IX-v0: call reset() before step()")
+            raise RuntimeError("IX env: call reset() before step()")
         t = self.task
         k = int(self._k[0])
-        self._action[0] = checked_action(action, (2,), "IX-v0", k, IX_ACTION)
+        self._action[0] = checked_action(action, (2,), "IX env", k, IX_ACTION)
         K.env_step_serial(self._active, self._st, self._work, t.ref_pos, t.feats, t.base_ff, t.lengths, self._ref_idx,
                           self._k, self._action, t.scales, *t.kernel_args, self._obs, self._reward, self._status,
                           self._clipped, self._sig)
         status = self._status[0]
         if status == K.ENV_BAD_ACTION:
-            raise ValueError(f"IX-v0: action {self._action[0].tolist()} at step {k} is NaN or inf")
+            raise ValueError(f"IX env: action {self._action[0].tolist()} at step {k} is NaN or inf")
         sig = self._sig[0].copy()  # the info's arrays are views of this fresh copy
         self._record[k] = sig
         terminated = status == K.ENV_DIVERGED
@@ -310,7 +318,7 @@ class IXVectorEnv(VectorEnv):
     def __init__(self, num_envs: int = 1, references="train", base_feedforward="none",
                  reference_seed: int = 0, n_references: int | None = None, duration: float = 40.0,
                  plant: IXPlant | None = None, render_mode: str | None = None,
-                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP):
+                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, version: str = "v1"):
         if num_envs < 1:
             raise ValueError(f"num_envs must be >= 1, got {num_envs}")
         if render_mode is not None:
@@ -319,7 +327,7 @@ class IXVectorEnv(VectorEnv):
         if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
             raise ValueError(f"autoreset_mode must be NEXT_STEP or SAME_STEP, got {mode}")
         self.metadata = {**self.metadata, "autoreset_mode": mode}
-        self.task = IXTask(references, base_feedforward, plant, reference_seed, n_references, duration)
+        self.task = IXTask(references, base_feedforward, plant, reference_seed, n_references, duration, version)
         self.num_envs = num_envs
         self.single_observation_space, self.single_action_space = self.task.spaces()
         self.observation_space = batch_space(self.single_observation_space, num_envs)
@@ -357,8 +365,8 @@ class IXVectorEnv(VectorEnv):
 
     def step(self, actions):
         if not self._started:
-            raise RuntimeError("IX-v0 vector env: call reset() before step()")
-        a = checked_action(actions, (self.num_envs, 2), "IX-v0 vector env", self._steps,
+            raise RuntimeError("IX vector env: call reset() before step()")
+        a = checked_action(actions, (self.num_envs, 2), "IX vector env", self._steps,
                            f"{IX_ACTION}, one row per sub-env")
         a = a.astype(np.float64, copy=False)
         # refused before the kernel, which would step the sub-envs before the bad one; the action of a
@@ -366,7 +374,7 @@ class IXVectorEnv(VectorEnv):
         bad = np.flatnonzero(~np.isfinite(a).all(axis=1) & ~self._autoreset)
         if bad.size:
             i = int(bad[0])
-            raise ValueError(f"IX-v0 vector env: action at step {self._steps} is NaN or inf for sub-env {i} "
+            raise ValueError(f"IX vector env: action at step {self._steps} is NaN or inf for sub-env {i} "
                              f"(its sample {self._k[i]}): {a[i].tolist()}")
         self._steps += 1
         resetting = self._autoreset.copy()

@@ -1,0 +1,57 @@
+"""Machine versions: -v0 stays the first release's plant, -v1 the recalibrated one; names resolve
+to the newest; the CSV names the version."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import gymnasium as gym
+import pytest
+
+import lcgym  # noqa: F401  (registers the envs)
+from lcgym import systems
+from lcgym.leaderboard.runner import BenchConfig
+from lcgym.systems.flexarm.plant import FlexArmPlant
+from lcgym.systems.ix.plant import V1_GAINS, V1_SIZES, FeedbackGains, HiddenEffectSizes, IXPlant, default_hidden_effects
+
+
+def test_names_resolve_to_the_newest_version():
+    assert systems.benchmark_name("ix") == "ix-v1" and systems.benchmark_name("ix-v0") == "ix-v0"
+    assert systems.newest_benchmarks() == ("ix-v1", "flexarm-v1")
+    assert BenchConfig(systems=("ix", "flexarm-v0", "ix-v1")).systems == ("ix-v1", "flexarm-v0")
+    assert systems.get("ix-v0") is systems.get("ix")  # one machine (its model), versions of its plant
+    for bad in ("ix-v7", "crane", "ix-"):
+        with pytest.raises(ValueError, match="unknown system"):
+            systems.benchmark_name(bad)
+
+
+def test_v0_is_the_first_release_and_v1_the_calibrated_plant():
+    v0, v1 = IXPlant.of_version("v0"), IXPlant.of_version("v1")
+    assert v0.effects == default_hidden_effects() == HiddenEffectSizes().effects() and v0.gains == FeedbackGains()
+    assert v1.effects == V1_SIZES.effects() and v1.gains == V1_GAINS
+    assert [type(e) for e in v1.effects] == [type(e) for e in v0.effects]  # the same forms, other sizes
+    assert not FlexArmPlant.of_version("v0").settled_start and FlexArmPlant.of_version("v1").settled_start
+    assert FlexArmPlant.of_version("v0") == FlexArmPlant()
+    assert IXPlant.of_version("v1", preroll=0.5).preroll == 0.5
+    with pytest.raises(ValueError, match="unknown IX version 'v9'"):
+        IXPlant.of_version("v9")
+    assert systems.make_bench("ix-v0").plant.effects == v0.effects
+    assert systems.make_bench("flexarm").plant.settled_start
+
+
+@pytest.mark.parametrize("env_id, version", [("lcgym/IX-v0", "v0"), ("lcgym/IX-v1", "v1"),
+                                             ("lcgym/FlexArm-v0", "v0"), ("lcgym/FlexArm-v1", "v1")])
+def test_registered_ids_carry_their_version(env_id, version):
+    kwargs = {"n_references": 1, "duration": 2.0} if "IX" in env_id else {"n_references": 1}
+    env = gym.make(env_id, **kwargs).unwrapped
+    plant = env.task.plant if "IX" in env_id else env.plant
+    expected = (IXPlant if "IX" in env_id else FlexArmPlant).of_version(version)
+    if "IX" in env_id:
+        assert plant.effects == expected.effects and plant.gains == expected.gains
+    else:
+        assert dataclasses.asdict(plant) == dataclasses.asdict(expected)
+    if "IX" in env_id:
+        venv = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point", **kwargs)
+        assert venv.task.plant.gains == expected.gains
+        venv.close()
+    env.close()
