@@ -19,7 +19,7 @@ from lcgym.leaderboard.report import ranking, share_table, write_html, write_mar
 from lcgym.leaderboard.runner import BenchConfig, run_benchmark
 from lcgym.leaderboard.store import COLUMNS, ResultsFileError, append_rows, read_results
 
-TINY = {"systems": ("ix",), "seeds": (0,), "n_train": 1, "n_validation": 1, "duration": 4.0}
+TINY = {"systems": ("ix",), "seeds": (0,), "n_train": 1, "n_validation": 1, "duration": 6.0}
 BASE = ("feedback", "physical")  # the fast methods; the PGNN has its own tests
 METRICS = ["MA", "RMS", "Inf"]
 REPO = Path(__file__).resolve().parents[1]

@@ -35,7 +35,7 @@ def test_zero_action_episode_is_the_plant_run_with_the_basic_feedforward(refs):
         steps += 1
     assert truncated and steps == refs[0].n_samples
     b = BasicFeedforward().compute(refs[0].positions, refs[0].fs)
-    run = FlexArmPlant().run(refs[0], b["tau_ff"], b["motor_offset"])
+    run = FlexArmPlant.of_version("v1").run(refs[0], b["tau_ff"], b["motor_offset"])  # the class default: v1
     trial = info["trial"]
     np.testing.assert_array_equal(trial.u, run.u)
     np.testing.assert_array_equal(trial.extra["load_j3"], run.extra["load_j3"])
@@ -44,7 +44,7 @@ def test_zero_action_episode_is_the_plant_run_with_the_basic_feedforward(refs):
 def test_sync_vector_env_steps_each_copy_like_a_single_env(refs):
     """``gym.make_vec`` (sync) runs independent copies; each matches a single env step for step."""
     vec = gym.make_vec("lcgym/FlexArm-v0", num_envs=2, vectorization_mode="sync", references=refs)
-    single = FlexArmEnv(references=refs)
+    single = FlexArmEnv(references=refs, version="v0")
     obs_v, _ = vec.reset(seed=0, options={"reference": 0})
     obs_s, _ = single.reset(seed=0, options={"reference": 0})
     rng = np.random.default_rng(0)

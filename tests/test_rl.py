@@ -126,7 +126,7 @@ def test_error_blind_policy_is_a_pure_feedforward(ix_data, tmp_path):
 def test_sb3_adapter_reports_episode_rms_and_hides_error():
     refs = reference_set("train", 0, 1, 0.5)
     venv = make_sb3_vec_env("lcgym/IX-v0", num_envs=1, references=refs)
-    env = IXEnv(references=refs)
+    env = IXEnv(references=refs, version="v0")
     venv.reset()
     env.reset(options={"reference": 0})
     zero = np.zeros((1, 2), dtype=np.float32)
