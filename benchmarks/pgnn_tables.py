@@ -28,7 +28,11 @@ option (sin/cos of the propeller angle over the gear period, 5 deg). Printed:
 * Tables IV/V: norms of the tracking error [deg] with each feedforward on the validation
   references, and with feedback only; the ratio physical / method of the RMS.
 
-Run:  .venv/bin/python benchmarks/pgnn_tables.py [--seed 0] [--data train] [--samples 1e6] [--quick]
+Beside each row the paper's (``PAPER``: Tables II-V), and in Tables IV/V the plant's own static
+feedforward (``IXPlant.static_model``: the true rigid body and hidden effects that are functions
+of the reference; what a static function of the PGNN's inputs can reach at best).
+
+Run:  .venv/bin/python benchmarks/pgnn_tables.py [--version v1] [--seed 0] [--data train] [--samples 1e6] [--quick]
 """
 
 from __future__ import annotations
@@ -48,6 +52,20 @@ from lcgym.systems.ix.plant import IXPlant
 from lcgym.systems.ix.references import reference_set
 
 HISTORY = (0.02, 0.05, 0.1, 0.2, 0.4)  # s
+PAPER = {  # (MA, RMS, Inf[, RMS f^C]) per axis: paper 000 Tables II/III (residual [V]) and IV/V (tracking [deg])
+    "residual": {"physical model": ((0.162, 0.219, 1.877), (0.262, 0.321, 1.131)),
+                 "PGNN with J": ((0.031, 0.071, 1.439, 0.235), (0.016, 0.038, 0.842, 0.325)),
+                 "PGNN with J_LS": ((0.030, 0.064, 1.423, 2.953), (0.020, 0.046, 0.711, 1.410))},
+    "tracking": {"feedback only": ((0.428, 0.507, 1.073), (0.402, 0.522, 1.401)),
+                 "physical model": ((0.072, 0.089, 0.351), (0.095, 0.117, 0.279)),
+                 "PGNN with J": ((0.031, 0.046, 0.423), (0.020, 0.029, 0.269))},
+}
+
+
+def paper_cell(table: str, label: str, axis: int) -> str:
+    """The paper's numbers of a row, or blank."""
+    row = PAPER[table].get(label)
+    return "  paper " + " ".join(f"{v:.3f}" for v in row[axis]) if row else ""
 GEAR_PERIOD = np.radians(5.0)
 
 
@@ -73,13 +91,15 @@ def main() -> None:
                              "(fitted on a feedback-only run of the same references) or feedback only")
     parser.add_argument("--max-epochs", type=int, default=300)
     parser.add_argument("--mu1", type=float, default=PGNNConfig.mu1, help="weight of R1 / N (see lcgym.pgnn.training)")
-    parser.add_argument("--filter-hz", type=float, default=1.0)
+    parser.add_argument("--filter-hz", type=float, default=5.0, help="low-pass of u [Hz] (the leaderboard's 5; the paper's 1)")
+    parser.add_argument("--version", default="v1", help="the IX's version (IXPlant.of_version)")
     parser.add_argument("--budget", type=float, default=60.0,
                         help="wall-time budget [s] of each whole PGNN fit (physical least squares + Algorithm 1; "
                              "PGNNConfig.max_seconds); 0: no budget, early stopping alone")
     parser.add_argument("--quick", action="store_true", help="1e5 samples and the two paper variants only")
     args = parser.parse_args()
-    plant = IXPlant()
+    plant = IXPlant.of_version(args.version)
+    print(f"IX-{args.version}")
     t0 = time.perf_counter()
     if args.data == "calibration":
         refs = reference_set("calibration", args.seed)
@@ -127,17 +147,25 @@ def main() -> None:
               else np.zeros_like(eps))
         nm, rc = norms(eps), np.sqrt(np.mean(fc**2, axis=0))
         for i, ax in enumerate(plant.axes):
-            print(f"{label:18s} {ax:9s} {nm['MA'][i]:7.3f} {nm['RMS'][i]:7.3f} {nm['Inf'][i]:7.3f} {rc[i]:9.4f}")
+            print(f"{label:18s} {ax:9s} {nm['MA'][i]:7.3f} {nm['RMS'][i]:7.3f} {nm['Inf'][i]:7.3f} {rc[i]:9.4f}"
+                  f"{paper_cell('residual', label, i)}")
 
     print("\nTables IV/V: tracking error e [deg] on the validation references")
     print(f"{'':18s} {'axis':9s} {'MA':>7s} {'RMS':>7s} {'Inf':>7s} {'physical/this RMS':>18s}")
     runs = {"feedback only": val_fb}
     runs.update({label: plant.run(val_refs, [m.predict(r) for r in val_refs]) for label, m in models.items()})
+    oracle = plant.static_model()
+    runs["static (oracle)"] = plant.run(val_refs, [oracle.predict(r) for r in val_refs])
     table = {label: norms(np.degrees(np.concatenate([t.error for t in trials]))) for label, trials in runs.items()}
     for label, nm in table.items():
         for i, ax in enumerate(plant.axes):
             ratio = table["physical model"]["RMS"][i] / nm["RMS"][i]
-            print(f"{label:18s} {ax:9s} {nm['MA'][i]:7.3f} {nm['RMS'][i]:7.3f} {nm['Inf'][i]:7.3f} {ratio:18.2f}")
+            print(f"{label:18s} {ax:9s} {nm['MA'][i]:7.3f} {nm['RMS'][i]:7.3f} {nm['Inf'][i]:7.3f} {ratio:18.2f}"
+                  f"{paper_cell('tracking', label, i)}")
+    fc = {label: np.sqrt(np.mean(np.concatenate([models[label].nn_contribution(t) for t in val_data]) ** 2, axis=0))
+          for label in ("PGNN with J", "PGNN with J_LS")}
+    ratio = fc["PGNN with J_LS"] / fc["PGNN with J"]
+    print(f"\nNN contribution RMS(f^C) J_LS / J: {ratio[0]:.2f}x / {ratio[1]:.2f}x (paper 12.6x / 4.3x)")
 
 
 if __name__ == "__main__":

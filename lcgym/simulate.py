@@ -24,9 +24,11 @@ from . import systems
 from .baselines import CONTROLLERS
 from .data import Trial
 
-# fitted on the training trials alone; the methods that learn on the plant itself (ILC, the RBF
-# expert, RL) run in ``lcgym bench``
-SIMULATE_CONTROLLERS = {name: c for name, c in CONTROLLERS.items() if not getattr(c, "uses_plant", False)}
+# fitted on the training trials (the PGNN also records its training data once on the plant:
+# ``learns_once``); the methods that learn on the plant per reference (ILC, the RBF expert, RL) run
+# in ``lcgym bench``
+SIMULATE_CONTROLLERS = {name: c for name, c in CONTROLLERS.items()
+                        if not getattr(c, "uses_plant", False) or getattr(c, "learns_once", False)}
 
 
 def controllers_for(system: str) -> list[str]:
@@ -73,6 +75,8 @@ def simulate(
         for name in controllers:
             steps.set_postfix_str(f"fit {name}")
             ctrl = SIMULATE_CONTROLLERS[name]().fit(train_trials)
+            if getattr(ctrl, "uses_plant", False):
+                ctrl.learn(bench.plant, val_refs[0])
             steps.update()
             steps.set_postfix_str(f"run {name}")
             ff = [ctrl.feedforward(r) for r in val_refs]

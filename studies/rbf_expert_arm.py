@@ -22,7 +22,7 @@ position) before preprocessing, and over the network inputs (v22, v33; v11) afte
 ``--tune``: the configuration comparison that chose the predictor's defaults (on seed 0's
 validation lines, which the report above does not use).
 
-Run:  .venv/bin/python studies/rbf_expert_arm.py [--train-lines 24] [--seeds 1,2] [--lines 4]
+Run:  .venv/bin/python studies/rbf_expert_arm.py [--train-lines 24] [--seeds 1,2] [--lines 4] [--version v1|v0]
 """
 
 from __future__ import annotations
@@ -159,8 +159,10 @@ def main() -> None:
     parser.add_argument("--lines", type=int, default=4, help="validation lines per seed")
     parser.add_argument("--plot", default="results/rbf_expert_fig7.png")
     parser.add_argument("--tune", action="store_true", help="compare the configurations on seed 0's lines")
+    parser.add_argument("--version", default="v1", help="the FlexArm's version (v1: settled start; v0)")
     args = parser.parse_args()
-    plant = FlexArmPlant()
+    plant = FlexArmPlant.of_version(args.version)
+    print(f"FlexArm-{args.version}")
     train = arm_reference_set("train", 0, args.train_lines)
     basic_runs = [BasicFeedforward().run(plant, r) for r in tqdm(train, desc="training lines (Basic)")]
     errors = [e_pl(tr) for tr in basic_runs]

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 import torch
 
+from lcgym.baselines.pgnn import PGNNFeedforward
 from lcgym.data import Trial
 from lcgym.pgnn import PGNN, PGNNConfig
 from lcgym.pgnn.network import PGNNModule, min_eigenvalue, physical_constraints, physics_penalty
@@ -127,16 +128,28 @@ def test_network_inputs_and_options():
     np.testing.assert_allclose(y[:, 10:12], np.column_stack([np.sin(4 * np.pi * q[:, 1]), np.cos(4 * np.pi * q[:, 1])]))
 
 
+class FastPGNN(PGNNFeedforward):
+    """The leaderboard's ``pgnn`` with a short training (the cell's plumbing is what is tested)."""
+
+    def __init__(self):
+        super().__init__(PGNNConfig(max_epochs=2, batch_size=1000, threads=1, steps_per_iteration=5))
+
+
+class FastPGNNLS(FastPGNN):
+    regularize = False
+
+
 def test_leaderboard_methods_report_the_network_contribution():
     from lcgym.baselines import CONTROLLERS
     from lcgym.leaderboard.runner import BenchConfig, run_cell
 
-    assert {"pgnn", "pgnn-ls"} <= set(CONTROLLERS)
-    config = BenchConfig(methods=("pgnn", "pgnn-ls"), seeds=(0,), n_train=1, n_validation=1, duration=4.0)
-    for method in ("pgnn", "pgnn-ls"):
+    assert {"pgnn", "pgnn-ls"} <= set(CONTROLLERS) and CONTROLLERS["pgnn"] is PGNNFeedforward
+    config = BenchConfig(methods=("test_pgnn:FastPGNN",), seeds=(0,), n_train=1, n_validation=1, duration=4.0)
+    for method in ("test_pgnn:FastPGNN", "test_pgnn:FastPGNNLS"):
         rows, trace = run_cell("ix", method, 0, config)
         assert trace is not None and all(r["status"] == "ok" for r in rows), rows[0].get("error")
         assert all(np.isfinite(r["RMS"]) and r["nn_rms"] > 0 for r in rows)
+        assert all(r["plant_trials"] == 2 for r in rows)  # the shared run and its own with the physical feedforward
 
 
 @pytest.mark.bad_input
@@ -145,5 +158,54 @@ def test_sample_rate_mismatch_and_ls_variant_config():
         PGNN(PGNNConfig(max_epochs=1, threads=1), fs=500.0, physical=PhysicalModel(IX, fs=1000.0)).fit(_trials(n=1))
     from lcgym.baselines.pgnn import PGNNLSFeedforward
 
-    ls = PGNNLSFeedforward(PGNNConfig(max_epochs=1, batch_size=2000, threads=1)).fit(_trials(n=1, duration=3.0))
+    ls = PGNNLSFeedforward(PGNNConfig(max_epochs=1, batch_size=2000, threads=1), collect="feedback").fit(
+        _trials(n=1, duration=3.0))
     assert ls.pgnn_.config_.regularize is False  # a given config keeps the method's meaning
+
+
+def test_an_iteration_is_a_number_of_adam_steps():
+    """The patience counts iterations of ``steps_per_iteration`` Adam steps (None: one epoch)."""
+    trials = _trials(n=1, duration=3.0)
+    m = PGNN(PGNNConfig(max_epochs=2, batch_size=200, threads=1, steps_per_iteration=7)).fit(trials)
+    assert [h["steps"] for h in m.info_["history"]] == [7, 14]
+    m = PGNN(PGNNConfig(max_epochs=2, batch_size=200, threads=1, steps_per_iteration=None)).fit(trials)
+    per_epoch = -(-int(0.8 * m.info_["n_samples"]) // 200)
+    assert [h["steps"] for h in m.info_["history"]] == [per_epoch, 2 * per_epoch]
+    with pytest.raises(ValueError, match="steps_per_iteration must be >= 1"):
+        PGNN(PGNNConfig(max_epochs=1, threads=1, steps_per_iteration=0)).fit(trials)
+
+
+def test_zeta_steps_absolute_or_relative():
+    trials = _trials(n=1, duration=3.0)
+    absolute = PGNN(PGNNConfig(max_epochs=1, batch_size=500, threads=1, steps_per_iteration=3)).fit(trials)
+    assert torch.all(absolute.module_.zeta_scale == 1)  # the paper's: Adam on zeta itself
+    relative = PGNN(PGNNConfig(max_epochs=1, batch_size=500, threads=1, steps_per_iteration=3,
+                               zeta_steps="relative")).fit(trials)
+    zeta0 = relative.module_.zeta0
+    torch.testing.assert_close(relative.module_.zeta_scale, torch.clamp(zeta0.abs(), min=1e-3))
+    with pytest.raises(ValueError, match="zeta_steps must be 'absolute' or 'relative'"):
+        PGNN(PGNNConfig(max_epochs=1, threads=1, zeta_steps="log")).fit(trials)
+
+
+def test_pgnn_method_records_its_training_data_with_the_physical_feedforward():
+    """On the IX the leaderboard's PGNN trains on a run of the training references with the physical
+    model's feedforward on (one plant trial per reference, counted), not on the feedback-only runs."""
+    from lcgym.baselines.pgnn import PGNNFeedforward
+    from lcgym.baselines.physical import PhysicalFeedforward
+    from lcgym.references import references_of
+    from lcgym.systems.ix.plant import IXPlant
+    from lcgym.systems.ix.references import reference_set
+
+    plant = IXPlant.of_version("v1")
+    train = plant.run(reference_set("train", 0, 1, 3.0))
+    method = PGNNFeedforward(PGNNConfig(max_epochs=1, batch_size=2000, threads=1, steps_per_iteration=2)).fit(train)
+    with pytest.raises(RuntimeError, match="learn"):
+        method.feedforward(train[0].ref)
+    method.learn(plant, None)
+    physical = PhysicalFeedforward().fit(train)
+    np.testing.assert_array_equal(method.data_[0].ff, physical.feedforward(references_of(train)[0]))
+    assert method.cost_.plant_trials == 1
+    assert method.feedforward(train[0].ref).shape == train[0].ref.shape
+    default = PGNNFeedforward()
+    default.system_ = method.system_
+    assert default.training_config().filter_hz == 5.0 and default.training_config().threads == 1

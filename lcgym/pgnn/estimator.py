@@ -71,7 +71,8 @@ class PGNN:
         std = np.maximum(data.inputs.std(axis=0), 1e-6)
         torch.manual_seed(cfg.seed)
         self.module_ = PGNNModule(system, zeta0, data.inputs.shape[1], cfg.hidden, cfg.activation,
-                                  torch.tensor(mean, dtype=torch.float32), torch.tensor(std, dtype=torch.float32))
+                                  torch.tensor(mean, dtype=torch.float32), torch.tensor(std, dtype=torch.float32),
+                                  cfg.zeta_steps)
         left = None if cfg.max_seconds is None else cfg.max_seconds - (time.perf_counter() - start)
         self.info_ = train(self.module_, data, cfg, progress=progress, seconds=left)
         self.info_["fit_seconds"] = time.perf_counter() - start
@@ -135,6 +136,7 @@ class PGNN:
             raise ValueError(f"{path}: a PGNN of machine {header['system']!r} ({state['zeta0'].numel()} parameters), "
                              f"not of {machine.name!r} ({len(machine.param_names)})")
         self = cls(config, fs=header["fs"], system=machine)
-        self.module_ = PGNNModule(machine, state["zeta0"].numpy(), header["n_inputs"], config.hidden, config.activation)
+        self.module_ = PGNNModule(machine, state["zeta0"].numpy(), header["n_inputs"], config.hidden, config.activation,
+                                  zeta_steps=config.zeta_steps)
         self.module_.load_state_dict(state)
         return self
