@@ -25,6 +25,16 @@ def test_names_resolve_to_the_newest_version():
             systems.benchmark_name(bad)
 
 
+def test_the_version_lists_agree():
+    """``systems.VERSIONS`` (read without importing the machines) names exactly the plants' versions."""
+    from lcgym.systems.flexarm import plant as arm_plant
+    from lcgym.systems.ix import plant as ix_plant
+
+    assert systems.VERSIONS == {"ix": tuple(ix_plant.VERSIONS), "flexarm": tuple(arm_plant.VERSIONS)}
+    assert {f"lcgym/{n}-{v}" for n, m in (("IX", "ix"), ("FlexArm", "flexarm")) for v in systems.VERSIONS[m]} == set(
+        systems.ENVS)
+
+
 def test_v0_is_the_first_release_and_v1_the_calibrated_plant():
     v0, v1 = IXPlant.of_version("v0"), IXPlant.of_version("v1")
     assert v0.effects == default_hidden_effects() == HiddenEffectSizes().effects() and v0.gains == FeedbackGains()

@@ -14,9 +14,10 @@ any extra inputs (history, periods), and returns that axis's f_i^C.
 zeta = zeta0 + scale delta with delta starting at 0. ``zeta_steps="absolute"`` (the default, the
 paper's: Adam on zeta itself): scale = 1, so that Adam's step, about lr, is lr in the parameter's own
 units. ``"relative"``: scale = max(|zeta0|, 1e-3), a relative step for CoM coordinates of centimetres
-and inertias of tenths alike; it holds zeta near zeta0, which is what the NN-contribution ratio of
-Tables II/III measures (J_LS alone lets zeta drift and the network make up for it), so it hides that
-ratio (``benchmarks/pgnn_tables.py``: 1.3x / 1.65x relative, 3.0x / 2.0x absolute, on IX-v0).
+and inertias of tenths alike, which holds zeta nearer zeta0. Neither makes the NN-contribution
+ratio J_LS / J of Tables II/III what the paper's is (12.6x / 4.3x): on IX-v1's leaderboard data
+1.43x / 1.49x relative, 1.42x / 1.64x absolute (``studies/pgnn_protocol.py`` rows B and C, which
+also differ in the iteration length).
 """
 
 from __future__ import annotations

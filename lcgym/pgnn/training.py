@@ -34,8 +34,9 @@ the best iteration's parameters are kept.
 An iteration. The paper's iteration loops over all training minibatches (an epoch): at its N = 1e6,
 80 minibatches, so its patience of five iterations waits 400 Adam steps. Read literally on a smaller
 data set (the leaderboard's 8 training runs: 1.8e5 samples, 14 minibatches) the same patience waits
-only 70 steps and training stops after 1-3k steps, far from converged (measured on IX-v0: 600
-epochs on a noise-free target took the roll from 0.0247 to 0.0159 deg). So an iteration is
+only 70 steps and training stops early (IX-v1, seed 0: after 165 epochs, about 2,300 steps, at
+1.58x / 2.33x below the physical model, against 1.76x / 2.77x with 80-step iterations and absolute
+zeta steps; ``studies/pgnn_protocol.py`` rows A to C). So an iteration is
 ``steps_per_iteration`` = 80 Adam steps (the paper's epoch at its N; minibatches drawn from a
 reshuffle at each pass over the data), which is the paper's schedule at N = 1e6 and keeps it at
 any N; ``steps_per_iteration=None`` is the literal one-epoch iteration.
