@@ -139,13 +139,17 @@ def test_arm_load_response_matches_the_two_mass_model():
         assert abs(resp[0, i]) < 1e-9 * abs(resp[1, i])
 
 
-def test_arm_one_lcs_iteration():
+@pytest.mark.parametrize("version", ["v0", "v1"])
+def test_arm_one_lcs_iteration(version):
     """Eq. (16) once with the accelerometer's e_pl lowers all three of paper 002's errors in the
-    moving periods: the joint model-following error (each of joints 2, 3, 5), the end-effector
-    acceleration error and the TCP error. (With e_pl computed from u - tau_nl alone the EE
-    acceleration error rose instead, 0.080 -> 0.224 m/s^2 on seed 1's line.)"""
-    plant = FlexArmPlant()
+    moving periods of each line: the joint model-following error (each of joints 2, 3, 5), the
+    end-effector acceleration error and the TCP error. (With e_pl computed from u - tau_nl alone
+    the EE acceleration error rose instead, 0.080 -> 0.224 m/s^2 on seed 1's line.) On FlexArm-v1
+    also in the static periods, taken over the lines: the zero-padded Q made them worse
+    (``frequency_update(hold_edges=True)``)."""
+    plant = FlexArmPlant.of_version(version)
     ilc = IterativeLearningControl().fit([plant.run(arm_reference_set("train", 0, 1)[0])])
+    static = {"basic": [], "lcs": []}
     for seed in (0, 1):
         ref = arm_reference_set("validation", seed, 1)[0]
         ilc.learn(plant, ref)
@@ -157,10 +161,29 @@ def test_arm_one_lcs_iteration():
         for label, update in (("basic", None), ("lcs", ilc.feedforward(ref) - basic["tau_ff"])):
             errors = paper_errors(plant, BasicFeedforward().run(plant, ref, update), ref)
             out[label] = {k: np.sqrt(np.mean(v[moving] ** 2, axis=0)) for k, v in errors.items()}
+            static[label].append({k: v[~moving] for k, v in errors.items()})
         assert np.all(out["lcs"]["joint"] < 0.6 * out["basic"]["joint"]), out
         for signal_ in ("ee_acc", "tcp"):
             assert np.sqrt(np.mean(out["lcs"][signal_] ** 2)) < np.sqrt(np.mean(out["basic"][signal_] ** 2)), out
+    if version == "v1":
+        rms = {label: {k: np.sqrt(np.mean(np.concatenate([p[k] for p in parts]) ** 2)) for k in parts[0]}
+               for label, parts in static.items()}
+        assert all(rms["lcs"][k] < rms["basic"][k] for k in rms["lcs"]), rms
     assert ilc.cost_.plant_trials == 2
+
+
+def test_held_edges_leave_a_held_torque_alone():
+    """Q of a torque held through the trial is that torque (to round-off) when its edges are held:
+    the arm holds it before and after the trial. Zero padding filters it as if it dropped to zero
+    at both ends and bends it there to about half its value."""
+    T, fs = 3000, 1000.0
+    f = np.tile([2.5, -4.0], (T, 1))  # N m: gravity held on two joints
+    q = q_filter(2 * T, fs, 20.0, 4)
+    none = np.zeros((T + 1, 2))
+    held = frequency_update(f, np.zeros_like(f), none, q, 1.0, hold_edges=True)
+    np.testing.assert_allclose(held, f, atol=1e-9)
+    zero = frequency_update(f, np.zeros_like(f), none, q, 1.0)
+    np.testing.assert_allclose(zero[[0, -1]], 0.5 * f[[0, -1]], rtol=0.1)  # the step lies half a sample out
 
 
 def test_deadzone_drops_what_the_encoder_cannot_resolve():

@@ -6,12 +6,14 @@ from __future__ import annotations
 import dataclasses
 
 import gymnasium as gym
+import numpy as np
 import pytest
 
 import lcgym  # noqa: F401  (registers the envs)
 from lcgym import systems
 from lcgym.leaderboard.runner import BenchConfig
-from lcgym.systems.flexarm.plant import FlexArmPlant
+from lcgym.systems.flexarm import dynamics as arm
+from lcgym.systems.flexarm.plant import FlexArmPlant, true_arm_v1, true_drive_v1
 from lcgym.systems.ix.plant import V1_GAINS, V1_SIZES, FeedbackGains, HiddenEffectSizes, IXPlant, default_hidden_effects
 
 
@@ -42,6 +44,14 @@ def test_v0_is_the_first_release_and_v1_the_calibrated_plant():
     assert [type(e) for e in v1.effects] == [type(e) for e in v0.effects]  # the same forms, other sizes
     assert not FlexArmPlant.of_version("v0").settled_start and FlexArmPlant.of_version("v1").settled_start
     assert FlexArmPlant.of_version("v0") == FlexArmPlant()
+    arm_v0, arm_v1 = FlexArmPlant.of_version("v0"), FlexArmPlant.of_version("v1")
+    assert arm_v1.true_arm == true_arm_v1() and arm_v1.true_drive == true_drive_v1()
+    nominal = arm.DriveParameters()
+    np.testing.assert_allclose(np.divide(arm_v1.true_drive.KJ, nominal.KJ), [0.97] * 3 + [0.85] * 3)
+    np.testing.assert_allclose(np.divide(arm_v0.true_drive.KJ, nominal.KJ), [0.85] * 6)
+    assert arm_v1.true_drive.DJ == arm_v0.true_drive.DJ and arm_v1.true_drive.Flc == arm_v0.true_drive.Flc
+    payload = np.subtract(arm_v1.true_arm.pi, arm.ArmParameters().pi)[-10:]  # link 6's parameters: m, m c, I (origin)
+    np.testing.assert_allclose(payload[:4], [12.0, 0.0, 0.0, 12.0 * 0.20], atol=1e-12)  # 12 kg, centre 20 cm out
     assert IXPlant.of_version("v1", preroll=0.5).preroll == 0.5
     with pytest.raises(ValueError, match="unknown IX version 'v9'"):
         IXPlant.of_version("v9")
