@@ -121,3 +121,19 @@ def test_paper_errors_from_the_feedforward_equal_those_basic_stored(case):
     stored, computed = paper_errors(plant, trial, ref), paper_errors(plant, trial, ref, b["tau_ff"])
     for key in ("joint", "ee_acc", "tcp"):
         np.testing.assert_allclose(computed[key], stored[key], rtol=0, atol=1e-12)
+
+
+def test_load_acceleration_starts_from_the_held_first_sample():
+    """P_lu mu starts in the steady state of mu's first sample held before the trial: a held torque
+    gives no load acceleration (P_lu's zero-frequency gain is 0), and by linearity the response to
+    mu_0 + dmu from that state is the response to dmu from rest."""
+    nominal, fs = BasicFeedforward(), 1000.0
+    T = 3000
+    held = np.tile(np.linspace(-2.5, 3.0, 6), (T, 1))  # N m
+    t = np.arange(T) / fs
+    step = np.where(t[:, None] > 0.5, held, 0.0)  # the same torque switched on at 0.5 s, from rest
+    scale = np.abs(nominal.load_acceleration(step, fs)).max(axis=0)  # what a torque of that size sets off
+    assert np.all(np.abs(nominal.load_acceleration(held, fs)).max(axis=0) < 1e-9 * scale)
+    dmu = np.where(t[:, None] > 0.5, 0.3 * np.sin(2 * np.pi * 3.0 * t)[:, None], 0.0) * np.ones(6)
+    np.testing.assert_allclose(nominal.load_acceleration(held + dmu, fs), nominal.load_acceleration(dmu, fs),
+                               atol=1e-9 * scale.max())

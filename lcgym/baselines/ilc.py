@@ -27,11 +27,11 @@ if it dropped to zero before and after the trial. The arm's tau_nl holds gravity
 on joints 2 and 3), so Q bent it by up to 1 N m in the first and last 50 ms; the settled start then
 began from that bent torque, the integrators unwound it over the first half second, and the end
 rang out. ``nominal_update`` pads tau_nl with its edge values (``frequency_update(hold_edges=True)``).
-Static-period RMS on FlexArm-v1, seed 0's first three validation lines, Basic / one LCS iteration
-with zero padding / with held edges: EE acceleration 0.037 / 0.046 / 0.031 m/s^2, TCP 0.856 /
-0.867 / 0.851 mm, joint e_pl 0.37 / 0.46 / 0.41 rad/s^2 (over seeds 1 and 2's eight lines 0.56 ->
-0.38 with held edges: ``studies/rbf_expert_arm.py``); on that plant with a nominal model that
-knows its parameters, TCP 0.074 / 0.357 / 0.058 mm. The IX's tracking-error ILC keeps the zero
+Measured on FlexArm-v1's plant with a nominal structure built from its true arm and drives (where
+one iteration should change next to nothing), seed 0's first three validation lines, static-period
+RMS of Basic / one LCS iteration with zero padding / with held edges: TCP 0.074 / 0.358 / 0.059 mm,
+EE acceleration 0.020 / 0.039 / 0.021 m/s^2. On FlexArm-v1 itself: TCP 0.856 / 0.826 / 0.835 mm,
+EE 0.037 / 0.037 / 0.031 m/s^2, joint e_pl 0.30 / 0.40 / 0.32 rad/s^2. The IX's tracking-error ILC keeps the zero
 padding (its fade-in covers the start; changing it would change its results).
 
 Q is zero phase: the magnitude |B(w)|^2 of a Butterworth low-pass of order ``q_order`` with corner

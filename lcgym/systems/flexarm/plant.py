@@ -28,7 +28,7 @@ beyond the flange, and the stiffness of the main axes (joints 1-3) is 3 % below 
 wrist's 15 %; the rest as v0. Why: on v0's effects the TCP error (1.5 mm) is the load's quasi-static
 deflection under the stiffness error of the heavy main axes (15 % of the torsion gravity causes)
 and the payload's weight, which no feedforward torque moves inside a motor position loop with
-integral action (eq. 16 or 17 only change torque): one LCS iteration changed it by 0.7 % (seeds 1
+integral action (eq. 16 or 17 only change torque): one LCS iteration changed it by 1.1 % (seeds 1
 and 2's validation lines). A main-axis stiffness identified to 3 %, and a tool whose inertia
 weighs more against its weight (a longer lever), leave an error LCS lowers by 9 % there. Chosen
 on seed 0's validation lines with ``studies/rbf_expert_arm.py`` (the Table 6 shares it prints);
