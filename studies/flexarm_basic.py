@@ -8,7 +8,7 @@ reference. Feedback only is printed beside it. The plot shows e_pl of joint 3 an
 over time with the scaled reference velocity of joint 3 (residual vibration after each stop, peaks
 at motion start and stop).
 
-Run:  .venv/bin/python studies/flexarm_basic.py [--seed 0] [--plot flexarm_basic.png]
+Run:  .venv/bin/python studies/flexarm_basic.py [--seed 0] [--plot flexarm_basic.png] [--version v1|v0]
 """
 
 from __future__ import annotations
@@ -18,37 +18,33 @@ import argparse
 import numpy as np
 
 from lcgym.metrics import norms
-from lcgym.physics.kinematics import lowpass_zero_phase
-from lcgym.systems.flexarm.nominal import BasicFeedforward, model_following_error
+from lcgym.systems.flexarm.errors import paper_errors
+from lcgym.systems.flexarm.nominal import BasicFeedforward
 from lcgym.systems.flexarm.plant import FlexArmPlant
-from lcgym.systems.flexarm.references import arm_reference_set, tcp_positions
-
-JOINTS = (1, 2, 4)
+from lcgym.systems.flexarm.references import MOVING, arm_reference_set
 
 
 def evaluate(plant, ref, use_ff: bool):
-    """(trial, e_pl (T, 6) from the true load acceleration, TCP error (T,) [mm])."""
+    """(trial, e_pl (T, 3) of joints 2, 3, 5 from the true load acceleration, TCP error (T,) [mm]):
+    ``errors.paper_errors`` of a Basic run, or of a feedback-only run (no feedforward)."""
     if use_ff:
         tr = BasicFeedforward().run(plant, ref)
-        epl = np.column_stack([tr.extra[f"e_pl_true_{a}"] for a in tr.axes])
+        errors = paper_errors(plant, tr, ref)
     else:
         tr = plant.run(ref)
-        ql = np.column_stack([tr.extra[f"load_{a}"] for a in tr.axes])
-        qdd = lowpass_zero_phase(np.gradient(np.gradient(ql, 1 / tr.fs, axis=0), 1 / tr.fs, axis=0), tr.fs, 50.0)
-        epl = model_following_error(tr, {"tau_nl": np.zeros_like(tr.u)}, BasicFeedforward(), qdd)
-    tcp_ref = tcp_positions(ref.positions, plant.true_arm.dh)
-    tcp = np.column_stack([tr.extra[f"tcp_{c}"] for c in "xyz"])
-    return tr, epl, 1000 * np.linalg.norm(tcp - tcp_ref, axis=1)
+        errors = paper_errors(plant, tr, ref, np.zeros_like(tr.u))
+    return tr, errors["joint"], errors["tcp"][:, 0]
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--plot", default="flexarm_basic.png")
+    parser.add_argument("--version", default="v1", help="the FlexArm's version (FlexArmPlant.of_version)")
     args = parser.parse_args()
     refs = arm_reference_set("validation", args.seed)
-    plant = FlexArmPlant()
-    print(f"FlexArm validation lines (seed {args.seed}, {len(refs)} references), MA / RMS / Inf")
+    plant = FlexArmPlant.of_version(args.version)
+    print(f"FlexArm-{args.version} validation lines (seed {args.seed}, {len(refs)} references), MA / RMS / Inf")
     print(f"{'controller':10s} {'signal':24s} {'MA':>8s} {'RMS':>8s} {'Inf':>8s}")
     keep = None
     for use_ff, label in ((False, "feedback"), (True, "Basic")):
@@ -60,8 +56,8 @@ def main() -> None:
             if use_ff and keep is None:
                 keep = (ref, epl, tcp)
         epl, tcp = np.concatenate(epls), np.concatenate(tcps)
-        for j in JOINTS:
-            n = norms(epl[:, j])
+        for k, j in enumerate(MOVING):
+            n = norms(epl[:, k])
             print(f"{label:10s} {'e_pl joint ' + str(j + 1) + ' [rad/s^2]':24s} {n['MA']:8.3f} {n['RMS']:8.3f} {n['Inf']:8.3f}")
         n = norms(tcp)
         print(f"{label:10s} {'TCP error [mm]':24s} {n['MA']:8.3f} {n['RMS']:8.3f} {n['Inf']:8.3f}")
@@ -73,7 +69,7 @@ def main() -> None:
     ref, epl, tcp = keep
     fig, axs = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
     v = ref.velocities[:, 2]
-    for ax, y, lab in ((axs[0], epl[:, 2], "e_pl joint 3 [rad/s^2]"), (axs[1], tcp, "TCP error [mm]")):
+    for ax, y, lab in ((axs[0], epl[:, 1], "e_pl joint 3 [rad/s^2]"), (axs[1], tcp, "TCP error [mm]")):
         ax.plot(ref.t, y, lw=0.7, label=lab)
         ax.plot(ref.t, v / np.abs(v).max() * np.abs(y).max(), "k--", lw=0.6, alpha=0.6,
                 label="joint 3 reference velocity (scaled)")

@@ -4,10 +4,11 @@ error; ``systems/flexarm/errors.py``) over all samples, the dynamic periods (ref
 the static ones, for Basic and for Basic plus one learning iteration, on validation lines.
 
 e_pl is shown from the simulation's true load acceleration (the accelerometer estimate is what the
-learning uses). Like the paper's footnote 6, the static periods can get worse after one iteration:
-the update corrects the dynamic error and overshoots where the reference rests.
+learning uses). The paper's footnote 6 reports that one iteration can overcorrect where the
+reference rests; here the static periods improve too since Q holds tau_nl's edges and e_pl starts
+from the held first sample (``baselines/ilc.py``, ``systems/flexarm/nominal.py``).
 
-Run:  .venv/bin/python studies/ilc_arm.py [--seeds 0,1,2] [--lines 4]
+Run:  .venv/bin/python studies/ilc_arm.py [--seeds 0,1,2] [--lines 4] [--version v1|v0]
 """
 
 from __future__ import annotations
@@ -31,8 +32,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", default="0,1,2")
     parser.add_argument("--lines", type=int, default=4)
+    parser.add_argument("--version", default="v1", help="the FlexArm's version (FlexArmPlant.of_version)")
     args = parser.parse_args()
-    plant = FlexArmPlant()
+    plant = FlexArmPlant.of_version(args.version)
+    print(f"FlexArm-{args.version}")
     signals = {"joint": f"e_pl [rad/s^2] of joints {', '.join(JOINTS)}", "ee_acc": "EE acceleration error [m/s^2]",
                "tcp": "TCP error [mm]"}
     parts = {(k, sig, p): [] for k in ("basic", "lcs") for sig in signals for p in PERIODS}
