@@ -267,12 +267,13 @@ def cmd_simulate(args) -> int:
     from .data import write_trials
     from .leaderboard.plots import plot_tracking_errors
     from .simulate import metric_table, simulate
+    from .systems import benchmark_name
 
     results = simulate(args.controller, system=args.system, seed=args.seed, n_train=args.n_train,
                        n_validation=args.n_validation, duration=args.duration)
     table = metric_table(results)
     with pd.option_context("display.float_format", "{:.4f}".format, "display.width", 120):
-        print(f"{args.system}, {args.n_validation} validation reference{'s' if args.n_validation > 1 else ''} "
+        print(f"{benchmark_name(args.system)}, {args.n_validation} validation reference{'s' if args.n_validation > 1 else ''} "
               f"(seed {args.seed}), norms of eqs. (34)-(36):")
         print(table.to_string(index=False))
     if args.out:

@@ -13,6 +13,8 @@ from the reference alone. Printed per period (dynamic: the reference moves; stat
 * Table 6's share |RMS_NNP - RMS_Basic| / |RMS_LCS - RMS_Basic| (as the paper, absolute values:
   a worsening counts like an improvement) and the signed share (RMS_Basic - RMS_NNP) /
   (RMS_Basic - RMS_LCS), which says whether NNP moved the error the same way as LCS;
+* for the dynamic period, a 90 % bootstrap interval of the signed share over the validation lines
+  (how much the share depends on which lines were drawn);
 * the same shares for an *oracle* of the paper's architecture: eq. (17) with the measured e_pl
   where a network is active and zero elsewhere (static periods, long constant velocity), i.e. a
   perfect predictor: what the predictor could reach at best.
@@ -96,12 +98,27 @@ def table6(results) -> dict:
         for period in ("dynamic", "static", "overall"):
             row = {}
             for ctrl in results[0][0]:
-                parts = [s[ctrl][sig][m if period == "dynamic" else ~m if period == "static" else slice(None)]
-                         for s, m, _ in results]
-                x = np.concatenate(parts)
+                x = np.concatenate([in_period(s[ctrl][sig], m, period) for s, m, _ in results])
                 row[ctrl] = (rms(x), rms(x, stacked=True))
             table[sig, period] = row
     return table
+
+
+def share_interval(results, sig: str, period: str, n: int = 2000, level: float = 0.9) -> tuple[float, float]:
+    """The ``level`` bootstrap interval [%] of the NNP's Table 6 share (signed) over the validation
+    lines: lines drawn with replacement, the share of their pooled RMS, ``n`` times."""
+    ctrls = ("basic", "lcs", "nnp")
+    parts = [[in_period(s[c][sig], m, period) for c in ctrls] for s, m, _ in results]
+    ss = np.array([[np.sum(x**2) for x in line] for line in parts])  # (lines, controllers)
+    count = np.array([line[0].size for line in parts])
+    pick = np.random.default_rng(0).integers(0, len(results), (n, len(results)))
+    b, c, nnp = np.sqrt(ss[pick].sum(axis=1) / count[pick].sum(axis=1)[:, None]).T
+    return tuple(np.percentile((b - nnp) / (b - c) * 100, [50 * (1 - level), 50 * (1 + level)]))
+
+
+def in_period(x: np.ndarray, moving: np.ndarray, period: str) -> np.ndarray:
+    """The samples of x in ``period`` ("dynamic": where the reference moves, "static", "overall")."""
+    return x[moving if period == "dynamic" else ~moving if period == "static" else slice(None)]
 
 
 def shares(row, i: int, method: str = "nnp") -> tuple[float, float]:
@@ -145,7 +162,7 @@ def fig7(references, errors, phi, path: str, joint: int = 4) -> None:
     fig.colorbar(sc, ax=fig.axes, shrink=0.6, label=f"e_pl of joint {joint + 1} [rad/s^2]")
     fig.savefig(path, dpi=110)
     plt.close(fig)
-    print(f"Fig. 7 written to {path}")
+    print(f"Fig. 7 written to {path} (colour limit: the 99th percentile of |e_pl| of joint {joint + 1}, {lim:.2f} rad/s^2)")
 
 
 def kw_sel(kw: dict, sel: np.ndarray) -> dict:
@@ -195,6 +212,10 @@ def main() -> None:
         print(f"{names[sig]:44s} {period:8s} RMS Basic {row['basic'][1]:.4f} LCS {row['lcs'][1]:.4f} "
               f"NNP {row['nnp'][1]:.4f} | Table 6 share {paper:6.1f} %, signed {signed:6.1f} %"
               + (f" (per axis {per_axis})" if sig != "tcp" else ""))
+        if period == "dynamic":
+            lo, hi = share_interval(results, sig, period)
+            print(f"{'':44s} {'':8s} 90 % bootstrap interval of the signed share over the {len(results)} lines: "
+                  f"{lo:.1f} to {hi:.1f} %")
         if sig == "joint":
             print(f"{'':44s} {'':8s} oracle (perfect prediction where the paper predicts): RMS {row['oracle'][1]:.4f}, "
                   f"Table 6 share {shares(row, 1, 'oracle')[0]:6.1f} %, signed {shares(row, 1, 'oracle')[1]:6.1f} %")

@@ -10,11 +10,12 @@ from lcgym.systems.ix import IX
 
 
 @pytest.mark.parametrize("machine, controllers, options, expected", [
-    (IX, "feedback,physical", ["--n-train", "2", "--duration", "12"], ("tracking_error", "input_residual")),
+    (IX, "feedback,physical", ["--n-train", "2", "--duration", "12"],
+     ("ix-v1, 1 validation", "tracking_error", "input_residual")),  # the header names the version
     # the arm: reference offsets (basic) and its score, the load-side error of joints 2, 3, 5, the TCP error
     # and paper 002's errors per period
     (FLEXARM, "feedback,basic", ["--n-train", "1"],
-     ("flexarm, 1 validation reference (seed 0)", "tcp_position_error", "model_following_error", "dynamic")),
+     ("flexarm-v1, 1 validation reference (seed 0)", "tcp_position_error", "model_following_error", "dynamic")),
 ], ids=["ix", "flexarm"])
 def test_simulate_writes_file_plot_and_table(tmp_path, capsys, machine, controllers, options, expected):
     out, png = tmp_path / "run.csv", tmp_path / "run.png"

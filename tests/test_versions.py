@@ -49,7 +49,10 @@ def test_v0_is_the_first_release_and_v1_the_calibrated_plant():
     nominal = arm.DriveParameters()
     np.testing.assert_allclose(np.divide(arm_v1.true_drive.KJ, nominal.KJ), [0.97] * 3 + [0.85] * 3)
     np.testing.assert_allclose(np.divide(arm_v0.true_drive.KJ, nominal.KJ), [0.85] * 6)
-    assert arm_v1.true_drive.DJ == arm_v0.true_drive.DJ and arm_v1.true_drive.Flc == arm_v0.true_drive.Flc
+    assert arm_v1.true_drive.DJ == arm_v0.true_drive.DJ and arm_v1.true_drive.Jm == arm_v0.true_drive.Jm
+    for name in ("Fmc", "Flc"):  # Coulomb friction: v0 30 % above nominal, v1 15 % below
+        np.testing.assert_allclose(np.divide(getattr(arm_v0.true_drive, name), getattr(nominal, name)), [1.3] * 6)
+        np.testing.assert_allclose(np.divide(getattr(arm_v1.true_drive, name), getattr(nominal, name)), [0.85] * 6)
     payload = np.subtract(arm_v1.true_arm.pi, arm.ArmParameters().pi)[-10:]  # link 6's parameters: m, m c, I (origin)
     np.testing.assert_allclose(payload[:4], [12.0, 0.0, 0.0, 12.0 * 0.20], atol=1e-12)  # 12 kg, centre 20 cm out
     assert IXPlant.of_version("v1", preroll=0.5).preroll == 0.5

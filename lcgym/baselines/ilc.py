@@ -23,15 +23,17 @@ length so that the circular wrap of the non-causal filters falls in the padding)
   the paper.
 
 The edges: Q filters the previous feedforward too, and the FFT's zero padding would filter it as
-if it dropped to zero before and after the trial. The arm's tau_nl holds gravity at rest (2-5 N m
-on joints 2 and 3), so Q bent it by up to 1 N m in the first and last 50 ms; the settled start then
+if it dropped to zero before and after the trial. The arm's tau_nl holds gravity at rest (motor
+side, 0.9-5.3 N m on joint 2 and 0.7-2.5 N m on joint 3 at the rests of seed 0's first eight
+validation lines), so Q bent it by up to 1 N m in the first and last 50 ms; the settled start then
 began from that bent torque, the integrators unwound it over the first half second, and the end
 rang out. ``nominal_update`` pads tau_nl with its edge values (``frequency_update(hold_edges=True)``).
-Measured on FlexArm-v1's plant with a nominal structure built from its true arm and drives (where
-one iteration should change next to nothing), seed 0's first three validation lines, static-period
-RMS of Basic / one LCS iteration with zero padding / with held edges: TCP 0.074 / 0.358 / 0.059 mm,
-EE acceleration 0.020 / 0.039 / 0.021 m/s^2. On FlexArm-v1 itself: TCP 0.856 / 0.826 / 0.835 mm,
-EE 0.037 / 0.037 / 0.031 m/s^2, joint e_pl 0.30 / 0.40 / 0.32 rad/s^2. The IX's tracking-error ILC keeps the zero
+Measured before FlexArm-v1's Coulomb friction was recalibrated, on FlexArm-v1's plant with a
+nominal structure built from its true arm and drives (where one iteration should change next to
+nothing), seed 0's first three validation lines, static-period RMS of Basic / one LCS iteration
+with zero padding / with held edges: TCP 0.074 / 0.358 / 0.059 mm, EE acceleration 0.020 / 0.039 /
+0.021 m/s^2. On FlexArm-v1 itself: TCP 0.856 / 0.826 / 0.835 mm, EE 0.037 / 0.037 / 0.031 m/s^2,
+joint e_pl 0.30 / 0.40 / 0.32 rad/s^2. The IX's tracking-error ILC keeps the zero
 padding (its fade-in covers the start; changing it would change its results).
 
 Q is zero phase: the magnitude |B(w)|^2 of a Butterworth low-pass of order ``q_order`` with corner
@@ -100,7 +102,7 @@ def frequency_update(f: np.ndarray, e: np.ndarray, inverse: np.ndarray, q: np.nd
     ``hold_edges``: f is padded with its own edge values instead of zeros (the last sample for the
     first half of the padding, the first sample for the second half, where the wrap-around lands),
     i.e. f held before and after the trial. A feedforward that holds a torque at rest (the arm's
-    tau_nl carries gravity, 2-5 N m) would otherwise be filtered as if it dropped to zero at both
+    tau_nl carries gravity, up to 5 N m) would otherwise be filtered as if it dropped to zero at both
     ends: Q then bends it by up to half its edge value over Q's settling time (about 50 ms at 20 Hz),
     and the plant answers that change of torque with a start-up transient and residual vibration
     after the trial (module docstring, "the edges"). e stays zero-padded: outside the trial there is

@@ -53,8 +53,8 @@ Version History:
       (Basic, paper 002's nominal structure) starts without a motor error (1.5 mrad instead of
       121 mrad at t = 0 on Basic). Hidden effects calibrated to paper 002's situation
       (``plant.true_arm_v1``, ``plant.true_drive_v1``): a 12 kg tool 40 cm long instead of the
-      block, main-axis stiffness 3 % below nominal instead of 15 %. Same observation, action and
-      reward as v0.
+      block, main-axis stiffness 3 % below nominal instead of 15 %, Coulomb friction 15 % below
+      nominal instead of 30 % above. Same observation, action and reward as v0.
     - v0: the first release (``FlexArmPlant()``'s defaults): the integrators start holding the whole
       gravity torque on top of the feedforward's.
 """
