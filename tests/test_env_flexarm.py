@@ -4,10 +4,12 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
+from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import lcgym  # noqa: F401  (registers the ids)
-from lcgym.systems.flexarm.env import FlexArmEnv
+from lcgym.references import Reference
+from lcgym.systems.flexarm.env import FlexArmEnv, FlexArmVectorEnv
 from lcgym.systems.flexarm.nominal import BasicFeedforward
 from lcgym.systems.flexarm.plant import FlexArmPlant
 from lcgym.systems.flexarm.references import arm_reference_set
@@ -56,3 +58,101 @@ def test_sync_vector_env_steps_each_copy_like_a_single_env(refs):
         assert r_v[1] == r_s
     assert not np.array_equal(obs_v[0], obs_v[1])  # the copies took different actions
     vec.close()
+
+
+def _short_lines():
+    """Two pieces of a validation line from inside its first move (500 and 300 samples): short
+    episodes that end at different steps, so the vector env autoresets within a test."""
+    r = arm_reference_set("validation", seed=0, n_references=1)[0]
+    return [Reference(f"piece-{a}", r.fs, r.positions[a:b], r.velocities[a:b], r.accelerations[a:b], r.axes)
+            for a, b in ((600, 1100), (700, 1000))]
+
+
+@pytest.mark.parametrize("num_envs, mode, base", [(3, AutoresetMode.NEXT_STEP, "basic"),
+                                                   (10, AutoresetMode.SAME_STEP, "basic"),
+                                                   (9, AutoresetMode.NEXT_STEP, "none")],
+                         ids=["serial-next-step", "parallel-same-step", "parallel-feedback-only"])
+def test_vector_env_is_n_single_envs_bit_for_bit(num_envs, mode, base):
+    """``FlexArmVectorEnv``: every sub-env's observation, reward, episode end and motor torque equal
+    those of a single ``FlexArmEnv`` on the same reference with the same actions, bit for bit,
+    through episode ends and Gymnasium's autoreset (both modes); actions out of bounds included."""
+    lines = _short_lines()
+    venv = gym.make_vec("lcgym/FlexArm-v1", num_envs=num_envs, vectorization_mode="vector_entry_point",
+                        references=lines, base_feedforward=base, autoreset_mode=mode)
+    inner = venv.unwrapped if hasattr(venv, "unwrapped") else venv
+    singles = [FlexArmEnv(references=lines, base_feedforward=base) for _ in range(num_envs)]
+    obs, _ = venv.reset(seed=3)
+    first = [e.reset(options={"reference": int(inner._ref_idx[i])})[0] for i, e in enumerate(singles)]
+    np.testing.assert_array_equal(obs, np.array(first))
+    rng = np.random.default_rng(1)
+    bound = float(venv.single_action_space.high[0])
+    pending = np.zeros(num_envs, dtype=bool)  # NEXT_STEP: the sub-env resets in this step
+    ends = 0
+    for t in range(700):
+        a = (rng.uniform(-1.2, 1.2, (num_envs, 6)) * bound).astype(np.float32)
+        obs, reward, terminated, truncated, info = venv.step(a)
+        done = terminated | truncated
+        for i, e in enumerate(singles):
+            if pending[i]:  # reset by the vector env: the action was ignored
+                assert reward[i] == 0.0 and not done[i]
+                np.testing.assert_array_equal(obs[i], e.reset(options={"reference": int(inner._ref_idx[i])})[0])
+                continue
+            o, r, term, trunc, single_info = e.step(a[i])
+            assert (reward[i], terminated[i], truncated[i]) == (r, term, trunc), (t, i)
+            np.testing.assert_array_equal(info["u"][i], single_info["u"])
+            last = info["final_obs"][i] if mode == AutoresetMode.SAME_STEP and done[i] else obs[i]
+            np.testing.assert_array_equal(last, o)
+            if done[i] and mode == AutoresetMode.SAME_STEP:
+                np.testing.assert_array_equal(obs[i], e.reset(options={"reference": int(inner._ref_idx[i])})[0])
+        ends += int(done.sum())
+        pending = done if mode == AutoresetMode.NEXT_STEP else pending
+    assert ends >= num_envs and info["clipped_actions"].sum() > 0
+
+
+def test_vector_env_refuses_nan_and_trains_sb3():
+    """A NaN action is refused before any arm moves, naming step and sub-env; the stable-baselines3
+    adapter steps the vector env and reports an episode's return and tracking error at its end."""
+    from lcgym.envs.sb3 import make_sb3_vec_env
+
+    lines = _short_lines()
+    venv = FlexArmVectorEnv(4, references=lines)
+    venv.reset(seed=0)
+    a = np.zeros((4, 6), dtype=np.float32)
+    a[2, 1] = np.nan
+    before = venv._st.copy()
+    with pytest.raises(ValueError, match="step 0 contains NaN or inf for sub-env 2"):
+        venv.step(a)
+    np.testing.assert_array_equal(venv._st, before)
+    sb3 = make_sb3_vec_env("lcgym/FlexArm-v1", num_envs=2, references=lines)
+    sb3.reset()
+    infos = []
+    for _ in range(500):
+        _, _, done, step_infos = sb3.step(np.zeros((2, 6), dtype=np.float32))
+        infos += [i for i, d in zip(step_infos, done, strict=True) if d]
+    assert infos and all(i["episode"]["l"] in (300, 500) and i["tracking_rms"].shape == (3,) for i in infos)
+
+
+def test_vector_sub_env_i_draws_the_references_of_a_single_env_seeded_seed_plus_i():
+    """As Gymnasium's sync vector env and SB3's DummyVecEnv seed their copies, episode after episode
+    (a single env's episode trial draws accelerometer noise at its end; the vector env draws it
+    too): the RL baseline meets the same references on the vector env as on DummyVecEnv copies."""
+    lines = _short_lines() * 4  # 8 references
+    venv = FlexArmVectorEnv(5, references=lines, autoreset_mode=AutoresetMode.SAME_STEP)
+    venv.reset(seed=7)
+    drawn = [[int(r)] for r in venv._ref_idx]
+    while min(len(d) for d in drawn) < 4:
+        _, _, terminated, truncated, _ = venv.step(np.zeros((5, 6), dtype=np.float32))
+        for i in np.flatnonzero(terminated | truncated):
+            drawn[i].append(int(venv._ref_idx[i]))
+    for i, d in enumerate(drawn):
+        e = FlexArmEnv(references=lines)
+        e.reset(seed=7 + i)
+        single = [e._idx]
+        for _ in range(3):
+            done = False
+            while not done:
+                _, _, terminated, truncated, _ = e.step(np.zeros(6, dtype=np.float32))
+                done = terminated or truncated
+            e.reset()
+            single.append(e._idx)
+        assert d[:4] == single, (i, d, single)

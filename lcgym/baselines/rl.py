@@ -84,8 +84,8 @@ class RLConfig:
     algorithm: "ppo", "sac" or "td3"; residual: act on top of the physical model (else from
     scratch); observe_error: the policy sees the tracking error; passes: env steps per training
     sample, per machine name; total_steps: a fixed budget instead; num_envs: parallel envs per
-    machine name (one compiled batch where the env has a vector entry point, the IX's; else
-    ``DummyVecEnv`` copies, the FlexArm's); hyperparameters: overrides of
+    machine name (one compiled batch where the env has a vector entry point, both machines';
+    else ``DummyVecEnv`` copies); hyperparameters: overrides of
     ``HYPERPARAMETERS[algorithm]``; seed: of the agent and its envs; cache: save trained models
     and reuse them (``cache_dir``, default ``default_cache_dir()``); progress: a progress bar of
     the training (env steps, last episode's RMS tracking error).

@@ -1,18 +1,18 @@
-"""stable-baselines3 view of a machine's batched vector env (the IX's): one compiled batch instead of
-N Python envs.
+"""stable-baselines3 view of a machine's batched vector env (the IX's, the FlexArm's): one compiled
+batch instead of N Python envs.
 
 stable-baselines3's ``VecEnv`` resets a finished sub-env within the same step and hands the
 last observation over as ``info["terminal_observation"]``; ``IXVectorEnv`` does the same with
-``autoreset_mode=SAME_STEP``, so this adapter mostly renames. It also keeps per-episode sums and
+``autoreset_mode=SAME_STEP`` (and ``FlexArmVectorEnv``), so this adapter mostly renames. It also keeps per-episode sums and
 reports, in the info of the step that ends an episode, ``episode`` (return ``r``, length ``l``,
 wall time ``t`` [s]: what stable-baselines3's ``Monitor`` reports, so its logger shows
 ``ep_rew_mean``) and ``tracking_rms``: the episode's RMS tracking error per axis [rad]. Build it
 with ``make_sb3_vec_env``.
 
-An env without a vector entry point (``lcgym/FlexArm-v0``) goes into SB3's ``DummyVecEnv`` inside
-SB3's ``Monitor``, which reports ``episode``; that env reports ``tracking_rms`` itself at the
-episode's end. ``HideError``: zeroes the tracking error in the observations (a policy that sees
-only the reference: a pure feedforward).
+An env without a vector entry point goes into SB3's ``DummyVecEnv`` inside SB3's ``Monitor``,
+which reports ``episode``; the env then reports ``tracking_rms`` itself at the episode's end.
+``HideError``: zeroes the tracking error in the observations (a policy that sees only the
+reference: a pure feedforward).
 """
 
 from __future__ import annotations
@@ -26,8 +26,9 @@ from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
 
 class SB3VecAdapter(VecEnv):
-    """Wraps a vector env (``IXVectorEnv``) built with ``autoreset_mode=AutoresetMode.SAME_STEP``
-    whose step info carries the tracking ``error`` (N, n_axes)."""
+    """Wraps a vector env (``IXVectorEnv``, ``FlexArmVectorEnv``) built with
+    ``autoreset_mode=AutoresetMode.SAME_STEP`` whose step info carries the tracking ``error`` (N, the
+    scored axes)."""
 
     def __init__(self, venv):
         if venv.metadata.get("autoreset_mode") != AutoresetMode.SAME_STEP:
@@ -36,11 +37,13 @@ class SB3VecAdapter(VecEnv):
         super().__init__(venv.num_envs, venv.single_observation_space, venv.single_action_space)
         self._actions = None
         self._return, self._length = np.zeros(self.num_envs), np.zeros(self.num_envs, dtype=np.int64)
-        self._sq_error = np.zeros((self.num_envs, venv.single_action_space.shape[0]))  # sums of the open episodes
+        self._sq_error = None  # sums over the open episodes, (N, scored axes) from the first step's info
         self._t0 = time.perf_counter()
 
     def _clear(self, mask: np.ndarray) -> None:
-        self._return[mask], self._length[mask], self._sq_error[mask] = 0.0, 0, 0.0
+        self._return[mask], self._length[mask] = 0.0, 0
+        if self._sq_error is not None:
+            self._sq_error[mask] = 0.0
 
     def reset(self):
         seed = self._seeds[0] if self._seeds and self._seeds[0] is not None else None
@@ -57,6 +60,8 @@ class SB3VecAdapter(VecEnv):
         done = terminated | truncated
         self._return += reward
         self._length += 1
+        if self._sq_error is None:
+            self._sq_error = np.zeros_like(info["error"], dtype=float)
         self._sq_error += np.square(info["error"])
         infos = [{} for _ in range(self.num_envs)]
         for i in np.flatnonzero(done):

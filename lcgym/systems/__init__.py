@@ -35,7 +35,8 @@ The newest is the benchmark's default; the rigid-body model (diagnosis, physical
 machine's, shared by its versions."""
 
 _IX_ENV = {"entry_point": "lcgym.systems.ix.env:IXEnv", "vector_entry_point": "lcgym.systems.ix.env:IXVectorEnv"}
-_ARM_ENV = {"entry_point": "lcgym.systems.flexarm.env:FlexArmEnv"}
+_ARM_ENV = {"entry_point": "lcgym.systems.flexarm.env:FlexArmEnv",
+            "vector_entry_point": "lcgym.systems.flexarm.env:FlexArmVectorEnv"}
 ENVS = {
     "lcgym/IX-v0": {**_IX_ENV, "kwargs": {"version": "v0"}},
     "lcgym/IX-v1": {**_IX_ENV, "kwargs": {"version": "v1"}},

@@ -41,17 +41,18 @@ Arguments: ``references`` (a set name or a list of ``Reference``), ``reference_s
     ``n_references``, ``base_feedforward``, ``plant`` (a ``FlexArmPlant``; default the plant of
     ``version``), ``version`` ("v1" or "v0": ``FlexArmPlant.of_version``; the registered ids set it).
 
-Vector env: ``gym.make_vec("lcgym/FlexArm-v1", num_envs=n, vectorization_mode="sync")`` steps n
-independent copies (tested against a single env); "async" runs them in processes. There is no
-batched kernel like the IX's: one step costs about 120 us here (measured 118 us: 4 RK4 steps of
-the 6-joint flexible dynamics plus Python's per-step overhead; the 16 evaluations of the dynamics
-at 3 us each make about 50 us of it).
+Vector env: ``gym.make_vec("lcgym/FlexArm-v1", num_envs=n, vectorization_mode="vector_entry_point")``
+is ``FlexArmVectorEnv``: n arms stepped in one compiled call (``systems/flexarm/vector.py``, the
+same per-sample closed loop as the plant and this env, parallel over arms), each sub-env's numbers
+bit for bit those of this env (tested); ``envs.sb3.make_sb3_vec_env`` gives it to
+stable-baselines3. ``vectorization_mode="sync"`` steps n copies of this env in Python.
+Speed: ``benchmarks/flexarm_vector_speed.py``.
 
 Version History:
     - v1: a settled start (``FlexArmPlant(settled_start=True)``): the PID integrators hold only the
       gravity torque the first feedforward sample lacks, so a run whose feedforward carries gravity
-      (Basic, paper 002's nominal structure) starts without a motor error (1.5 mrad instead of
-      121 mrad at t = 0 on Basic). Hidden effects calibrated to paper 002's situation
+      (Basic, paper 002's nominal structure) starts without a motor error (Basic on seed 0's first
+      validation line, largest at t = 0: 0.8 mrad on v1, 121 mrad on v0). Hidden effects calibrated to paper 002's situation
       (``plant.true_arm_v1``, ``plant.true_drive_v1``): a 12 kg tool 40 cm long instead of the
       block, main-axis stiffness 3 % below nominal instead of 15 %, Coulomb friction 15 % below
       nominal instead of 30 % above. Same observation, action and reward as v0.
@@ -65,11 +66,15 @@ import math
 
 import gymnasium as gym
 import numpy as np
+from gymnasium.vector import AutoresetMode
+from gymnasium.vector.utils import batch_space
 
 from ...data import Trial
 from ...envs.actions import checked_action
+from ...envs.batched import BatchedVectorEnv
 from ...references import Reference
 from . import plant as F
+from . import vector as V
 from .references import MOVING, arm_reference_set
 
 ACTION_BOUND = 2.0  # N m
@@ -78,6 +83,39 @@ ERR_SCALE, ERR_CLIP = math.radians(0.05), 20.0
 REWARD_SCALE = math.radians(0.01)
 PREVIEW = 50  # samples
 OBS_BOUND = 25.0
+
+
+def base_of(reference: Reference, base_feedforward: str) -> tuple[np.ndarray, np.ndarray]:
+    """(feedforward [N m], motor offset [rad of the motor]) (T, 6) of a reference: the nominal
+    structure (``base_feedforward="basic"``) or zeros ("none")."""
+    if base_feedforward == "basic":
+        from .nominal import BasicFeedforward
+
+        b = BasicFeedforward().compute(reference.positions, reference.fs)
+        return b["tau_ff"], b["motor_offset"]
+    z = np.zeros((reference.n_samples, 6))
+    return z, z
+
+
+def kernel_args(plant: F.FlexArmPlant) -> tuple:
+    """The plant's arguments of ``plant.loop_sample`` after the per-sample ones: (DH table,
+    inertial parameters, drive table, PID gains (3, 6), kernel config, accelerometer offset)."""
+    return (plant.true_arm.dh.table(), plant.true_arm.vector(), plant.true_drive.table(),
+            np.array([plant.gains.kp, plant.gains.ki, plant.gains.kd], dtype=float), plant.kernel_config(),
+            np.asarray(plant.accel_offset, dtype=float))
+
+
+def start_state(args: tuple, reference: Reference, ff: np.ndarray, off: np.ndarray) -> np.ndarray:
+    """The closed-loop state (``plant.N_LOOP``,) at t = 0: static balance at the first sample, held
+    for the plant's pre-roll (as ``FlexArmPlant.run`` starts)."""
+    st = np.empty(F.N_LOOP)
+    dh, pi, drive, C, cfg, accel_offset = args
+    q0 = reference.positions[0]
+    F.loop_start(st, q0, off[0], ff[0], dh, pi, drive, C, cfg)
+    zero = np.zeros(F.N_SIG)
+    for _ in range(int(cfg[6])):
+        F.loop_sample(st, q0, q0, ff[0], off[0], dh, pi, drive, C, cfg, accel_offset, zero, False)
+    return st
 
 
 class FlexArmEnv(gym.Env):
@@ -105,15 +143,7 @@ class FlexArmEnv(gym.Env):
     def _base_of(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         """(feedforward, motor offset) (T, 6) of reference i: the nominal structure or zeros."""
         if i not in self._base:
-            ref = self.references[i]
-            if self.base_feedforward == "basic":
-                from .nominal import BasicFeedforward
-
-                b = BasicFeedforward().compute(ref.positions, ref.fs)
-                self._base[i] = (b["tau_ff"], b["motor_offset"])
-            else:
-                z = np.zeros((ref.n_samples, 6))
-                self._base[i] = (z, z)
+            self._base[i] = base_of(self.references[i], self.base_feedforward)
         return self._base[i]
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -127,17 +157,8 @@ class FlexArmEnv(gym.Env):
         self._idx, self._k = int(i), 0
         ref = self.references[self._idx]
         ff, off = self._base_of(self._idx)
-        p = self.plant
-        self._args = (p.true_arm.dh.table(), p.true_arm.vector(), p.true_drive.table(),
-                      np.array([p.gains.kp, p.gains.ki, p.gains.kd], dtype=float), p.kernel_config(),
-                      np.asarray(p.accel_offset, dtype=float))
-        self._st = np.empty(F.N_LOOP)
-        dh, pi, drive, C, cfg, _ = self._args
-        F.loop_start(self._st, ref.positions[0], off[0], ff[0], dh, pi, drive, C, cfg)
-        zero = np.zeros(F.N_SIG)
-        for _ in range(int(cfg[6])):
-            F.loop_sample(self._st, ref.positions[0], ref.positions[0], ff[0], off[0], *self._args[:5], self._args[5],
-                          zero, False)
+        self._args = kernel_args(self.plant)
+        self._st = start_state(self._args, ref, ff, off)
         self._sig = np.zeros((ref.n_samples, F.N_SIG))
         self._ff_applied = np.zeros((ref.n_samples, 6))
         self._clipped = 0
@@ -187,3 +208,97 @@ class FlexArmEnv(gym.Env):
 
     def _trial(self, n: int) -> Trial:
         return self.plant.trial_from_signals(self.references[self._idx], self._sig[:n], self._ff_applied, self.np_random)
+
+
+class FlexArmVectorEnv(BatchedVectorEnv):
+    """N FlexArm plants stepped at once in compiled code (``systems/flexarm/vector.py``, parallel over
+    arms from ``PARALLEL_FROM`` on). Each sub-env is a ``FlexArmEnv`` with the same arguments: the
+    same observation, action, reward and episode end, its numbers bit for bit those of a single env
+    fed the same actions. Per step the info holds ``u`` (motor torques [N m]), ``error`` (the true
+    load-side error q_lr - q_l of the sample [rad] of joints 2, 3, 5, what the benchmark scores and
+    the single env's ``tracking_rms`` is taken of) and ``clipped_actions``; there is no
+    whole-episode ``trial`` (use the single env for that).
+
+    Autoreset: both of Gymnasium's modes (``envs.batched``: NEXT_STEP by default, SAME_STEP for
+    stable-baselines3). Each sub-env draws its references with its own generator, seeded ``seed + i`` by ``reset(seed)``
+    (as Gymnasium's sync vector env and stable-baselines3's ``DummyVecEnv`` seed their copies), and
+    at an episode's end draws from it the accelerometer noise a single env's episode ``trial``
+    draws (though it returns no trial), so sub-env i meets the references a ``FlexArmEnv`` reset
+    with ``seed + i`` meets, episode after episode.
+    """
+
+    label = "FlexArm vector env"
+    PARALLEL_FROM = 8  # arms
+
+    def __init__(self, num_envs: int = 1, references="train", reference_seed: int = 0, n_references: int | None = None,
+                 base_feedforward: str = "basic", plant: F.FlexArmPlant | None = None, version: str = "v1",
+                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP):
+        self._init_batch(num_envs, autoreset_mode)
+        one = FlexArmEnv(references, reference_seed, n_references, base_feedforward, plant, version)  # checks the arguments
+        self.plant, self.references, self.base_feedforward = one.plant, one.references, base_feedforward
+        self.single_observation_space, self.single_action_space = one.observation_space, one.action_space
+        self.observation_space = batch_space(self.single_observation_space, num_envs)
+        self.action_space = batch_space(self.single_action_space, num_envs)
+        self._args = kernel_args(self.plant)
+        refs = self.references
+        R, T = len(refs), max(r.n_samples for r in refs)
+        self._lengths = np.array([r.n_samples for r in refs], dtype=np.int64)
+        stack = {name: np.zeros((R, T, 6)) for name in ("pos", "vel", "acc", "ff", "off")}
+        self._start = np.empty((R, F.N_LOOP))
+        self._first_obs = np.empty((R, V.N_OBS), dtype=np.float32)
+        bound = float(self.single_action_space.high[0])
+        self._scales = np.array([POS_SCALE, VEL_SCALE, ACC_SCALE, FF_SCALE, ERR_SCALE, ERR_CLIP, REWARD_SCALE, OBS_BOUND,
+                                 PREVIEW, bound])
+        for i, r in enumerate(refs):
+            ff, off = base_of(r, base_feedforward)
+            n = r.n_samples
+            for name, x in (("pos", r.positions), ("vel", r.velocities), ("acc", r.accelerations), ("ff", ff), ("off", off)):
+                stack[name][i, :n] = x
+            self._start[i] = start_state(self._args, r, ff, off)
+            V.observe(self._start[i], stack["pos"][i], stack["vel"][i], stack["acc"][i], stack["ff"][i], n, 0,
+                      self._args[2][0], self._args[4][3], self._scales, self._first_obs[i])
+        self._ref = tuple(stack[name] for name in ("pos", "vel", "acc", "ff", "off"))
+        N = num_envs
+        self._st = np.zeros((N, F.N_LOOP))
+        self._ref_idx = np.zeros(N, dtype=np.int64)
+        self._k = np.zeros(N, dtype=np.int64)
+        self._obs = np.zeros((N, V.N_OBS), dtype=np.float32)
+        self._reward = np.zeros(N)
+        self._status = np.zeros(N, dtype=np.int64)
+        self._clipped = np.zeros(N, dtype=np.int64)
+        self._u = np.zeros((N, 6))
+        self._error = np.zeros((N, 6))
+        self._rngs: list[np.random.Generator] | None = None
+        self._kernel = V.step_parallel if N >= self.PARALLEL_FROM else V.step_serial
+
+    def _restart(self, mask: np.ndarray) -> None:
+        idx = np.flatnonzero(mask)
+        r = np.array([self._rngs[i].integers(len(self.references)) for i in idx], dtype=np.int64)
+        self._ref_idx[idx], self._k[idx], self._clipped[idx] = r, 0, 0
+        self._st[idx] = self._start[r]
+        self._obs[idx] = self._first_obs[r]
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        if seed is not None or self._rngs is None:  # sub-env i draws as a FlexArmEnv reset with seed + i
+            self._rngs = [gym.utils.seeding.np_random(None if seed is None else seed + i)[0] for i in range(self.num_envs)]
+        return super().reset(seed=seed, options=options)
+
+    def step(self, actions):
+        if not self._started:
+            raise RuntimeError("FlexArm vector env: call reset() before step()")
+        a = checked_action(actions, (self.num_envs, 6), "FlexArm vector env", self._steps,
+                           "one motor torque per joint in N m, one row per sub-env").astype(np.float64)
+        active = self._begin_step(a)
+        self._kernel(active, self._st, *self._ref, self._lengths, self._ref_idx, self._k, a, self._scales, *self._args,
+                     self._obs, self._reward, self._status, self._clipped, self._u, self._error)
+        terminated = active & (self._status == V.ENV_DIVERGED)
+        truncated = active & ~terminated & (self._k >= self._lengths[self._ref_idx])
+        reward = np.where(active, self._reward, 0.0)
+        infos = {"u": self._u.copy(), "error": self._error[:, list(MOVING)], "clipped_actions": self._clipped.copy()}
+        for key in ("u", "error", "clipped_actions"):  # Gymnasium's vector-info masks: which sub-envs stepped
+            infos[f"_{key}"] = active
+        done = terminated | truncated
+        for i in np.flatnonzero(done):  # the accelerometer noise the single env's episode trial draws
+            self._rngs[i].standard_normal((int(self._k[i]), 3))
+        self._end_step(done, infos)
+        return self._obs.copy(), reward, terminated, truncated, infos

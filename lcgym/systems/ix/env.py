@@ -66,11 +66,12 @@ import warnings
 
 import gymnasium as gym
 import numpy as np
-from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 from ...data import Trial
 from ...envs.actions import checked_action
+from ...envs.batched import BatchedVectorEnv
 from ...physics.kinematics import reference_kinematics, reference_positions, relay
 from ...physics.model import PhysicalModel
 from ...references import Reference
@@ -303,32 +304,20 @@ def render_episode(trial: Trial | None, title: str) -> np.ndarray:
     return image
 
 
-class IXVectorEnv(VectorEnv):
-    """N IX plants stepped at once in compiled code (parallel over plants).
+class IXVectorEnv(BatchedVectorEnv):
+    """N IX plants stepped at once in compiled code (parallel over plants). Autoreset: both of
+    Gymnasium's modes (``envs.batched``: NEXT_STEP by default, SAME_STEP for stable-baselines3)."""
 
-    Autoreset (Gymnasium 1.x): ``AutoresetMode.NEXT_STEP`` (default): the step after an episode
-    ends resets that sub-env, ignores its action and returns its first observation with reward 0.
-    ``AutoresetMode.SAME_STEP``: the sub-env resets within the step that ends it; the returned
-    observation is the new episode's first, the last one is in ``info["final_obs"]`` (mask
-    ``info["_final_obs"]``). stable-baselines3 expects the latter (``envs.sb3.SB3VecAdapter``).
-    """
-
-    metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+    label = "IX vector env"
 
     def __init__(self, num_envs: int = 1, references="train", base_feedforward="none",
                  reference_seed: int = 0, n_references: int | None = None, duration: float = 40.0,
                  plant: IXPlant | None = None, render_mode: str | None = None,
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, version: str = "v1"):
-        if num_envs < 1:
-            raise ValueError(f"num_envs must be >= 1, got {num_envs}")
+        self._init_batch(num_envs, autoreset_mode)
         if render_mode is not None:
             raise ValueError("the IX vector env does not render; use the single env")
-        mode = AutoresetMode(autoreset_mode)
-        if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
-            raise ValueError(f"autoreset_mode must be NEXT_STEP or SAME_STEP, got {mode}")
-        self.metadata = {**self.metadata, "autoreset_mode": mode}
         self.task = IXTask(references, base_feedforward, plant, reference_seed, n_references, duration, version)
-        self.num_envs = num_envs
         self.single_observation_space, self.single_action_space = self.task.spaces()
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self.action_space = batch_space(self.single_action_space, num_envs)
@@ -342,9 +331,6 @@ class IXVectorEnv(VectorEnv):
         self._status = np.zeros(N, dtype=np.int64)
         self._clipped = np.zeros(N, dtype=np.int64)
         self._sig = np.zeros((N, K.N_ENV_SIG))
-        self._autoreset = np.zeros(N, dtype=np.bool_)
-        self._started = False
-        self._steps = 0  # vector steps since reset, named in errors
         self._kernel = K.env_step_parallel if N >= 16 else K.env_step_serial
 
     def _restart(self, mask: np.ndarray) -> None:
@@ -355,30 +341,13 @@ class IXVectorEnv(VectorEnv):
         self._obs[idx, :-2] = self.task.feats[r, 0]
         self._obs[idx, -2:] = self.task.start_error[r]
 
-    def reset(self, *, seed: int | None = None, options: dict | None = None):
-        super().reset(seed=seed)
-        self._restart(np.ones(self.num_envs, dtype=np.bool_))
-        self._autoreset[:] = False
-        self._started = True
-        self._steps = 0
-        return self._obs.copy(), {}
-
     def step(self, actions):
         if not self._started:
             raise RuntimeError("IX vector env: call reset() before step()")
         a = checked_action(actions, (self.num_envs, 2), "IX vector env", self._steps,
                            f"{IX_ACTION}, one row per sub-env")
         a = a.astype(np.float64, copy=False)
-        # refused before the kernel, which would step the sub-envs before the bad one; the action of a
-        # sub-env that autoresets in this step is ignored
-        bad = np.flatnonzero(~np.isfinite(a).all(axis=1) & ~self._autoreset)
-        if bad.size:
-            i = int(bad[0])
-            raise ValueError(f"IX vector env: action at step {self._steps} is NaN or inf for sub-env {i} "
-                             f"(its sample {self._k[i]}): {a[i].tolist()}")
-        self._steps += 1
-        resetting = self._autoreset.copy()
-        active = ~resetting
+        active = self._begin_step(a)
         t = self.task
         self._kernel(active, self._st, self._work, t.ref_pos, t.feats, t.base_ff, t.lengths, self._ref_idx, self._k,
                      a, t.scales, *t.kernel_args, self._obs, self._reward, self._status, self._clipped, self._sig)
@@ -394,13 +363,5 @@ class IXVectorEnv(VectorEnv):
         }
         for key in ("pos", "u", "ff", "error", "clipped_actions"):  # Gymnasium's vector-info masks: which sub-envs stepped
             infos[f"_{key}"] = active
-        done = terminated | truncated
-        if self.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP:
-            if done.any():
-                infos["final_obs"], infos["_final_obs"] = self._obs.copy(), done
-                self._restart(done)
-        else:
-            if resetting.any():
-                self._restart(resetting)
-            self._autoreset = done
+        self._end_step(terminated | truncated, infos)
         return self._obs.copy(), reward, terminated, truncated, infos

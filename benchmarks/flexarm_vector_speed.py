@@ -1,0 +1,93 @@
+"""Speed of the batched FlexArm vector env (issue 23, item 1), as ratios to references measured in
+the same run:
+
+* env steps/s of ``gym.make_vec("lcgym/FlexArm-v1", N, vectorization_mode="vector_entry_point")``
+  at N = 1, 16, 256, against the single ``FlexArmEnv`` (random actions in both);
+* PPO (stable-baselines3, default settings) learning on the vector env through
+  ``envs.sb3.make_sb3_vec_env`` against the same PPO on ``DummyVecEnv`` copies of the single env
+  (each wrapped in ``Monitor``, what ``baselines/rl.py`` does for an env without a vector entry
+  point): env steps per second of ``learn`` (collection and updates together), same N.
+
+Run:  .venv/bin/python benchmarks/flexarm_vector_speed.py [--ppo-envs 8] [--ppo-rollouts 2]
+The first vector env compiles the kernel (cached on disk); its time is printed separately.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import gymnasium as gym
+import numpy as np
+import torch
+
+import lcgym  # noqa: F401  (registers the ids)
+from lcgym.systems.flexarm.env import FlexArmEnv
+
+ENV_ID = "lcgym/FlexArm-v1"
+
+
+def single_rate(steps: int) -> float:
+    env = FlexArmEnv(references="train")
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    actions = rng.uniform(-1, 1, (steps, 6)).astype(np.float32)
+    t0 = time.perf_counter()
+    for a in actions:
+        _, _, terminated, truncated, _ = env.step(a)
+        if terminated or truncated:
+            env.reset()
+    return steps / (time.perf_counter() - t0)
+
+
+def vector_rate(num_envs: int, vector_steps: int) -> float:
+    venv = gym.make_vec(ENV_ID, num_envs=num_envs, vectorization_mode="vector_entry_point")
+    venv.reset(seed=0)
+    actions = np.random.default_rng(0).uniform(-1, 1, (vector_steps, num_envs, 6)).astype(np.float32)
+    venv.step(actions[0])  # threads start
+    t0 = time.perf_counter()
+    for a in actions:
+        venv.step(a)
+    return num_envs * vector_steps / (time.perf_counter() - t0)
+
+
+def ppo_rate(vec_env, rollouts: int) -> float:
+    from stable_baselines3 import PPO
+
+    model = PPO("MlpPolicy", vec_env, seed=0, device="cpu")
+    steps = model.n_steps * vec_env.num_envs * rollouts
+    t0 = time.perf_counter()
+    model.learn(total_timesteps=steps)
+    return steps / (time.perf_counter() - t0)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--ppo-envs", type=int, default=8)
+    parser.add_argument("--ppo-rollouts", type=int, default=2)
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    t0 = time.perf_counter()
+    gym.make_vec(ENV_ID, num_envs=1, vectorization_mode="vector_entry_point").reset(seed=0)
+    print(f"first vector env (compiles or loads the kernel, computes the start states): {time.perf_counter() - t0:.1f} s")
+    single = single_rate(5000)
+    print(f"single FlexArmEnv: {single:,.0f} env steps/s")
+    for n, steps in ((1, 3000), (16, 1000), (256, 200)):
+        rate = vector_rate(n, steps)
+        print(f"vector env N = {n:4d}: {rate:,.0f} env steps/s = {rate / single:.2f}x the single env")
+
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from lcgym.envs.sb3 import make_sb3_vec_env
+
+    n = args.ppo_envs
+    dummy = ppo_rate(make_vec_env(lambda: FlexArmEnv(references="train"), n_envs=n, vec_env_cls=DummyVecEnv),
+                     args.ppo_rollouts)
+    batched = ppo_rate(make_sb3_vec_env(ENV_ID, num_envs=n), args.ppo_rollouts)
+    print(f"PPO (default settings, {n} envs, {args.ppo_rollouts} rollouts of {2048 * n} steps): DummyVecEnv "
+          f"{dummy:,.0f} env steps/s, vector env {batched:,.0f} env steps/s = {batched / dummy:.2f}x")
+
+
+if __name__ == "__main__":
+    main()
