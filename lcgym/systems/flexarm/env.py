@@ -52,7 +52,8 @@ Version History:
     - v1: a settled start (``FlexArmPlant(settled_start=True)``): the PID integrators hold only the
       gravity torque the first feedforward sample lacks, so a run whose feedforward carries gravity
       (Basic, paper 002's nominal structure) starts without a motor error (Basic on seed 0's first
-      validation line, largest at t = 0: 0.8 mrad on v1, 121 mrad on v0). Hidden effects calibrated to paper 002's situation
+      validation line, largest at t = 0: 0.8 mrad on v1, 121 mrad on v0). Hidden effects
+      calibrated to paper 002's situation
       (``plant.true_arm_v1``, ``plant.true_drive_v1``): a 12 kg tool 40 cm long instead of the
       block, main-axis stiffness 3 % below nominal instead of 15 %, Coulomb friction 15 % below
       nominal instead of 30 % above. Same observation, action and reward as v0.
@@ -97,6 +98,12 @@ def base_of(reference: Reference, base_feedforward: str) -> tuple[np.ndarray, np
     return z, z
 
 
+def observation_scales(action_bound: float) -> np.ndarray:
+    """The env's constants in the order of ``vector.SCALES``."""
+    return np.array([POS_SCALE, VEL_SCALE, ACC_SCALE, FF_SCALE, ERR_SCALE, ERR_CLIP, REWARD_SCALE, OBS_BOUND, PREVIEW,
+                     action_bound])
+
+
 def kernel_args(plant: F.FlexArmPlant) -> tuple:
     """The plant's arguments of ``plant.loop_sample`` after the per-sample ones: (DH table,
     inertial parameters, drive table, PID gains (3, 6), kernel config, accelerometer offset)."""
@@ -137,6 +144,7 @@ class FlexArmEnv(gym.Env):
         bound = ACTION_BOUND if base_feedforward == "basic" else self.plant.u_max
         self.action_space = gym.spaces.Box(-bound, bound, shape=(6,), dtype=np.float32)
         self.observation_space = gym.spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(36,), dtype=np.float32)
+        self._scales = observation_scales(float(self.action_space.high[0]))
         self._base: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._idx, self._k, self._st = 0, 0, None
 
@@ -164,21 +172,17 @@ class FlexArmEnv(gym.Env):
         self._clipped = 0
         return self._observation(), {}
 
-    def _error(self, k: int) -> np.ndarray:
+    def _observe(self) -> tuple[np.ndarray, np.ndarray]:
+        """(observation at the current sample, encoder-side error e [rad] (6,))."""
         ref = self.references[self._idx]
-        N = np.asarray(self.plant.true_drive.N)
-        motor = np.array([F._measure(self._st, i, self._args[4][3]) for i in range(6)])  # what the encoders read
-        return ref.positions[min(k, ref.n_samples - 1)] - motor / N
+        ff, _ = self._base_of(self._idx)
+        obs = np.empty(V.N_OBS, dtype=np.float32)
+        e = V.observe(self._st, ref.positions, ref.velocities, ref.accelerations, ff, ref.n_samples, self._k,
+                      self._args[2][0], self._args[4][3], self._scales, obs)
+        return obs, e
 
     def _observation(self) -> np.ndarray:
-        ref = self.references[self._idx]
-        k = min(self._k, ref.n_samples - 1)
-        ff, _ = self._base_of(self._idx)
-        obs = np.concatenate([ref.positions[k] / POS_SCALE, ref.velocities[k] / VEL_SCALE,
-                              ref.accelerations[k] / ACC_SCALE, ff[k] / FF_SCALE,
-                              ref.velocities[min(k + PREVIEW, ref.n_samples - 1)] / VEL_SCALE,
-                              np.clip(self._error(k) / ERR_SCALE, -ERR_CLIP, ERR_CLIP)])
-        return np.clip(obs, -OBS_BOUND, OBS_BOUND).astype(np.float32)
+        return self._observe()[0]
 
     def step(self, action):
         if self._st is None:
@@ -197,14 +201,14 @@ class FlexArmEnv(gym.Env):
         bad = F.loop_sample(self._st, ref.positions[k], ref.positions[min(k + 1, T - 1)], self._ff_applied[k], off[k],
                             *self._args[:5], self._args[5], self._sig[k], True)
         self._k = k + 1
-        e = self._error(self._k)
-        reward = -0.5 * float(np.sum((e / REWARD_SCALE) ** 2))
+        obs, e = self._observe()
+        reward = float(V.reward_of(e, REWARD_SCALE))
         truncated = self._k >= T and not bad
         info = {"u": self._sig[k, F.S_U : F.S_U + 6].copy(), "clipped_actions": self._clipped}
         if bad or truncated:
             info["trial"] = self._trial(self._k)
             info["tracking_rms"] = np.sqrt(np.mean(np.square(F.load_error(info["trial"]))[:, list(MOVING)], axis=0))
-        return self._observation(), reward, bool(bad), bool(truncated), info
+        return obs, reward, bool(bad), bool(truncated), info
 
     def _trial(self, n: int) -> Trial:
         return self.plant.trial_from_signals(self.references[self._idx], self._sig[:n], self._ff_applied, self.np_random)
@@ -220,8 +224,9 @@ class FlexArmVectorEnv(BatchedVectorEnv):
     whole-episode ``trial`` (use the single env for that).
 
     Autoreset: both of Gymnasium's modes (``envs.batched``: NEXT_STEP by default, SAME_STEP for
-    stable-baselines3). Each sub-env draws its references with its own generator, seeded ``seed + i`` by ``reset(seed)``
-    (as Gymnasium's sync vector env and stable-baselines3's ``DummyVecEnv`` seed their copies), and
+    stable-baselines3). Each sub-env draws its references with its own generator, seeded
+    ``seed + i`` by ``reset(seed)`` (as Gymnasium's sync vector env and stable-baselines3's
+    ``DummyVecEnv`` seed their copies), and
     at an episode's end draws from it the accelerometer noise a single env's episode ``trial``
     draws (though it returns no trial), so sub-env i meets the references a ``FlexArmEnv`` reset
     with ``seed + i`` meets, episode after episode.
@@ -246,9 +251,7 @@ class FlexArmVectorEnv(BatchedVectorEnv):
         stack = {name: np.zeros((R, T, 6)) for name in ("pos", "vel", "acc", "ff", "off")}
         self._start = np.empty((R, F.N_LOOP))
         self._first_obs = np.empty((R, V.N_OBS), dtype=np.float32)
-        bound = float(self.single_action_space.high[0])
-        self._scales = np.array([POS_SCALE, VEL_SCALE, ACC_SCALE, FF_SCALE, ERR_SCALE, ERR_CLIP, REWARD_SCALE, OBS_BOUND,
-                                 PREVIEW, bound])
+        self._scales = one._scales
         for i, r in enumerate(refs):
             ff, off = base_of(r, base_feedforward)
             n = r.n_samples

@@ -4,9 +4,9 @@
 The physics is not rewritten here: each arm advances by ``plant.loop_sample``, the per-sample
 closed loop that ``FlexArmPlant.run`` and the single ``FlexArmEnv`` use, and the encoders are read
 by ``plant._measure``. What this module adds is the env's bookkeeping per arm in compiled code:
-the action's clipping, the observation, the reward and the episode status, written so that each
-sub-env's numbers are those of a single ``FlexArmEnv`` fed the same actions (``tests/test_env_flexarm.py``
-checks it bit for bit).
+the action's clipping, the observation and the reward (``observe`` and ``reward_of``, which the
+single ``FlexArmEnv`` uses too) and the episode status, so that each sub-env's numbers are those
+of a single env fed the same actions (``tests/test_env_flexarm.py`` checks it bit for bit).
 
 References arrive stacked and padded to the longest, (R, T_max, 6), with their lengths (R,);
 ``scales`` packs the env's constants (``SCALES`` below gives the order).
@@ -52,6 +52,15 @@ def observe(st, ref_pos, ref_vel, ref_acc, base_ff, T, k, N, res, scales, out):
 
 
 @numba.njit(cache=True)
+def reward_of(e, scale):
+    """The env's reward -1/2 sum_i (e_i / scale)^2 for the encoder-side error e (6,) [rad]."""
+    total = 0.0
+    for j in range(6):
+        total += (e[j] / scale) ** 2
+    return -0.5 * total
+
+
+@numba.njit(cache=True)
 def step_one(b, st, ref_pos, ref_vel, ref_acc, base_ff, offset, lengths, ref_idx, k, action, scales,
              dh, pi, drive, C, cfg, accel_offset, obs, reward, status, clipped, u, load_error):
     """One sample of sub-env b (see ``env.FlexArmEnv.step``); ``u`` gets the motor torques [N m] and
@@ -77,10 +86,7 @@ def step_one(b, st, ref_pos, ref_vel, ref_acc, base_ff, offset, lengths, ref_idx
         load_error[b, j] = ref_pos[r, kk, j] - sig[F.S_QL + j]
     k[b] = kk + 1
     e = observe(st[b], ref_pos[r], ref_vel[r], ref_acc[r], base_ff[r], T, kk + 1, drive[0], cfg[3], scales, obs[b])
-    total = 0.0
-    for j in range(6):
-        total += (e[j] / scales[6]) ** 2
-    reward[b] = -0.5 * total
+    reward[b] = reward_of(e, scales[6])
     status[b] = ENV_DIVERGED if bad else ENV_OK
 
 
