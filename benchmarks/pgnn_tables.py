@@ -24,7 +24,14 @@ of the propeller angle over the gear period, 5 deg). Printed:
   |zeta - zeta0| / |zeta0| for those with |zeta0| > 1 % of the largest of their kind, and
   ||zeta - zeta0|| / ||zeta0||);
 * Tables II/III: norms of the input residual eps = u - f [V] on runs of the validation references
-  recorded like the training data (u low-pass filtered at 1 Hz), and RMS of the network's output f^C;
+  recorded like the training data (u low-pass filtered like the training data), and RMS of the
+  network's output f^C; the plant's static feedforward (below) as an oracle row, and the residuals
+  of the physical model and that oracle on runs recorded with the oracle's feedforward on (where
+  the axes track the reference);
+* where f^C lies: per PGNN and axis on the same runs, the share of f^C's energy inside the column
+  space of the physical model's regressor X(theta) (eq. 21, at zeta^0: the part the physical model
+  could have produced itself, which R1 penalizes), and the RMS of the physical part's change
+  f^M(zeta) - f^M(zeta^0) (what the training moved from the physical model);
 * Tables IV/V: norms of the tracking error [deg] with each feedforward on the validation
   references, and with feedback only; the ratio physical / method of the RMS.
 
@@ -41,10 +48,12 @@ import argparse
 import time
 
 import numpy as np
+import torch
 
 from lcgym.metrics import norms
 from lcgym.pgnn import PGNN, PGNNConfig
-from lcgym.physics.kinematics import lowpass_zero_phase
+from lcgym.pgnn.training import projected_norm2
+from lcgym.physics.kinematics import lowpass_zero_phase, reference_kinematics
 from lcgym.physics.model import PhysicalModel
 from lcgym.systems.ix import IX
 from lcgym.systems.ix import dynamics as ix
@@ -79,6 +88,22 @@ def drift(p: np.ndarray, p0: np.ndarray) -> tuple[float, float]:
         big = np.abs(b) > 0.01 * np.abs(b).max()
         rel.append(np.abs(a - b)[big] / np.abs(b)[big])
     return float(np.concatenate(rel).max()), float(np.linalg.norm(p - p0) / np.linalg.norm(p0))
+
+
+def where_fc_lies(model: PGNN, trials) -> tuple[np.ndarray, np.ndarray]:
+    """Per axis on ``trials``: the share of ||f^C||^2 inside the column space of the regressor
+    X(zeta_n^0) of the initial physical fit (eq. 21; R1's projection on the whole set), and the RMS
+    of the physical part's change f^M(zeta) - f^M(zeta^0) [V]."""
+    system = model.physical_.system
+    zeta0 = model.physical_.params_.to_vector()
+    q, qd, qdd = (np.concatenate(a) for a in zip(*(reference_kinematics(t.ref, t.fs, model.config_.advance)
+                                                    for t in trials), strict=True))
+    X = torch.tensor(system.regressor(zeta0[system.n_linear:], q, qd, qdd))
+    fc = np.concatenate([model.nn_contribution(t) for t in trials])
+    share = np.array([float(projected_norm2(X[:, i, :], torch.tensor(fc[:, i]))) / max(np.sum(fc[:, i] ** 2), 1e-300)
+                      for i in range(fc.shape[1])])
+    moved = np.concatenate([model.predict(t) - model.nn_contribution(t) - model.physical_.predict(t) for t in trials])
+    return share, np.sqrt(np.mean(moved**2, axis=0))
 
 
 def main() -> None:
@@ -140,7 +165,8 @@ def main() -> None:
     print(f"\nTables II/III: input residual eps = u - f [V] on validation runs recorded like the training data "
           f"(u filtered at {args.filter_hz} Hz)")
     print(f"{'':18s} {'axis':9s} {'MA':>7s} {'RMS':>7s} {'Inf':>7s} {'RMS(f^C)':>9s}")
-    for label, model in models.items():
+    oracle = plant.static_model()
+    for label, model in {**models, "static (oracle)": oracle}.items():
         eps = np.concatenate([lowpass_zero_phase(t.u, plant.fs, args.filter_hz) - model.predict(t) for t in val_data])
         fc = (np.concatenate([model.nn_contribution(t) for t in val_data]) if hasattr(model, "nn_contribution")
               else np.zeros_like(eps))
@@ -148,12 +174,18 @@ def main() -> None:
         for i, ax in enumerate(plant.axes):
             print(f"{label:18s} {ax:9s} {nm['MA'][i]:7.3f} {nm['RMS'][i]:7.3f} {nm['Inf'][i]:7.3f} {rc[i]:9.4f}"
                   f"{paper_cell('residual', label, i)}")
+    # the same oracle on runs recorded with its own feedforward on, where the axes track theta_d:
+    # how much of u is a static function of the reference when the reference is what the axes do
+    own = plant.run(val_refs, [oracle.predict(r) for r in val_refs])
+    for label, model in (("physical, o. runs", physical), ("oracle, own runs", oracle)):
+        nm = norms(np.concatenate([lowpass_zero_phase(t.u, plant.fs, args.filter_hz) - model.predict(t) for t in own]))
+        for i, ax in enumerate(plant.axes):
+            print(f"{label:18s} {ax:9s} {nm['MA'][i]:7.3f} {nm['RMS'][i]:7.3f} {nm['Inf'][i]:7.3f}")
 
     print("\nTables IV/V: tracking error e [deg] on the validation references")
     print(f"{'':18s} {'axis':9s} {'MA':>7s} {'RMS':>7s} {'Inf':>7s} {'physical/this RMS':>18s}")
     runs = {"feedback only": val_fb}
     runs.update({label: plant.run(val_refs, [m.predict(r) for r in val_refs]) for label, m in models.items()})
-    oracle = plant.static_model()
     runs["static (oracle)"] = plant.run(val_refs, [oracle.predict(r) for r in val_refs])
     table = {label: norms(np.degrees(np.concatenate([t.error for t in trials]))) for label, trials in runs.items()}
     for label, nm in table.items():
@@ -165,6 +197,13 @@ def main() -> None:
           for label in ("PGNN with J", "PGNN with J_LS")}
     ratio = fc["PGNN with J_LS"] / fc["PGNN with J"]
     print(f"\nNN contribution RMS(f^C) J_LS / J: {ratio[0]:.2f}x / {ratio[1]:.2f}x (paper 12.6x / 4.3x)")
+    print("where f^C lies (validation runs): share of ||f^C||^2 in the column space of X(zeta^0); "
+          "RMS of f^M(zeta) - f^M(zeta^0) [V]")
+    for label, model in models.items():
+        if isinstance(model, PGNN):
+            share, moved = where_fc_lies(model, val_data)
+            print(f"{label:22s} " + "  ".join(f"{ax}: {100 * share[i]:5.1f} %, {moved[i]:.4f} V"
+                                              for i, ax in enumerate(plant.axes)))
 
 
 if __name__ == "__main__":
