@@ -6,7 +6,9 @@ the same run:
 * PPO (stable-baselines3, default settings) learning on the vector env through
   ``envs.sb3.make_sb3_vec_env`` against the same PPO on ``DummyVecEnv`` copies of the single env
   (each wrapped in ``Monitor``, what ``baselines/rl.py`` does for an env without a vector entry
-  point): env steps per second of ``learn`` (collection and updates together), same N.
+  point): env steps per second of ``learn`` (collection and updates together), same N; and the same
+  PPO on ``DummyVecEnv`` copies of an env with the FlexArm's spaces and no physics (``FreeEnv``: a
+  step costs nothing), PPO's own ceiling on this machine whatever the env does.
 
 Run:  .venv/bin/python benchmarks/flexarm_vector_speed.py [--ppo-envs 8] [--ppo-rollouts 2]
 The first vector env compiles the kernel (cached on disk); its time is printed separately.
@@ -51,6 +53,26 @@ def vector_rate(num_envs: int, vector_steps: int) -> float:
     return num_envs * vector_steps / (time.perf_counter() - t0)
 
 
+class FreeEnv(gym.Env):
+    """The FlexArm env's observation and action spaces without its physics: zero observations, zero
+    reward, episodes of a validation line's length. What PPO costs by itself."""
+
+    def __init__(self):
+        like = FlexArmEnv(references="train")
+        self.observation_space, self.action_space = like.observation_space, like.action_space
+        self._obs = np.zeros(self.observation_space.shape, dtype=self.observation_space.dtype)
+        self._t = 0
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        self._t = 0
+        return self._obs.copy(), {}
+
+    def step(self, action):
+        self._t += 1
+        return self._obs.copy(), 0.0, False, self._t >= 5000, {}
+
+
 def ppo_rate(vec_env, rollouts: int) -> float:
     from stable_baselines3 import PPO
 
@@ -85,8 +107,10 @@ def main() -> None:
     dummy = ppo_rate(make_vec_env(lambda: FlexArmEnv(references="train"), n_envs=n, vec_env_cls=DummyVecEnv),
                      args.ppo_rollouts)
     batched = ppo_rate(make_sb3_vec_env(ENV_ID, num_envs=n), args.ppo_rollouts)
+    free = ppo_rate(make_vec_env(FreeEnv, n_envs=n, vec_env_cls=DummyVecEnv), args.ppo_rollouts)
     print(f"PPO (default settings, {n} envs, {args.ppo_rollouts} rollouts of {2048 * n} steps): DummyVecEnv "
-          f"{dummy:,.0f} env steps/s, vector env {batched:,.0f} env steps/s = {batched / dummy:.2f}x")
+          f"{dummy:,.0f} env steps/s, vector env {batched:,.0f} env steps/s = {batched / dummy:.2f}x; "
+          f"on an env without physics {free:,.0f} env steps/s = {free / dummy:.2f}x (PPO's own ceiling)")
 
 
 if __name__ == "__main__":

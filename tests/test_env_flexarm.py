@@ -156,3 +156,28 @@ def test_vector_sub_env_i_draws_the_references_of_a_single_env_seeded_seed_plus_
             e.reset()
             single.append(e._idx)
         assert d[:4] == single, (i, d, single)
+
+
+def test_parallel_kernel_runs_in_threads():
+    """The vector env's parallel kernel is loaded as a parallel one: in a fresh process (where
+    nothing else started numba's threads), one step of FlexArmVectorEnv.PARALLEL_FROM arms starts
+    the threading layer. A parallel and a serial compilation of one function share numba's cache
+    entry, which once loaded the serial kernel for both."""
+    import subprocess
+    import sys
+
+    code = ("import gymnasium as gym, numba, numpy as np, lcgym\n"
+            "from lcgym.systems.flexarm.env import FlexArmVectorEnv\n"
+            "n = FlexArmVectorEnv.PARALLEL_FROM\n"
+            "env = gym.make_vec('lcgym/FlexArm-v1', n, vectorization_mode='vector_entry_point')\n"
+            "env.reset(seed=0)\n"
+            "try:\n"
+            "    numba.threading_layer()\n"
+            "    raise SystemExit('threads already started before the step')\n"
+            "except ValueError:\n"
+            "    pass\n"
+            "env.step(np.zeros((n, 6), np.float32))\n"
+            "print(numba.threading_layer())\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip() in ("omp", "tbb", "workqueue")

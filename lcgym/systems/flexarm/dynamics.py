@@ -195,13 +195,18 @@ def forward_kinematics(dh, q):
     R, p = joint_transforms(dh, q)
     Rw = np.zeros((N_JOINTS, 3, 3))
     pw = np.zeros((N_JOINTS, 3))
-    Rc = np.eye(3)
-    pc = np.zeros(3)
+    # the 3x3 products written out: numba's @ calls BLAS, which serializes across threads
     for i in range(N_JOINTS):
-        pc = pc + Rc @ p[i]
-        Rc = Rc @ R[i]
-        Rw[i] = Rc
-        pw[i] = pc
+        for r in range(3):
+            if i == 0:
+                pw[0, r] = p[0, r]
+                for c in range(3):
+                    Rw[0, r, c] = R[0, r, c]
+            else:
+                pw[i, r] = pw[i - 1, r] + (Rw[i - 1, r, 0] * p[i, 0] + Rw[i - 1, r, 1] * p[i, 1]
+                                           + Rw[i - 1, r, 2] * p[i, 2])
+                for c in range(3):
+                    Rw[i, r, c] = Rw[i - 1, r, 0] * R[i, 0, c] + Rw[i - 1, r, 1] * R[i, 1, c] + Rw[i - 1, r, 2] * R[i, 2, c]
     return Rw, pw
 
 
@@ -312,15 +317,67 @@ def rnea(dh, pi, q, qd, qdd, gravity):
 
 @register_jitable
 def mass_matrix(dh, pi, q):
-    """M(q) (6, 6) [kg m^2]: column j is RNEA with qdd = e_j, qd = 0, no gravity."""
+    """M(q) (6, 6) [kg m^2] by the composite-rigid-body algorithm (tested against RNEA with qd = 0,
+    qdd = e_j, no gravity, column by column)."""
     R, p = joint_transforms(dh, q)
+    return mass_matrix_transforms(R, p, pi)
+
+
+@register_jitable
+def _to_parent(B, R, p, i):
+    """The 10 inertial parameters B (m, first moment h, inertia about the origin: xx xy xz yy yz zz;
+    a tuple) of a body given in frame i about origin i, expressed in frame i-1 about origin i-1
+    (R[i], p[i]): m stays, h' = m r + E h, I' = E I E^T + m (|r|^2 1 - r r^T) + 2 (r . Eh) 1
+    - r (Eh)^T - Eh r^T."""
+    m = B[0]
+    r = _row(p, i)
+    hb = _rot(R, i, (B[1], B[2], B[3]))
+    # E I E^T, I symmetric: the columns of I E^T are I times the rows of E
+    c0 = _inertia_of(B, (R[i, 0, 0], R[i, 0, 1], R[i, 0, 2]))
+    c1 = _inertia_of(B, (R[i, 1, 0], R[i, 1, 1], R[i, 1, 2]))
+    c2 = _inertia_of(B, (R[i, 2, 0], R[i, 2, 1], R[i, 2, 2]))
+    rr = r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
+    rh = r[0] * hb[0] + r[1] * hb[1] + r[2] * hb[2]
+    d = m * rr + 2.0 * rh
+
+    def entry(a, c, col):  # (E I E^T)[a, c] = row a of E . column c of I E^T, plus the shift
+        rot = R[i, a, 0] * col[0] + R[i, a, 1] * col[1] + R[i, a, 2] * col[2]
+        return rot - m * r[a] * r[c] - r[a] * hb[c] - hb[a] * r[c]
+
+    return (m, m * r[0] + hb[0], m * r[1] + hb[1], m * r[2] + hb[2],
+            entry(0, 0, c0) + d, entry(0, 1, c1), entry(0, 2, c2), entry(1, 1, c1) + d, entry(1, 2, c2),
+            entry(2, 2, c2) + d)
+
+
+@register_jitable
+def _inertia_of(B, v):
+    """I v for the inertia (xx xy xz yy yz zz) at B[4:10]."""
+    return (B[4] * v[0] + B[5] * v[1] + B[6] * v[2],
+            B[5] * v[0] + B[7] * v[1] + B[8] * v[2],
+            B[6] * v[0] + B[8] * v[1] + B[9] * v[2])
+
+
+@register_jitable
+def mass_matrix_transforms(R, p, pi):
+    """``mass_matrix`` for precomputed joint transforms (R, p). Link i turns with joint i about z of
+    frame i-1 through origin i-1: for i from the tip down, the composite of links i..5 in frame i-1
+    about origin i-1 gives M[i, i] (its zz inertia) and the wrench of a unit acceleration of joint i
+    (moment I z, force z x h); carried down the chain, that wrench's z moment in frame j-1 is M[j, i]."""
     M = np.empty((N_JOINTS, N_JOINTS))
-    zero = np.zeros(N_JOINTS)
-    e = np.zeros(N_JOINTS)
-    for j in range(N_JOINTS):
-        e[:] = 0.0
-        e[j] = 1.0
-        M[:, j] = rnea_transforms(R, p, pi, zero, e, 0.0)
+    C = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # composite of links i+1..5, frame i, origin i
+    for i in range(N_JOINTS - 1, -1, -1):
+        k = i * N_PARAMS_LINK
+        B = (pi[k] + C[0], pi[k + 1] + C[1], pi[k + 2] + C[2], pi[k + 3] + C[3], pi[k + 4] + C[4],
+             pi[k + 5] + C[5], pi[k + 6] + C[6], pi[k + 7] + C[7], pi[k + 8] + C[8], pi[k + 9] + C[9])
+        C = _to_parent(B, R, p, i)
+        M[i, i] = C[9]
+        n = (C[6], C[8], C[9])
+        f = (-C[2], C[1], 0.0)
+        for j in range(i - 1, -1, -1):  # from frame j about origin j to frame j-1 about origin j-1
+            f = _rot(R, j, f)
+            n = _add(_rot(R, j, n), _cross(_row(p, j), f))
+            M[j, i] = n[2]
+            M[i, j] = n[2]
     return M
 
 
@@ -331,9 +388,45 @@ def bias_torques(dh, pi, q, qd, gravity):
 
 
 @register_jitable
+def solve_spd(M, b):
+    """x = M^-1 b for a symmetric positive definite M (n, n) and b (n,), by Cholesky M = L L^T on
+    M's lower triangle, written out: for n = 6 this takes a fifth of numba's ``np.linalg.solve``
+    (LAPACK, whose calls also serialize across threads). A matrix that is not positive definite
+    gives NaN (which the plant's loop reports as leaving the safe range)."""
+    n = b.shape[0]
+    L = np.empty((n, n))
+    x = np.empty(n)
+    for j in range(n):
+        s = M[j, j]
+        for k in range(j):
+            s -= L[j, k] * L[j, k]
+        d = math.sqrt(s) if s > 0.0 else math.nan
+        L[j, j] = d
+        for i in range(j + 1, n):
+            s = M[i, j]
+            for k in range(j):
+                s -= L[i, k] * L[j, k]
+            L[i, j] = s / d
+    for i in range(n):  # L y = b
+        s = b[i]
+        for k in range(i):
+            s -= L[i, k] * x[k]
+        x[i] = s / L[i, i]
+    for i in range(n - 1, -1, -1):  # L^T x = y
+        s = x[i]
+        for k in range(i + 1, n):
+            s -= L[k, i] * x[k]
+        x[i] = s / L[i, i]
+    return x
+
+
+@register_jitable
 def forward_dynamics(dh, pi, q, qd, tau, gravity):
-    """qdd = M^-1 (tau - C qd - G) [rad/s^2] for load-side torques tau [N m]."""
-    return np.linalg.solve(mass_matrix(dh, pi, q), tau - bias_torques(dh, pi, q, qd, gravity))
+    """qdd = M^-1 (tau - C qd - G) [rad/s^2] for load-side torques tau [N m] (M and the bias
+    torques from one set of joint transforms)."""
+    R, p = joint_transforms(dh, q)
+    bias = rnea_transforms(R, p, pi, qd, np.zeros(N_JOINTS), gravity)
+    return solve_spd(mass_matrix_transforms(R, p, pi), tau - bias)
 
 
 @register_jitable
@@ -429,15 +522,18 @@ def flexible_derivatives(dh, pi, drive, x, u, gravity, eps):
 
     sgn smoothed as tanh(v / eps) [rad/s]. ``drive`` is ``DriveParameters.table()``."""
     n = N_JOINTS
-    ql, qdl, qm, qdm = x[:n], x[n : 2 * n], x[2 * n : 3 * n], x[3 * n :]
-    N, Jm, Dm, Fmc, KJ, DJ, Dl, Flc = drive[0], drive[1], drive[2], drive[3], drive[4], drive[5], drive[6], drive[7]
-    tau_j = KJ * (qm / N - ql) + DJ * (qdm / N - qdl)
-    load = tau_j - Dl * qdl - Flc * np.tanh(qdl / eps)
     out = np.empty(4 * n)
-    out[:n] = qdl
-    out[n : 2 * n] = forward_dynamics(dh, pi, ql, qdl, load, gravity)
-    out[2 * n : 3 * n] = qdm
-    out[3 * n :] = (u - Dm * qdm - Fmc * np.tanh(qdm / eps) - tau_j / N) / Jm
+    load = np.empty(n)
+    for i in range(n):  # per joint, scalars (no temporary arrays)
+        N, Jm, Dm, Fmc, KJ, DJ, Dl, Flc = (drive[0, i], drive[1, i], drive[2, i], drive[3, i], drive[4, i],
+                                           drive[5, i], drive[6, i], drive[7, i])
+        ql, qdl, qm, qdm = x[i], x[n + i], x[2 * n + i], x[3 * n + i]
+        tau_j = KJ * (qm / N - ql) + DJ * (qdm / N - qdl)
+        load[i] = tau_j - Dl * qdl - Flc * math.tanh(qdl / eps)
+        out[i] = qdl
+        out[2 * n + i] = qdm
+        out[3 * n + i] = (u[i] - Dm * qdm - Fmc * math.tanh(qdm / eps) - tau_j / N) / Jm
+    out[n : 2 * n] = forward_dynamics(dh, pi, x[:n], x[n : 2 * n], load, gravity)
     return out
 
 
@@ -453,6 +549,7 @@ def flexible_energy(dh, pi, drive, x, gravity):
 
 # compiled single-sample versions, for loops in Python (tests, small studies)
 forward_dynamics_compiled = numba.njit(cache=True)(forward_dynamics)
+solve_spd_compiled = numba.njit(cache=True)(solve_spd)
 energy_compiled = numba.njit(cache=True)(energy)
 flexible_derivatives_compiled = numba.njit(cache=True)(flexible_derivatives)
 flexible_energy_compiled = numba.njit(cache=True)(flexible_energy)

@@ -241,13 +241,23 @@ numba.config.CACHE_DIR = cache_dir(__file__, arm.__file__)
 
 
 @numba.njit(cache=True)
-def _rk4(x, u, dh, pi, drive, h, n, eps):
-    for _ in range(n):
-        k1 = arm.flexible_derivatives(dh, pi, drive, x, u, arm.GRAVITY, eps)
-        k2 = arm.flexible_derivatives(dh, pi, drive, x + 0.5 * h * k1, u, arm.GRAVITY, eps)
-        k3 = arm.flexible_derivatives(dh, pi, drive, x + 0.5 * h * k2, u, arm.GRAVITY, eps)
-        k4 = arm.flexible_derivatives(dh, pi, drive, x + h * k3, u, arm.GRAVITY, eps)
-        x = x + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+def _rk4(x, u, dh, pi, drive, h, n, eps, k1_first):
+    """n RK4 steps of h [s] from x (in place) under the held input u; ``k1_first`` is the
+    derivative at x (the caller has it: the sample's recorded load acceleration)."""
+    y = np.empty_like(x)  # the stage's state, written in place (elementwise as x + c h k)
+    for step in range(n):
+        k1 = k1_first if step == 0 else arm.flexible_derivatives(dh, pi, drive, x, u, arm.GRAVITY, eps)
+        for j in range(x.shape[0]):
+            y[j] = x[j] + 0.5 * h * k1[j]
+        k2 = arm.flexible_derivatives(dh, pi, drive, y, u, arm.GRAVITY, eps)
+        for j in range(x.shape[0]):
+            y[j] = x[j] + 0.5 * h * k2[j]
+        k3 = arm.flexible_derivatives(dh, pi, drive, y, u, arm.GRAVITY, eps)
+        for j in range(x.shape[0]):
+            y[j] = x[j] + h * k3[j]
+        k4 = arm.flexible_derivatives(dh, pi, drive, y, u, arm.GRAVITY, eps)
+        for j in range(x.shape[0]):
+            x[j] = x[j] + h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
     return x
 
 
@@ -306,14 +316,14 @@ def loop_sample(st, q_ref_k, q_ref_next, ff_k, off_k, dh, pi, drive, C, cfg, acc
             sig_row[S_U + i] = u[i]
             sig_row[S_QL + i] = st[i]
     x = st[:24]
+    dx = arm.flexible_derivatives(dh, pi, drive, x, u, arm.GRAVITY, eps)
     if record:
-        qdd = arm.flexible_derivatives(dh, pi, drive, x, u, arm.GRAVITY, eps)[6:12]
-        a = arm.specific_force(dh, x[:6], x[6:12], qdd, accel_offset, arm.GRAVITY)
+        a = arm.specific_force(dh, x[:6], x[6:12], dx[6:12], accel_offset, arm.GRAVITY)
         Rw, pw = arm.forward_kinematics(dh, x[:6])
         for c in range(3):
             sig_row[S_ACC + c] = a[c]
             sig_row[S_TCP + c] = pw[5, c]
-    st[:24] = _rk4(x.copy(), u, dh, pi, drive, ts / sub, sub, eps)
+    st[:24] = _rk4(x.copy(), u, dh, pi, drive, ts / sub, sub, eps, dx)
     for j in range(24):
         if not math.isfinite(st[j]):
             return True

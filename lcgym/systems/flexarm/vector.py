@@ -90,17 +90,26 @@ def step_one(b, st, ref_pos, ref_vel, ref_acc, base_ff, offset, lengths, ref_idx
     status[b] = ENV_DIVERGED if bad else ENV_OK
 
 
-def _step(active, st, ref_pos, ref_vel, ref_acc, base_ff, offset, lengths, ref_idx, k, action, scales, dh, pi,
-          drive, C, cfg, accel_offset, obs, reward, status, clipped, u, load_error):
-    for b in numba.prange(st.shape[0]):
+# The same loop twice: threads pay off from a few dozen arms on (the parallel one's start-up costs
+# more than a handful of arms' samples). Two functions, not one compiled twice: numba's disk cache
+# keys a kernel by its function's name and line, so a parallel and a serial compilation of one
+# function share an entry and whichever was compiled first is loaded for both.
+@numba.njit(cache=True)
+def step_serial(active, st, ref_pos, ref_vel, ref_acc, base_ff, offset, lengths, ref_idx, k, action, scales, dh, pi,
+                drive, C, cfg, accel_offset, obs, reward, status, clipped, u, load_error):
+    for b in range(st.shape[0]):
         if active[b]:
             step_one(b, st, ref_pos, ref_vel, ref_acc, base_ff, offset, lengths, ref_idx, k, action, scales, dh, pi,
                      drive, C, cfg, accel_offset, obs, reward, status, clipped, u, load_error)
 
 
-# the same loop twice: threads pay off from a few dozen arms on (the parallel one's start-up costs
-# more than a handful of arms' samples)
-step_serial = numba.njit(cache=True)(_step)
-step_parallel = numba.njit(cache=True, parallel=True)(_step)
+@numba.njit(cache=True, parallel=True)
+def step_parallel(active, st, ref_pos, ref_vel, ref_acc, base_ff, offset, lengths, ref_idx, k, action, scales, dh,
+                  pi, drive, C, cfg, accel_offset, obs, reward, status, clipped, u, load_error):
+    for b in numba.prange(st.shape[0]):
+        if active[b]:
+            step_one(b, st, ref_pos, ref_vel, ref_acc, base_ff, offset, lengths, ref_idx, k, action, scales, dh, pi,
+                     drive, C, cfg, accel_offset, obs, reward, status, clipped, u, load_error)
+
 
 numba.config.CACHE_DIR = _previous_cache_dir
