@@ -257,16 +257,25 @@ def _row(X, i):
 
 
 @register_jitable
+def _slot(work, k, i):
+    return (work[k, i, 0], work[k, i, 1], work[k, i, 2])
+
+
+@register_jitable
 def forward_pass(R, p, qd, qdd, gravity):
     """Outward recursion of Newton-Euler for the joint transforms (R, p) of ``joint_transforms``:
     per link i, in frame i, the angular velocity W[i] and acceleration WD[i] [rad/s, rad/s^2], the
     acceleration of the frame's origin *minus gravity* A[i] [m/s^2] (the base is given an upward
     acceleration g; with ``gravity`` = g, A[i] is the specific force an accelerometer at that
     origin reads), and PS[i], origin i seen from origin i-1 in frame i [m]. Each (6, 3)."""
-    W = np.empty((N_JOINTS, 3))
-    WD = np.empty((N_JOINTS, 3))
-    A = np.empty((N_JOINTS, 3))
-    PS = np.empty((N_JOINTS, 3))
+    work = np.empty((4, N_JOINTS, 3))
+    forward_pass_into(R, p, qd, qdd, gravity, work)
+    return work[0], work[1], work[2], work[3]
+
+
+@register_jitable
+def forward_pass_into(R, p, qd, qdd, gravity, work):
+    """``forward_pass`` into one work array (4, 6, 3): W, WD, A, PS (one allocation instead of four)."""
     w = (0.0, 0.0, 0.0)
     wd = (0.0, 0.0, 0.0)
     a = (0.0, 0.0, gravity)
@@ -277,14 +286,14 @@ def forward_pass(R, p, qd, qdd, gravity):
         w = _rot_t(R, i, (w[0], w[1], w[2] + qd[i]))
         a = _add(_add(_rot_t(R, i, a), _cross(wd, ps)), _cross(w, _cross(w, ps)))
         for c in range(3):
-            W[i, c], WD[i, c], A[i, c], PS[i, c] = w[c], wd[c], a[c], ps[c]
-    return W, WD, A, PS
+            work[0, i, c], work[1, i, c], work[2, i, c], work[3, i, c] = w[c], wd[c], a[c], ps[c]
 
 
 @register_jitable
 def rnea_transforms(R, p, pi, qd, qdd, gravity):
     """``rnea`` for precomputed joint transforms (R, p)."""
-    W, WD, A, PS = forward_pass(R, p, qd, qdd, gravity)
+    work = np.empty((4, N_JOINTS, 3))  # indexed, not sliced: a slice is an object numba counts references of
+    forward_pass_into(R, p, qd, qdd, gravity, work)
     f_next = (0.0, 0.0, 0.0)
     n_next = (0.0, 0.0, 0.0)
     tau = np.empty(N_JOINTS)
@@ -292,7 +301,7 @@ def rnea_transforms(R, p, pi, qd, qdd, gravity):
         k = i * N_PARAMS_LINK
         m = pi[k]
         h = (pi[k + 1], pi[k + 2], pi[k + 3])
-        w, wd, a = _row(W, i), _row(WD, i), _row(A, i)
+        w, wd, a = _slot(work, 0, i), _slot(work, 1, i), _slot(work, 2, i)
         f = _add(_add(_scale(m, a), _cross(wd, h)), _cross(w, _cross(w, h)))
         n = _add(_add(_inertia(pi, k, wd), _cross(w, _inertia(pi, k, w))), _cross(h, a))
         if i < N_JOINTS - 1:
@@ -301,7 +310,7 @@ def rnea_transforms(R, p, pi, qd, qdd, gravity):
             f = _add(f, f_child)
         # f, n: wrench link i-1 exerts on the subtree from link i, n about origin i (the far end);
         # joint i turns about z_{i-1} through origin i-1 (R[i].T z = row 2 of R[i]): move the moment there
-        nt = _add(n, _cross(_row(PS, i), f))
+        nt = _add(n, _cross(_slot(work, 3, i), f))
         tau[i] = nt[0] * R[i, 2, 0] + nt[1] * R[i, 2, 1] + nt[2] * R[i, 2, 2]
         f_next, n_next = f, n
     return tau
@@ -388,35 +397,41 @@ def bias_torques(dh, pi, q, qd, gravity):
 
 
 @register_jitable
-def solve_spd(M, b):
-    """x = M^-1 b for a symmetric positive definite M (n, n) and b (n,), by Cholesky M = L L^T on
-    M's lower triangle, written out: for n = 6 this takes a fifth of numba's ``np.linalg.solve``
-    (LAPACK, whose calls also serialize across threads). A matrix that is not positive definite
-    gives NaN (which the plant's loop reports as leaving the safe range)."""
+def solve_spd_in_place(M, b):
+    """b <- M^-1 b for a symmetric positive definite M (n, n) and b (n,), by Cholesky M = L L^T on
+    M's lower triangle, written out, L overwriting that triangle (no allocation): for n = 6 this
+    takes a fifth of numba's ``np.linalg.solve`` (LAPACK, whose calls also serialize across
+    threads). A matrix that is not positive definite gives NaN (which the plant's loop reports as
+    leaving the safe range)."""
     n = b.shape[0]
-    L = np.empty((n, n))
-    x = np.empty(n)
     for j in range(n):
         s = M[j, j]
         for k in range(j):
-            s -= L[j, k] * L[j, k]
+            s -= M[j, k] * M[j, k]
         d = math.sqrt(s) if s > 0.0 else math.nan
-        L[j, j] = d
+        M[j, j] = d
         for i in range(j + 1, n):
             s = M[i, j]
             for k in range(j):
-                s -= L[i, k] * L[j, k]
-            L[i, j] = s / d
+                s -= M[i, k] * M[j, k]
+            M[i, j] = s / d
     for i in range(n):  # L y = b
         s = b[i]
         for k in range(i):
-            s -= L[i, k] * x[k]
-        x[i] = s / L[i, i]
+            s -= M[i, k] * b[k]
+        b[i] = s / M[i, i]
     for i in range(n - 1, -1, -1):  # L^T x = y
-        s = x[i]
+        s = b[i]
         for k in range(i + 1, n):
-            s -= L[k, i] * x[k]
-        x[i] = s / L[i, i]
+            s -= M[k, i] * b[k]
+        b[i] = s / M[i, i]
+
+
+@register_jitable
+def solve_spd(M, b):
+    """x = M^-1 b (``solve_spd_in_place`` on copies)."""
+    x = b.copy()
+    solve_spd_in_place(M.copy(), x)
     return x
 
 
@@ -425,8 +440,11 @@ def forward_dynamics(dh, pi, q, qd, tau, gravity):
     """qdd = M^-1 (tau - C qd - G) [rad/s^2] for load-side torques tau [N m] (M and the bias
     torques from one set of joint transforms)."""
     R, p = joint_transforms(dh, q)
-    bias = rnea_transforms(R, p, pi, qd, np.zeros(N_JOINTS), gravity)
-    return solve_spd(mass_matrix_transforms(R, p, pi), tau - bias)
+    rhs = rnea_transforms(R, p, pi, qd, np.zeros(N_JOINTS), gravity)
+    for i in range(N_JOINTS):
+        rhs[i] = tau[i] - rhs[i]
+    solve_spd_in_place(mass_matrix_transforms(R, p, pi), rhs)
+    return rhs
 
 
 @register_jitable
