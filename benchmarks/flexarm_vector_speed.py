@@ -7,8 +7,8 @@ the same run:
   ``envs.sb3.make_sb3_vec_env`` against the same PPO on ``DummyVecEnv`` copies of the single env
   (each wrapped in ``Monitor``, what ``baselines/rl.py`` does for an env without a vector entry
   point): env steps per second of ``learn`` (collection and updates together), same N; and the same
-  PPO on ``DummyVecEnv`` copies of an env with the FlexArm's spaces and no physics (``FreeEnv``: a
-  step costs nothing), PPO's own ceiling on this machine whatever the env does.
+  PPO on a batched env with the FlexArm's spaces and no physics (``free_vec_env``: a step costs
+  nothing), PPO's own ceiling on this machine whatever the env does.
 
 Run:  .venv/bin/python benchmarks/flexarm_vector_speed.py [--ppo-envs 8] [--ppo-rollouts 2]
 The first vector env compiles the kernel (cached on disk); its time is printed separately.
@@ -53,24 +53,49 @@ def vector_rate(num_envs: int, vector_steps: int) -> float:
     return num_envs * vector_steps / (time.perf_counter() - t0)
 
 
-class FreeEnv(gym.Env):
-    """The FlexArm env's observation and action spaces without its physics: zero observations, zero
-    reward, episodes of a validation line's length. What PPO costs by itself."""
+def free_vec_env(num_envs: int):
+    """A stable-baselines3 VecEnv with the FlexArm env's spaces and no physics: zero observations
+    and rewards in one batch, episodes of 5,000 steps, no per-env Python. What PPO costs by itself."""
+    from stable_baselines3.common.vec_env import VecEnv
 
-    def __init__(self):
-        like = FlexArmEnv(references="train")
-        self.observation_space, self.action_space = like.observation_space, like.action_space
-        self._obs = np.zeros(self.observation_space.shape, dtype=self.observation_space.dtype)
-        self._t = 0
+    like = FlexArmEnv(references="train")
 
-    def reset(self, *, seed=None, options=None):
-        super().reset(seed=seed)
-        self._t = 0
-        return self._obs.copy(), {}
+    class FreeVecEnv(VecEnv):
+        def __init__(self):
+            super().__init__(num_envs, like.observation_space, like.action_space)
+            self._obs = np.zeros((num_envs, *like.observation_space.shape), dtype=like.observation_space.dtype)
+            self._t = 0
 
-    def step(self, action):
-        self._t += 1
-        return self._obs.copy(), 0.0, False, self._t >= 5000, {}
+        def reset(self):
+            self._t = 0
+            return self._obs.copy()
+
+        def step_async(self, actions):
+            pass
+
+        def step_wait(self):
+            self._t += 1
+            done = self._t % 5000 == 0
+            infos = [{"terminal_observation": self._obs[0].copy(), "TimeLimit.truncated": True} if done else {}
+                     for _ in range(num_envs)]
+            return self._obs.copy(), np.zeros(num_envs, dtype=np.float32), np.full(num_envs, done), infos
+
+        def close(self):
+            pass
+
+        def get_attr(self, attr_name, indices=None):
+            return [getattr(self, attr_name, None)] * num_envs
+
+        def set_attr(self, attr_name, value, indices=None):
+            pass
+
+        def env_method(self, method_name, *args, indices=None, **kwargs):
+            return [None] * num_envs
+
+        def env_is_wrapped(self, wrapper_class, indices=None):
+            return [False] * num_envs
+
+    return FreeVecEnv()
 
 
 def ppo_rate(vec_env, rollouts: int) -> float:
@@ -107,7 +132,7 @@ def main() -> None:
     dummy = ppo_rate(make_vec_env(lambda: FlexArmEnv(references="train"), n_envs=n, vec_env_cls=DummyVecEnv),
                      args.ppo_rollouts)
     batched = ppo_rate(make_sb3_vec_env(ENV_ID, num_envs=n), args.ppo_rollouts)
-    free = ppo_rate(make_vec_env(FreeEnv, n_envs=n, vec_env_cls=DummyVecEnv), args.ppo_rollouts)
+    free = ppo_rate(free_vec_env(n), args.ppo_rollouts)
     print(f"PPO (default settings, {n} envs, {args.ppo_rollouts} rollouts of {2048 * n} steps): DummyVecEnv "
           f"{dummy:,.0f} env steps/s, vector env {batched:,.0f} env steps/s = {batched / dummy:.2f}x; "
           f"on an env without physics {free:,.0f} env steps/s = {free / dummy:.2f}x (PPO's own ceiling)")
