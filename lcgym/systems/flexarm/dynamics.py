@@ -19,8 +19,9 @@ Inverse dynamics by the recursive Newton-Euler algorithm in link frames (Luh, Wa
     tau = M(q) qdd + C(q, qd) qd + G(q)        [N m, load side]      (eq. 1 without friction)
 
 and the regressor Y(q, qd, qdd) (tau = Y pi) is RNEA evaluated with unit parameter vectors.
-The mass matrix comes from RNEA columns (qd = 0, no gravity, qdd = e_j), forward dynamics from
-qdd = M^-1 (tau - C qd - G). The functions here are ``register_jitable``: plain numpy on one
+The mass matrix comes from the composite-rigid-body algorithm (tested against RNEA columns: qd = 0,
+no gravity, qdd = e_j), forward dynamics from qdd = M^-1 (tau - C qd - G) by a written-out Cholesky
+solve. The functions here are ``register_jitable``: plain numpy on one
 sample from Python, compiled inside numba kernels; ``*_batch`` versions loop over samples.
 Verified in tests/test_physics_arm.py against an independent Euler-Lagrange derivation (torch
 autograd of the kinetic and potential energy from the DH chain), M symmetric positive definite,
