@@ -38,6 +38,7 @@ import numpy as np
 from scipy import signal
 
 from ...physics.kinematics import reference_kinematics
+from ...physics.lti import lsim
 from . import dynamics as arm
 
 HOME = arm.HOME  # where M_n is taken
@@ -70,8 +71,8 @@ class BasicFeedforward:
         for i in range(6):
             A, B, C = self.load_model(i)
             Ad, Bd, Cd, Dd, _ = signal.cont2discrete((A, B, C, np.zeros((1, 1))), ts, method="zoh")
-            eye = np.eye(A.shape[0])
-            out[:, i] = [(Cd @ np.linalg.solve(zk * eye - Ad, Bd))[0, 0] + Dd[0, 0] for zk in z]
+            x = np.linalg.solve(z[:, None, None] * np.eye(A.shape[0]) - Ad, np.broadcast_to(Bd, (z.size, *Bd.shape)))
+            out[:, i] = (Cd @ x)[:, 0, 0] + Dd[0, 0]
         return out
 
     def run(self, plant, reference, tau_nl_update=None):
@@ -100,12 +101,11 @@ class BasicFeedforward:
         d = self.drive
         N, Jm, Dm, Fmc, KJ, DJ, Dl, Flc = (np.asarray(getattr(d, n), dtype=float) for n in arm.DRIVE_FIELDS)
         q, qd, qdd = reference_kinematics(q_lr, fs)
-        t = np.arange(q.shape[0]) / fs
         Mn = self.Mn
         sgn = lambda v: np.tanh(v / self.eps)  # noqa: E731
         tau_lr = arm.load_torque(self.arm_params, d, q, qd, qdd, self.eps)  # eq. (14)
         linear_load = Mn * qdd + Dl * qd
-        delta = np.column_stack([_lsim(([1.0], [DJ[i], KJ[i]]), linear_load[:, i], t) for i in range(6)])
+        delta = np.column_stack([_lsim(([1.0], [DJ[i], KJ[i]]), linear_load[:, i], fs) for i in range(6)])
         q_mr = N * (q + delta)  # F1, eq. (9)
         r_q = N / KJ * (tau_lr - linear_load)  # eq. (11)
         qbar = q_mr + r_q
@@ -118,17 +118,16 @@ class BasicFeedforward:
     def _f2(self, y: np.ndarray, fs: float) -> np.ndarray:
         """F2 = P_mu^-1 (eq. 10): the linear model's motor torque (T, 6) [N m] for motor motions y (T, 6) [rad]."""
         _, yd, ydd = reference_kinematics(y, fs)
-        t = np.arange(y.shape[0]) / fs
-        return np.column_stack([self._motor_torque(i, y[:, i], yd[:, i], ydd[:, i], t) for i in range(6)])
+        return np.column_stack([self._motor_torque(i, y[:, i], yd[:, i], ydd[:, i], fs) for i in range(6)])
 
-    def _motor_torque(self, i, y, yd, ydd, t):
+    def _motor_torque(self, i, y, yd, ydd, fs):
         """P_mu^-1 y of joint i: the load answers the motor motion y through the joint spring."""
         d = self.drive
         N, Jm, Dm, KJ, DJ, Dl = d.N[i], d.Jm[i], d.Dm[i], d.KJ[i], d.DJ[i], d.Dl[i]
         Mn = self.Mn[i]
         num, den = [DJ / N, KJ / N], [Mn, Dl + DJ, KJ]
-        ql = _lsim((num, den), y, t, x0_output=y[0] / N)
-        qld = np.gradient(ql, t)
+        ql = _lsim((num, den), y, fs, x0_output=y[0] / N)
+        qld = np.gradient(ql, np.arange(len(ql)) / fs)
         tau_s = KJ * (y / N - ql) + DJ * (yd / N - qld)
         return Jm * ydd + Dm * yd + tau_s / N
 
@@ -142,13 +141,11 @@ class BasicFeedforward:
         arm never made (Basic on FlexArm-v1's first seed-0 validation line, largest |e_pl| in the
         0.5 s before it moves: 0.80 / 1.72 rad/s^2 on joints 2 / 3 from rest, 0.017 / 0.029 from the
         held state)."""
-        t = np.arange(mu.shape[0]) / fs
         out = np.empty_like(mu, dtype=float)
         for i in range(6):
             A, B, C = self.load_model(i)
             x0 = -np.linalg.solve(A, B[:, 0] * mu[0, i])
-            _, y, _ = signal.lsim((A, B, C, np.zeros((1, 1))), mu[:, i], t, X0=x0)
-            out[:, i] = y
+            out[:, i] = lsim(A, B, C, np.zeros((1, 1)), mu[:, i], fs, x0)[0]
         return out
 
     def load_model(self, i: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -166,15 +163,14 @@ class BasicFeedforward:
         return A, B, A[1:2].copy()  # C: the qdd_l row
 
 
-def _lsim(system, u, t, x0_output: float = 0.0) -> np.ndarray:
-    """Response of a SISO transfer function (num, den) to u over t, starting in steady state at the
+def _lsim(system, u, fs: float, x0_output: float = 0.0) -> np.ndarray:
+    """Response of a SISO transfer function (num, den) to u sampled at fs [Hz], starting in steady state at the
     output value ``x0_output`` (a constant input that held the output there)."""
     ss = signal.StateSpace(*signal.tf2ss(*system))
     dc = float(np.polyval(system[0], 0.0) / np.polyval(system[1], 0.0))
     u0 = x0_output / dc if dc != 0 else 0.0
     x0 = np.linalg.solve(ss.A, -ss.B[:, 0] * u0) if np.linalg.matrix_rank(ss.A) == ss.A.shape[0] else None
-    _, y, _ = signal.lsim(ss, u, t, X0=x0)
-    return np.asarray(y, dtype=float)
+    return np.asarray(lsim(ss.A, ss.B, ss.C, ss.D, u, fs, x0)[0], dtype=float)
 
 
 def model_following_error(trial, feedforward: np.ndarray, basic: dict, nominal: BasicFeedforward,
