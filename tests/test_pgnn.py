@@ -4,12 +4,14 @@ import numpy as np
 import pytest
 import torch
 
+from lcgym import systems
 from lcgym.baselines.pgnn import PGNNFeedforward
 from lcgym.data import Trial
 from lcgym.pgnn import PGNN, PGNNConfig
 from lcgym.pgnn.network import PGNNModule, min_eigenvalue, physical_constraints, physics_penalty
-from lcgym.pgnn.training import _batch_projection, network_inputs, projected_norm2
+from lcgym.pgnn.training import _batch_projection, network_inputs, projected_norm2, projection_basis
 from lcgym.physics.model import PhysicalModel
+from lcgym.systems.flexarm import motor
 from lcgym.systems.ix import IX
 from lcgym.systems.ix import dynamics as ix
 from lcgym.systems.ix.references import random_moves
@@ -31,6 +33,41 @@ def test_minibatch_r1_estimates_the_full_projection():
     perm = torch.randperm(len(g), generator=torch.Generator().manual_seed(0))
     batches = [_batch_projection(Xt[perm[s : s + 10_000]], gt[perm[s : s + 10_000]]) for s in range(0, len(g), 10_000)]
     assert float(torch.stack(batches).mean()) == pytest.approx(full, rel=0.02)
+
+
+def test_projection_without_the_zero_columns_and_with_a_known_basis_is_the_same():
+    """What training saves (``pgnn.training.train``): dropping columns that are zero everywhere, and
+    reusing a batch's basis, change the projection only by round-off."""
+    rng = np.random.default_rng(5)
+    q, qd, qdd = rng.normal(size=(3, 3000, 6))
+    X = torch.tensor(motor.regressor(None, q, qd, qdd))
+    g = torch.tensor(rng.normal(size=(3000, 6)))
+    columns = [torch.as_tensor(np.flatnonzero(np.any(X[:, i, :].numpy() != 0, axis=0))) for i in range(6)]
+    assert min(len(c) for c in columns) < X.shape[2]  # the arm's joint 6 sees only its own link and drive
+    known = [(X[:, i, c].double(), projection_basis(X[:, i, c])) for i, c in enumerate(columns)]
+    full = float(_batch_projection(X, g))
+    assert float(_batch_projection(X, g, columns)) == pytest.approx(full, rel=1e-12)
+    assert float(_batch_projection(X, g, columns, known)) == pytest.approx(full, rel=1e-12)
+
+
+@pytest.mark.parametrize("machine", ["ix", "flexarm"])
+def test_physics_penalty_skips_only_a_zero_term(machine):
+    """R2 with the positive-definite shortcut (``physics_penalty``) has the value and gradient of
+    eq. (30) evaluated in full, both where M(theta) is positive definite and where it is not."""
+    system = systems.get(machine)
+    zeta0 = system.nominal_params().to_vector()
+    q = torch.tensor(np.random.default_rng(6).uniform(-1.5, 1.5, (64, system.n_axes)), dtype=torch.float32)
+    indefinite = zeta0.copy()
+    indefinite[list(system.positive)[:2]] *= -3.0  # masses or inertias of the wrong sign
+    for z in (zeta0, indefinite):
+        zeta = [torch.tensor(z, dtype=torch.float32, requires_grad=True) for _ in range(2)]
+        fast = physics_penalty(system, zeta[0], q)
+        full = torch.clamp(torch.exp(-physical_constraints(system, zeta[1], q)) - 1.0, min=0.0).sum()
+        fast.backward()
+        full.backward()
+        assert float(fast.detach()) == float(full.detach())
+        torch.testing.assert_close(zeta[0].grad, zeta[1].grad)
+    assert float(full.detach()) > 0 and bool(zeta[1].grad.abs().max() > 0)
 
 
 def test_projection_has_the_rank_of_the_regressor():

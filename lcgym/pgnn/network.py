@@ -30,7 +30,32 @@ from torch import nn
 
 from ..systems import System
 
-ACTIVATIONS = {"tanh": nn.Tanh, "relu": nn.ReLU, "sigmoid": nn.Sigmoid}
+
+class _NumpyTanh(torch.autograd.Function):
+    """tanh through numpy on CPU tensors: torch 2.13's CPU ``tanh`` and ``tanh_backward`` take
+    0.6-1.2 ms on a (1e4, 30) float32 batch here, numpy's tanh 0.06 ms (both within an ulp of
+    the exact value; ``benchmarks/pgnn_speed.py``). Backward: d tanh(x) / dx = 1 - tanh(x)^2."""
+
+    @staticmethod
+    def forward(ctx, x):
+        y = torch.from_numpy(np.tanh(x.detach().contiguous().numpy()))
+        ctx.save_for_backward(y)
+        return y
+
+    @staticmethod
+    def backward(ctx, grad):
+        (y,) = ctx.saved_tensors
+        return grad * (1.0 - y * y)
+
+
+class Tanh(nn.Module):
+    """``nn.Tanh`` with numpy's tanh for CPU tensors (``_NumpyTanh``), torch's elsewhere."""
+
+    def forward(self, x):
+        return _NumpyTanh.apply(x) if x.device.type == "cpu" else torch.tanh(x)
+
+
+ACTIVATIONS = {"tanh": Tanh, "relu": nn.ReLU, "sigmoid": nn.Sigmoid}
 
 
 def mlp(n_in: int, hidden: Sequence[int], activation: str) -> nn.Sequential:
@@ -91,21 +116,43 @@ def physical_constraints(system: System, zeta: torch.Tensor, q: torch.Tensor) ->
     """h of eqs. (31)-(33), each > 0 when satisfied: the parameters that are positive physically
     (IX: masses, inertias, viscous coefficients) and the smallest eigenvalue of M(theta) over the
     given configurations (evenly thinned to ``system.constraint_configs`` where set)."""
-    if system.constraint_configs and q.shape[0] > system.constraint_configs:
-        q = q[:: -(-q.shape[0] // system.constraint_configs)]
+    q = _constraint_configs(system, q)
     return torch.cat([zeta[list(system.positive)], min_eigenvalue(system.mass_matrix(zeta, q)).min().reshape(1)])
 
 
-def min_eigenvalue(M: torch.Tensor) -> torch.Tensor:
-    """Smallest eigenvalue of each symmetric matrix in M (..., n, n); closed form for n = 2 (the
-    IX, 25x faster than the general batched solver for 1e4 matrices)."""
+def _constraint_configs(system: System, q):
+    if system.constraint_configs and q.shape[0] > system.constraint_configs:
+        return q[:: -(-q.shape[0] // system.constraint_configs)]
+    return q
+
+
+def min_eigenvalue(M):
+    """Smallest eigenvalue of each symmetric matrix in M (..., n, n), torch or numpy; closed form for
+    n = 2 (the IX, 25x faster than the general batched solver for 1e4 matrices)."""
     if M.shape[-1] == 2:
         a, b, c = M[..., 0, 0], M[..., 0, 1], M[..., 1, 1]
-        return 0.5 * (a + c) - torch.sqrt(0.25 * (a - c) ** 2 + b * b)
-    return torch.linalg.eigvalsh(M)[..., 0]
+        sqrt = torch.sqrt if isinstance(M, torch.Tensor) else np.sqrt
+        return 0.5 * (a + c) - sqrt(0.25 * (a - c) ** 2 + b * b)
+    return torch.linalg.eigvalsh(M)[..., 0] if isinstance(M, torch.Tensor) else np.linalg.eigvalsh(M)[..., 0]
+
+
+PD_MARGIN = 1e-3
+"""Relative to the largest entry of M: a smallest eigenvalue above this is positive in float32 too."""
 
 
 def physics_penalty(system: System, zeta: torch.Tensor, q: torch.Tensor) -> torch.Tensor:
-    """R2 of eq. (30): sum_i max(0, exp(-h_i) - 1)."""
-    h = physical_constraints(system, zeta, q)
+    """R2 of eq. (30): sum_i max(0, exp(-h_i) - 1).
+
+    The mass-matrix term and its gradient are zero while M(theta) is positive definite, as it is
+    for physical parameters; differentiating it is the costly part (the arm's 6 x 6 matrices come
+    from a basis of its regressor). So its smallest eigenvalue is first evaluated without a graph
+    (numpy, float64) and enters as a constant when it exceeds ``PD_MARGIN`` of M's largest entry:
+    the same penalty, bit for bit, and the same gradient. Otherwise h is ``physical_constraints``."""
+    configs = _constraint_configs(system, q)
+    M = system.mass_matrix(zeta.detach().double().numpy(), configs.detach().double().numpy())
+    lam = float(min_eigenvalue(M).min())
+    if lam > PD_MARGIN * float(np.abs(M).max()):
+        h = torch.cat([zeta[list(system.positive)], torch.full((1,), lam, dtype=zeta.dtype)])
+    else:
+        h = physical_constraints(system, zeta, q)
     return torch.clamp(torch.exp(-h) - 1.0, min=0.0).sum()

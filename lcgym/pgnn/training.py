@@ -134,9 +134,22 @@ def training_data(trials, system: System, config: PGNNConfig, zeta_n0: np.ndarra
     return TrainingData(q, qd, qdd, inputs, u, system.regressor(zeta_n0, q, qd, qdd))
 
 
-def projected_norm2(X: torch.Tensor, g: torch.Tensor, rtol: float = 1e-6) -> torch.Tensor:
+def projection_basis(X: torch.Tensor, rtol: float = 1e-6) -> torch.Tensor:
+    """W (n_linear, r) with W W^T = (X^T X)^+ on the column space of X (B, n_linear), float64; see
+    ``projected_norm2``."""
+    X = X.double()
+    with torch.no_grad():
+        scale = X.norm(dim=0)
+        scale = torch.where(scale > 0, scale, torch.ones_like(scale))  # a zero column stays zero
+        lam, V = torch.linalg.eigh((X.T @ X) / torch.outer(scale, scale))
+        keep = lam > (rtol**2) * lam.max().clamp_min(1e-300)
+        W = V[:, keep] / torch.sqrt(lam[keep])  # G^+ = W W^T on the kept directions
+        return W / scale[:, None]
+
+
+def projected_norm2(X: torch.Tensor, g: torch.Tensor, rtol: float = 1e-6, W: torch.Tensor | None = None) -> torch.Tensor:
     """||U^T g||^2 with U of eq. (21) the orthonormal basis of the column space of X (B, n_linear);
-    g (B,) may carry gradients, X is data.
+    g (B,) may carry gradients, X is data; ``W``: ``projection_basis(X)`` where already known.
 
     Computed as c^T G^+ c with c = X^T g and G = X^T X (n_linear x n_linear, cheap for B = 1e4
     rows) after scaling the columns to unit norm (inertia and damping columns differ by orders of
@@ -145,21 +158,19 @@ def projected_norm2(X: torch.Tensor, g: torch.Tensor, rtol: float = 1e-6) -> tor
     dependent ones (IX: X_J2yy = X_J3yy + X_J3zz on the propeller) add no direction.
     """
     X = X.double()
-    with torch.no_grad():
-        scale = X.norm(dim=0)
-        scale = torch.where(scale > 0, scale, torch.ones_like(scale))  # a zero column stays zero
-        lam, V = torch.linalg.eigh((X.T @ X) / torch.outer(scale, scale))
-        keep = lam > (rtol**2) * lam.max().clamp_min(1e-300)
-        W = V[:, keep] / torch.sqrt(lam[keep])  # G^+ = W W^T on the kept directions
-        W = W / scale[:, None]
+    W = projection_basis(X, rtol) if W is None else W
     return ((g.double() @ X @ W) ** 2).sum().to(g.dtype)
 
 
-def _batch_projection(X_b: torch.Tensor, g_b: torch.Tensor) -> torch.Tensor:
-    """sum over axes of ||U_b^T g_b||^2 / B for a minibatch: X_b (B, n_axes, n_linear), g_b (B, n_axes)."""
+def _batch_projection(X_b: torch.Tensor, g_b: torch.Tensor, columns=None, known=None) -> torch.Tensor:
+    """sum over axes of ||U_b^T g_b||^2 / B for a minibatch: X_b (B, n_axes, n_linear), g_b (B, n_axes).
+    ``columns[i]``: axis i's regressor columns that are not zero everywhere in the data (the
+    others add nothing; None: all); ``known[i]``: (X_i in float64, its ``projection_basis``) of a batch seen
+    before, else None."""
     total = g_b.new_zeros(())
     for i in range(g_b.shape[1]):
-        total = total + projected_norm2(X_b[:, i, :], g_b[:, i])
+        X, W = known[i] if known is not None else (X_b[:, i, slice(None) if columns is None else columns[i]], None)
+        total = total + projected_norm2(X, g_b[:, i], W=W)
     return total / g_b.shape[0]
 
 
@@ -197,6 +208,7 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
         matrix = torch.tensor(np.concatenate(arrays, axis=1), dtype=torch.float32)
         split = {name: torch.index_select(matrix, 0, torch.as_tensor(rows)) for name, rows in idx.items()}
         del matrix
+        nonzero = [torch.as_tensor(np.flatnonzero(np.any(data.X[:, i, :] != 0, axis=0))) for i in range(data.X.shape[1])]
         opt = torch.optim.Adam(module.parameters(), lr=config.lr)
         history, best, best_state, stale = [], np.inf, None, 0
         t0 = time.perf_counter()
@@ -208,7 +220,7 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
             j_ls = ((b["u"] - f_m - f_c) ** 2).sum(dim=1).mean()
             if not config.regularize:
                 return j_ls, j_ls.detach(), j_ls.new_zeros(()), j_ls.new_zeros(())
-            r1 = _batch_projection(b["X"], f_c)
+            r1 = _batch_projection(b["X"], f_c, nonzero, b.get("projection"))
             r2 = physics_penalty(module.system, module.zeta, b["q"])
             return j_ls + config.mu1 * r1 + config.mu2 * r2, j_ls.detach(), r1.detach(), r2.detach()
 
@@ -220,20 +232,37 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
                 b = rows[s : s + config.batch_size]
                 yield {k: b[:, c] for k, c in columns.items()} | {"X": b[:, columns["X"]].reshape(len(b), *data.X.shape[1:])}
 
+        def known(b):
+            """The batch with each axis's regressor in float64 and its projection basis, for a batch
+            used again (the validation and test batches; the training batch where it is the whole split)."""
+            if not config.regularize:
+                return b
+            xs = [b["X"][:, i, cols].double() for i, cols in enumerate(nonzero)]
+            return b | {"projection": [(x, projection_basis(x)) for x in xs]}
+
+        fixed = {part: [known(b) for b in batches(part)] for part in ("validation", "test")}
+
         def evaluate(part):
             """Sample-weighted means of (J, J_LS, R1, R2) over the batches of a split."""
             with torch.no_grad():
-                values, sizes = zip(*[([float(x) for x in cost(b)], len(b["u"])) for b in batches(part)], strict=True)
+                values, sizes = zip(*[([float(x) for x in cost(b)], len(b["u"])) for b in fixed[part]], strict=True)
             return dict(zip(("J", "J_LS", "R1", "R2"), np.average(values, axis=0, weights=sizes), strict=True))
 
         longest = 0.0  # the longest iteration so far [s], for the budget
 
+        per_epoch = -(-len(split["train"]) // config.batch_size)
+
         def stream():
-            """Training minibatches, reshuffled at each pass over the data, without end."""
+            """Training minibatches, reshuffled at each pass over the data, without end; where the
+            split fits in one minibatch, that batch every time (a reshuffle would change only the
+            round-off of its sums), with its projection basis computed once."""
+            if per_epoch == 1:
+                whole = known(next(batches("train")))
+                while True:
+                    yield whole
             while True:
                 yield from batches("train", shuffle=True)
 
-        per_epoch = -(-len(split["train"]) // config.batch_size)
         steps = config.steps_per_iteration or per_epoch
         source = stream()
         for epoch in bar:

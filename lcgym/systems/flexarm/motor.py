@@ -141,12 +141,25 @@ def inverse_dynamics(p, q, qd, qdd):
 
 def mass_matrix(p, q):
     """Rigid-joint inertia at the load side, M_l(q) + diag(Jm N^2) (..., 6, 6) [kg m^2]: symmetric
-    positive definite for physical parameters. ``p`` numpy or torch (differentiable in p)."""
+    positive definite for physical parameters. ``p`` numpy or torch (differentiable in p: M_l as
+    the basis of its 60 inertial parameters times pi; for numpy p the composite-rigid-body
+    algorithm, ``dynamics.mass_matrix``, the same matrix without the basis, 60x faster)."""
     qn = np.ascontiguousarray(np.atleast_2d(_numpy(q)), dtype=float)
+    if not hasattr(p, "detach"):
+        p = np.asarray(p, dtype=float)
+        return _mass_matrices(DH_TABLE, np.ascontiguousarray(p[:N_PI]), qn) + np.diag(p[N_PI : N_PI + N] * GEAR**2)
     basis = _mass_basis(DH_TABLE, qn)  # (T, 6, 6, 60): M_l is linear in pi
     M = _contract(basis, p[:N_PI])
     motor = p[N_PI : N_PI + N] * _like(p, GEAR**2)
     return M + _diag(motor)
+
+
+@numba.njit(cache=True)
+def _mass_matrices(dh, pi, q):
+    out = np.empty((q.shape[0], N, N))
+    for k in range(q.shape[0]):
+        out[k] = arm.mass_matrix(dh, pi, q[k])
+    return out
 
 
 @numba.njit(cache=True)
