@@ -138,7 +138,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--seeds", type=_seeds, help="comma-separated seeds (default 0,1,2; --quick: 0)")
     bench.add_argument("--quick", action="store_true", help="small budgets: 1 seed, 2 references of about 20 s of moves per set")
     bench.add_argument("--out", type=_writable, default=Path("results.csv"), help="results CSV (appended)")
-    bench.add_argument("--jobs", type=_positive, default=1, help="parallel cells (joblib processes)")
+    bench.add_argument("--jobs", type=_positive, help="parallel cells (joblib processes; default: one per CPU core "
+                       "this process may use, at most one per cell)")
     bench.add_argument("--dask", metavar="ADDRESS", help="run the cells on this Dask scheduler (tcp://host:port)")
     bench.add_argument("--resume", action="store_true", help="skip cells already stored with the same configuration")
     bench.add_argument("--timeout", type=_seconds, metavar="SECONDS",

@@ -16,7 +16,8 @@ PGNN (paper 000)", measured with ``studies/pgnn_protocol.py`` on IX-v1's leaderb
   the machine's ``hints["pgnn"]`` set the arm's, 5 Hz too).
 * **iterations**: ``PGNNConfig.steps_per_iteration`` (80 Adam steps, the paper's epoch at its N),
   so that the patience of five iterations means the same at the leaderboard's N as at the paper's;
-  at most ``MAX_ITERATIONS``.
+  at most ``MAX_ITERATIONS`` on the benchmark's 8 training runs, in proportion to the runs otherwise
+  (``max_iterations``: 25 on ``--quick``'s 2).
 
 The leaderboard trains with one torch thread (benchmark cells run in parallel workers);
 ``nn_contribution`` gives f^C for the results' ``nn_rms`` column.
@@ -24,6 +25,7 @@ The leaderboard trains with one torch thread (benchmark cells run in parallel wo
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import replace
 
@@ -43,10 +45,22 @@ FILTER_HZ = {"ix": 5.0}
 """Per machine: the low-pass of u [Hz] where the protocol sets it (else the machine's PGNN hints)."""
 
 MAX_ITERATIONS = 100
-"""The protocol's cap on Algorithm 1's iterations (8,000 Adam steps): early stopping ends J's training
+"""The protocol's cap on Algorithm 1's iterations (8,000 Adam steps) on ``REFERENCE_TRIALS`` training
+runs, in proportion to the runs otherwise (``max_iterations``): early stopping ends J's training
 before it on the leaderboard's data (66 iterations on IX-v1, seed 0), while J_LS's validation cost
 keeps creeping down for 300 iterations and more; the cap keeps a cell's time bounded and the results
 deterministic (a wall-time budget would make them depend on the machine)."""
+
+REFERENCE_TRIALS = 8
+"""The training runs ``MAX_ITERATIONS`` is set for: the benchmark's default training set."""
+
+
+def max_iterations(n_trials: int) -> int:
+    """The cap for ``n_trials`` training runs: ``MAX_ITERATIONS`` per ``REFERENCE_TRIALS`` runs (at
+    least one iteration). A budget in proportion to the data, as the ``rl`` method's (passes over
+    the training samples): a fixed cap in Adam steps would train 4x as many epochs on ``lcgym bench
+    --quick``'s 2 runs as on the full benchmark's 8 (25 iterations there, 100 here)."""
+    return max(1, math.ceil(MAX_ITERATIONS * n_trials / REFERENCE_TRIALS))
 
 
 class PGNNFeedforward(Controller):
@@ -88,11 +102,12 @@ class PGNNFeedforward(Controller):
 
     def training_config(self) -> PGNNConfig:
         """The configuration it trains with: the one given (with this method's ``regularize``), else
-        the machine's defaults with the protocol's filter (``FILTER_HZ``) and one torch thread."""
+        the machine's defaults with the protocol's filter (``FILTER_HZ``), iteration cap
+        (``max_iterations`` of the training runs) and one torch thread."""
         if self.config is not None:
             return replace(self.config, regularize=self.regularize)
         cfg = replace(PGNNConfig.for_system(self.system_), threads=1, regularize=self.regularize,
-                      max_epochs=MAX_ITERATIONS)
+                      max_epochs=max_iterations(len(self.trials_)))
         return replace(cfg, filter_hz=FILTER_HZ[self.system_.name]) if self.system_.name in FILTER_HZ else cfg
 
     def _train(self, trials: Sequence) -> None:

@@ -25,6 +25,7 @@ from __future__ import annotations
 import copy
 import hashlib
 import json
+import os
 import signal
 import sysconfig
 import threading
@@ -248,10 +249,16 @@ def trace_path(out: str | Path, system: str, method: str, seed: int) -> Path:
     return traces_dir(out) / f"{system}_{safe}_{seed}.parquet"
 
 
-def run_benchmark(config: BenchConfig, out: str | Path, jobs: int = 1, dask: str | None = None,
+def usable_cores() -> int:
+    """CPU cores this process may run on (its affinity where the OS tells it, else all)."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
+def run_benchmark(config: BenchConfig, out: str | Path, jobs: int | None = 1, dask: str | None = None,
                   resume: bool = False, progress: bool = True, timeout: float | None = None) -> dict:
     """Run every cell (skipping stored ones with ``resume``) and append the rows to ``out``.
-    ``timeout``: per-cell time limit [s] of the method's part (``run_cell``; none on Dask).
+    ``jobs``: parallel cells (None: one per usable core, at most one per cell). ``timeout``:
+    per-cell time limit [s] of the method's part (``run_cell``; none on Dask).
 
     Returns {"run_id", "cells_run", "cells_skipped", "cells_failed"}.
     """
@@ -266,6 +273,8 @@ def run_benchmark(config: BenchConfig, out: str | Path, jobs: int = 1, dask: str
         done = completed_cells(out, config.config_hash())
         skipped = sum(c in done for c in todo)
         todo = [c for c in todo if c not in done]
+    if jobs is None:
+        jobs = max(1, min(usable_cores(), len(todo)))
     run_id = uuid.uuid4().hex[:12]
     provenance = {"run_id": run_id, "lcgym_version": __version__, "git_commit": git_commit()}
     failed = 0

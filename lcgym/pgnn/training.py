@@ -209,7 +209,7 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
         split = {name: torch.index_select(matrix, 0, torch.as_tensor(rows)) for name, rows in idx.items()}
         del matrix
         nonzero = [torch.as_tensor(np.flatnonzero(np.any(data.X[:, i, :] != 0, axis=0))) for i in range(data.X.shape[1])]
-        opt = torch.optim.Adam(module.parameters(), lr=config.lr)
+        opt = torch.optim.Adam(module.parameters(), lr=config.lr, foreach=True)  # one call for all tensors: the same numbers
         history, best, best_state, stale = [], np.inf, None, 0
         t0 = time.perf_counter()
         bar = tqdm(range(config.max_epochs), desc="PGNN epochs", disable=not progress, leave=False)
