@@ -167,8 +167,10 @@ def _cells_in(path: Path) -> int:
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL], ids=["SIGINT", "SIGKILL"])
 def test_killed_bench_leaves_valid_csv_and_resume_completes(tmp_path, tally, sig):
     out = tmp_path / "r.csv"
-    # physical cells (about 0.5 s each, not feedback's 0.1 s) leave the kill a window of seconds
-    args = ["bench", "--quick", "--systems", "ix", "--methods", "physical", "--seeds", "0,1,2,3,4,5,6,7", "--out", str(out)]
+    # physical cells (about 0.5 s each, not feedback's 0.1 s) leave the kill a window of seconds;
+    # one process (parallel workers orphaned by kill -9 would hold the pipes until their cell ends)
+    args = ["bench", "--quick", "--systems", "ix", "--methods", "physical", "--seeds", "0,1,2,3,4,5,6,7", "--out", str(out),
+            "--jobs", "1"]
     proc = cli(*args)
     deadline = time.time() + 120
     while _cells_in(out) < 1 and time.time() < deadline and proc.poll() is None:

@@ -246,3 +246,15 @@ def test_pgnn_method_records_its_training_data_with_the_physical_feedforward():
     default = PGNNFeedforward()
     default.system_ = method.system_
     assert default.training_config().filter_hz == 5.0 and default.training_config().threads == 1
+
+
+def test_iteration_cap_in_proportion_to_the_training_runs():
+    """The protocol's cap: 100 iterations on the benchmark's 8 training runs (unchanged), a quarter on
+    --quick's 2, never none."""
+    from lcgym.baselines.pgnn import MAX_ITERATIONS, REFERENCE_TRIALS, PGNNFeedforward, max_iterations
+
+    assert max_iterations(REFERENCE_TRIALS) == MAX_ITERATIONS == 100
+    assert [max_iterations(n) for n in (1, 2, 3, 16)] == [13, 25, 38, 200]
+    method = PGNNFeedforward()
+    method.system_ = IX
+    assert method.training_config(2).max_epochs == 25 and method.training_config().max_epochs == 100

@@ -100,19 +100,19 @@ class PGNNFeedforward(Controller):
             self._train(data)
         return self
 
-    def training_config(self) -> PGNNConfig:
-        """The configuration it trains with: the one given (with this method's ``regularize``), else
-        the machine's defaults with the protocol's filter (``FILTER_HZ``), iteration cap
-        (``max_iterations`` of the training runs) and one torch thread."""
+    def training_config(self, n_trials: int = REFERENCE_TRIALS) -> PGNNConfig:
+        """The configuration it trains with on ``n_trials`` runs: the one given (with this method's
+        ``regularize``), else the machine's defaults with the protocol's filter (``FILTER_HZ``),
+        iteration cap (``max_iterations(n_trials)``) and one torch thread."""
         if self.config is not None:
             return replace(self.config, regularize=self.regularize)
         cfg = replace(PGNNConfig.for_system(self.system_), threads=1, regularize=self.regularize,
-                      max_epochs=max_iterations(len(self.trials_)))
+                      max_epochs=max_iterations(n_trials))
         return replace(cfg, filter_hz=FILTER_HZ[self.system_.name]) if self.system_.name in FILTER_HZ else cfg
 
     def _train(self, trials: Sequence) -> None:
         self.data_ = list(trials)
-        self.pgnn_ = PGNN(self.training_config(), fs=trials[0].fs, system=self.system_).fit(trials)
+        self.pgnn_ = PGNN(self.training_config(len(trials)), fs=trials[0].fs, system=self.system_).fit(trials)
 
     def _model(self) -> PGNN:
         if not hasattr(self, "pgnn_"):

@@ -38,8 +38,15 @@ only 70 steps and training stops early (IX-v1, seed 0: after 165 epochs, about 2
 1.58x / 2.33x below the physical model, against 1.76x / 2.77x with 80-step iterations and absolute
 zeta steps; ``studies/pgnn_protocol.py`` rows A to C). So an iteration is
 ``steps_per_iteration`` = 80 Adam steps (the paper's epoch at its N; minibatches drawn from a
-reshuffle at each pass over the data), which is the paper's schedule at N = 1e6 and keeps it at
-any N; ``steps_per_iteration=None`` is the literal one-epoch iteration.
+reshuffle at each pass over the data; a training split that fits one minibatch, the arm's, is that
+batch at every step), which is the paper's schedule at N = 1e6 and keeps it at any N;
+``steps_per_iteration=None`` is the literal one-epoch iteration.
+
+What a step costs (``benchmarks/pgnn_speed.py``). The networks' tanh goes through numpy
+(``network.Tanh``); R2's mass-matrix term is differentiated only where M is near indefinite
+(``network.physics_penalty``); R1's projection leaves out regressor columns that are zero in all
+the data and keeps the bases of batches it sees again (validation, test, a one-batch training
+split). None of it changes the numbers beyond round-off.
 """
 
 from __future__ import annotations
