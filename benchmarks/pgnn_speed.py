@@ -22,7 +22,7 @@ import torch
 
 from lcgym import systems
 from lcgym.pgnn.network import Tanh, physical_constraints, physics_penalty
-from lcgym.pgnn.training import _batch_projection, projection_basis
+from lcgym.pgnn.training import _batch_projection, nonzero_columns, projection_basis
 from lcgym.systems.flexarm import motor
 
 
@@ -70,7 +70,7 @@ def main() -> None:
     q, qd, qdd = rng.normal(size=(3, 4000, 6))
     X = torch.tensor(motor.regressor(None, q, qd, qdd), dtype=torch.float32)
     g = torch.tensor(rng.normal(size=(4000, 6)), dtype=torch.float32, requires_grad=True)
-    columns = [torch.as_tensor(np.flatnonzero(np.any(X[:, i, :].numpy() != 0, axis=0))) for i in range(6)]
+    columns = nonzero_columns(X)
     known = [(X[:, i, c].double(), projection_basis(X[:, i, c])) for i, c in enumerate(columns)]
     plain = lambda: _batch_projection(X, g).backward()  # noqa: E731
     ratio_line("R1 projection + gradient, arm: zero columns out", plain, lambda: _batch_projection(X, g, columns).backward())

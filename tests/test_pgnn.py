@@ -9,7 +9,7 @@ from lcgym.baselines.pgnn import PGNNFeedforward
 from lcgym.data import Trial
 from lcgym.pgnn import PGNN, PGNNConfig
 from lcgym.pgnn.network import PGNNModule, min_eigenvalue, physical_constraints, physics_penalty
-from lcgym.pgnn.training import _batch_projection, network_inputs, projected_norm2, projection_basis
+from lcgym.pgnn.training import _batch_projection, network_inputs, nonzero_columns, projected_norm2, projection_basis
 from lcgym.physics.model import PhysicalModel
 from lcgym.systems.flexarm import motor
 from lcgym.systems.ix import IX
@@ -42,7 +42,7 @@ def test_projection_without_the_zero_columns_and_with_a_known_basis_is_the_same(
     q, qd, qdd = rng.normal(size=(3, 3000, 6))
     X = torch.tensor(motor.regressor(None, q, qd, qdd))
     g = torch.tensor(rng.normal(size=(3000, 6)))
-    columns = [torch.as_tensor(np.flatnonzero(np.any(X[:, i, :].numpy() != 0, axis=0))) for i in range(6)]
+    columns = nonzero_columns(X)
     assert min(len(c) for c in columns) < X.shape[2]  # the arm's joint 6 sees only its own link and drive
     known = [(X[:, i, c].double(), projection_basis(X[:, i, c])) for i, c in enumerate(columns)]
     full = float(_batch_projection(X, g))

@@ -169,6 +169,13 @@ def projected_norm2(X: torch.Tensor, g: torch.Tensor, rtol: float = 1e-6, W: tor
     return ((g.double() @ X @ W) ** 2).sum().to(g.dtype)
 
 
+def nonzero_columns(X) -> list[torch.Tensor]:
+    """Per axis, the indices of the regressor columns that are not zero everywhere in X
+    (N, n_axes, n_linear), numpy or torch: the only ones a projection needs."""
+    X = X.numpy() if isinstance(X, torch.Tensor) else np.asarray(X)
+    return [torch.as_tensor(np.flatnonzero(np.any(X[:, i, :] != 0, axis=0))) for i in range(X.shape[1])]
+
+
 def _batch_projection(X_b: torch.Tensor, g_b: torch.Tensor, columns=None, known=None) -> torch.Tensor:
     """sum over axes of ||U_b^T g_b||^2 / B for a minibatch: X_b (B, n_axes, n_linear), g_b (B, n_axes).
     ``columns[i]``: axis i's regressor columns that are not zero everywhere in the data (the
@@ -215,7 +222,7 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
         matrix = torch.tensor(np.concatenate(arrays, axis=1), dtype=torch.float32)
         split = {name: torch.index_select(matrix, 0, torch.as_tensor(rows)) for name, rows in idx.items()}
         del matrix
-        nonzero = [torch.as_tensor(np.flatnonzero(np.any(data.X[:, i, :] != 0, axis=0))) for i in range(data.X.shape[1])]
+        nonzero = nonzero_columns(data.X)
         opt = torch.optim.Adam(module.parameters(), lr=config.lr, foreach=True)  # one call for all tensors: the same numbers
         history, best, best_state, stale = [], np.inf, None, 0
         t0 = time.perf_counter()

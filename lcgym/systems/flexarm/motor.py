@@ -143,7 +143,8 @@ def mass_matrix(p, q):
     """Rigid-joint inertia at the load side, M_l(q) + diag(Jm N^2) (..., 6, 6) [kg m^2]: symmetric
     positive definite for physical parameters. ``p`` numpy or torch (differentiable in p: M_l as
     the basis of its 60 inertial parameters times pi; for numpy p the composite-rigid-body
-    algorithm, ``dynamics.mass_matrix``, the same matrix without the basis, 60x faster)."""
+    algorithm, ``dynamics.mass_matrix``, the same matrix without the basis: 17 us against 3.2 ms
+    for 16 configurations)."""
     qn = np.ascontiguousarray(np.atleast_2d(_numpy(q)), dtype=float)
     if not hasattr(p, "detach"):
         p = np.asarray(p, dtype=float)
