@@ -10,7 +10,7 @@ the same run:
   PPO on a batched env with the FlexArm's spaces and no physics (``free_vec_env``: a step costs
   nothing), PPO's own ceiling on this machine whatever the env does.
 
-Run:  .venv/bin/python benchmarks/flexarm_vector_speed.py [--ppo-envs 8] [--ppo-rollouts 2]
+Run:  .venv/bin/python benchmarks/flexarm_vector_speed.py [--ppo-envs 8] [--ppo-rollouts 2] [--rounds 5] [--no-ppo]
 The first vector env compiles the kernel (cached on disk); its time is printed separately.
 """
 
@@ -112,17 +112,31 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--ppo-envs", type=int, default=8)
     parser.add_argument("--ppo-rollouts", type=int, default=2)
+    parser.add_argument("--rounds", type=int, default=5, help="alternating rounds of the env-step measurements")
+    parser.add_argument("--no-ppo", action="store_true", help="the env-step figures only")
     args = parser.parse_args()
     torch.set_num_threads(1)
     t0 = time.perf_counter()
     gym.make_vec(ENV_ID, num_envs=1, vectorization_mode="vector_entry_point").reset(seed=0)
     print(f"first vector env (compiles or loads the kernel, computes the start states): {time.perf_counter() - t0:.1f} s")
-    single = single_rate(5000)
-    print(f"single FlexArmEnv: {single:,.0f} env steps/s")
-    for n, steps in ((1, 3000), (16, 1000), (256, 200)):
-        rate = vector_rate(n, steps)
-        print(f"vector env N = {n:4d}: {rate:,.0f} env steps/s = {rate / single:.2f}x the single env")
+    # the single env and each N in alternation, several rounds: the ratio of each round's pair, then
+    # the median over rounds (a busy moment of the machine slows one pair, not the figure)
+    sizes = ((1, 3000), (16, 1000), (256, 200))
+    ratios: dict[int, list[float]] = {n: [] for n, _ in sizes}
+    rates: dict[int, list[float]] = {n: [] for n, _ in sizes}
+    singles = []
+    for _ in range(args.rounds):
+        singles.append(single_rate(5000))
+        for n, steps in sizes:
+            rates[n].append(vector_rate(n, steps))
+            ratios[n].append(rates[n][-1] / singles[-1])
+    print(f"single FlexArmEnv: {np.median(singles):,.0f} env steps/s (median of {args.rounds} rounds)")
+    for n, _ in sizes:
+        print(f"vector env N = {n:4d}: {np.median(rates[n]):,.0f} env steps/s = {np.median(ratios[n]):.2f}x the single "
+              f"env (median; rounds {min(ratios[n]):.2f}-{max(ratios[n]):.2f}x)")
 
+    if args.no_ppo:
+        return
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv
 
