@@ -2,7 +2,7 @@
 
     lcgym bench [--systems ix-v1,flexarm-v1] [--methods feedback,physical] [--seeds 0,1,2] [--quick]
                 [--out results.csv] [--jobs N] [--dask ADDRESS] [--resume] [--timeout SECONDS]
-    lcgym leaderboard [results.csv] [--reference-set SET] [--config HASH] [--markdown OUT.md] [--html OUT.html]
+    lcgym leaderboard [results.csv] [--reference-set SET] [--config HASH] [--markdown OUT.md] [--html DIR|OUT.html]
                       [--share-of METHOD [--base METHOD]]
     lcgym simulate [--system ix|flexarm|ix-v0|...] [--controller feedback,physical] [--out run.csv] [--plot run.png]
     lcgym diagnose DATA --system MACHINE [--add EFFECT@AXIS ...] [--kinematics reference|measured]
@@ -10,8 +10,9 @@
     lcgym effects [--system MACHINE] [--data DATA]
     lcgym import emps FILE.mat --out OUT.csv
 
-MACHINE: a built-in machine (ix, flexarm), an example one (emps), a URDF file (robot.urdf: its joints named in the data
-are the axes, the others are locked), or module:attr naming a ``lcgym.systems.System``.
+MACHINE: a built-in machine (ix, flexarm), an example one (emps; two_link, a URDF shipped with lcgym), a URDF file
+(robot.urdf: its joints named in the data are the axes, the others are locked), or module:attr naming a
+``lcgym.systems.System``.
 """
 
 from __future__ import annotations
@@ -127,6 +128,22 @@ def _writable(text: str) -> Path:
     return p
 
 
+def _page_target(text: str) -> Path:
+    """Where ``--html`` writes: a file ending in .html, or a folder (existing, or new in an existing
+    folder) that gets index.html; either way the folder it goes into must be writable."""
+    p = Path(text)
+    if p.suffix.lower() in (".html", ".htm"):
+        return _writable(text)
+    if p.exists() and not p.is_dir():
+        raise argparse.ArgumentTypeError(f"{p} is a file not ending in .html; give a folder or an .html file")
+    folder = p if p.is_dir() else p.parent
+    if not folder.resolve().is_dir():
+        raise argparse.ArgumentTypeError(f"folder {folder} does not exist")
+    if not os.access(folder.resolve(), os.W_OK):
+        raise argparse.ArgumentTypeError(f"folder {folder} is not writable")
+    return p
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="lcgym", description="Learning feedforward control benchmark suite")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -149,7 +166,8 @@ def build_parser() -> argparse.ArgumentParser:
     board.add_argument("--reference-set", choices=("validation", "train", "test"), default="validation")
     board.add_argument("--config", metavar="HASH", help="configuration hash to rank (default: the newest run's)")
     board.add_argument("--markdown", type=_writable, help="write a Markdown page (figures beside it)")
-    board.add_argument("--html", type=_writable, help="write an HTML page (figures beside it)")
+    board.add_argument("--html", type=_page_target, metavar="DIR|OUT.html",
+                       help="write the leaderboard page: DIR/index.html, or OUT.html (one file, figures inside)")
     board.add_argument("--share-of", metavar="METHOD",
                        help="print paper 002's Table 6: each method's share of what METHOD changed against --base")
     board.add_argument("--base", metavar="METHOD", default="basic", help="the start the shares are taken from (basic)")
@@ -232,7 +250,8 @@ def _machine(spec: str, data: Path | None):
     from . import systems
     from .data import file_axes
 
-    joints = file_axes(data) if data is not None and str(spec).lower().endswith(".urdf") else None
+    is_urdf = str(spec).lower().endswith(".urdf") or str(spec) in systems.URDF_EXAMPLES
+    joints = file_axes(data) if data is not None and is_urdf else None
     return systems.get(spec, joints=joints)
 
 

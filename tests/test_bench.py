@@ -234,7 +234,12 @@ def test_report_pages_escape_strings(tmp_path, monkeypatch):
     run_benchmark(BenchConfig(methods=("feedback", "physical", "evil:Evil"), **TINY), out, progress=False)
     df = read_results(out)
     page = write_html(df, tmp_path / "board.html").read_text()
-    assert "<script>" not in page and "&lt;script&gt;" in page
+    assert "<script>alert" not in page and "&lt;script&gt;alert(1)&lt;/script&gt;" in page
+    assert page.count("<script>") == 1  # the page's own sorting script, nothing from the CSV
+    site = write_html(df, tmp_path / "site", source=str(out))  # a folder: its index.html, figures inside
+    assert site == tmp_path / "site" / "index.html" and sorted(p.name for p in site.parent.iterdir()) == ["index.html"]
+    text = site.read_text()
+    assert "data:image/png;base64," in text and "ix-v1_traces" in text and str(tmp_path) not in text
     md = write_markdown(df, tmp_path / "board.md", source=str(out)).read_text()
     assert "| 1 | physical |" in md and (tmp_path / "board_figures" / "ix-v1_tracking_error.png").exists()
     assert "ix-v1_traces.png" in md and (tmp_path / "board_figures" / "ix-v1_traces.png").exists()

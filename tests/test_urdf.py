@@ -137,6 +137,8 @@ def test_two_link_machine(arm):
         eig = np.linalg.eigvalsh(inertia.inertia)
         assert inertia.mass > 0 and eig.min() > 0 and 2 * eig.max() < eig.sum()
     assert systems.get(str(two_link_urdf()), joints=("shoulder", "elbow")).param_names == arm.param_names
+    # by name, as an installed wheel's user gives it (no path into the source tree)
+    assert systems.get("two_link", joints=("shoulder", "elbow")).param_names == arm.param_names
 
 
 def test_mass_matrix_matches_crba_and_is_positive_definite(arm, panda):

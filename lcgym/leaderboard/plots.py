@@ -46,3 +46,117 @@ def plot_tracking_errors(results: Sequence, path: str | Path, trial_index: int =
     finally:
         plt.close(fig)
     return path
+
+
+def method_colours(methods: Sequence[str]) -> dict[str, tuple]:
+    """A fixed colour per method (matplotlib's tab10, then tab20), so a method keeps its colour in
+    every figure of one page."""
+    import matplotlib
+
+    names = list(dict.fromkeys(methods))
+    cmap = matplotlib.colormaps["tab10" if len(names) <= 10 else "tab20"]
+    return {m: cmap(i % cmap.N) for i, m in enumerate(names)}
+
+
+def rms_bar_figure(part, title: str, colours: dict | None = None, reference: str | None = None):
+    """Bar chart of RMS per method, grouped by axis, on a log y-axis (the methods span decades), with
+    the sample std over seeds as error bars and, where ``reference`` is among the methods, a dashed
+    line at its RMS across each group (read a bar's ratio to it off the log grid).
+
+    ``part``: rows of ``report.ranking`` for one system, signal and period (columns axis, method,
+    RMS, RMS_std, unit); methods are drawn in the order of their first appearance, axes likewise.
+    Returns the matplotlib Figure (the caller saves and closes it)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    axes_names = list(dict.fromkeys(part["axis"]))
+    methods = list(dict.fromkeys(part["method"]))
+    colours = colours or method_colours(methods)
+    n = max(1, len(methods))
+    width = 0.8 / n
+    fig, ax = plt.subplots(figsize=(min(11.0, max(7.0, 2.2 + 0.28 * n * len(axes_names) + 0.6 * len(axes_names))), 3.4))
+    table = part.set_index(["method", "axis"])
+    for j, m in enumerate(methods):
+        rows = table.loc[m].reindex(axes_names) if m in table.index.get_level_values(0) else None
+        if rows is None:
+            continue
+        x = np.arange(len(axes_names)) - 0.4 + (j + 0.5) * width
+        rms = rows["RMS"].to_numpy(dtype=float)
+        std = rows["RMS_std"].fillna(0.0).to_numpy(dtype=float)
+        lower = np.minimum(std, 0.9 * rms)  # a log axis has no zero: the bar's lower whisker stops above it
+        ax.bar(x, rms, width * 0.92, yerr=[lower, std], color=colours.get(m), label=m, capsize=1.5,
+               error_kw={"elinewidth": 0.7, "alpha": 0.8})
+    if reference in methods:
+        ref = table.loc[reference].reindex(axes_names)["RMS"].to_numpy(dtype=float)
+        for i, value in enumerate(ref):
+            ax.hlines(value, i - 0.45, i + 0.45, colors="k", linestyles="--", lw=0.8,
+                      label=f"{reference} (reference)" if i == 0 else None)
+    ax.set_yscale("log")
+    ax.set_xticks(np.arange(len(axes_names)), axes_names)
+    ax.set_xlim(-0.55, len(axes_names) - 0.45)
+    ax.set_ylabel(f"RMS [{part['unit'].iloc[0]}] (log)")
+    ax.set_title(title, fontsize=9)
+    ax.grid(axis="y", which="major", alpha=0.35)
+    ax.grid(axis="y", which="minor", alpha=0.12)
+    ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5), frameon=False)
+    fig.tight_layout()
+    return fig
+
+
+def trace_grid_figure(traces: dict, title: str, colours: dict | None = None, outlier_factor: float = 4.0):
+    """Small multiples of tracking errors: one row of panels per method, one column per axis.
+
+    ``traces``: method -> trace frame (``t`` [s], ``ref_<axis>`` and ``error_<axis>`` [rad], as the
+    benchmark stores them), drawn top to bottom in the dict's order; errors are shown in deg. The
+    panels of one axis share their y-scale, except a method whose peak error exceeds
+    ``outlier_factor`` times the median peak of that axis (feedback only, typically): it gets its own
+    scale, said in its panel, so that it does not flatten the others. Each panel shows the reference
+    velocity scaled to the panel's range (faint) and the trace's RMS [deg]. Returns the Figure."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    methods = list(traces)
+    colours = colours or method_colours(methods)
+    first = traces[methods[0]]
+    axes_names = [c[len("ref_"):] for c in first.columns if c.startswith("ref_")]
+    fig, axs = plt.subplots(len(methods), len(axes_names), figsize=(3.9 * len(axes_names) + 0.9, 0.95 * len(methods) + 0.9),
+                            sharex=True, squeeze=False)
+    for j, ax_name in enumerate(axes_names):
+        errors = {m: np.degrees(traces[m][f"error_{ax_name}"].to_numpy(dtype=float)) for m in methods}
+        peaks = {m: float(np.max(np.abs(e))) if e.size else 0.0 for m, e in errors.items()}
+        median = float(np.median(list(peaks.values())))
+        shared = max([p for p in peaks.values() if p <= outlier_factor * median] or [max(peaks.values())]) or 1.0
+        for i, m in enumerate(methods):
+            ax = axs[i, j]
+            tr = traces[m]
+            t = tr["t"].to_numpy(dtype=float)
+            own = peaks[m] > shared
+            limit = 1.08 * (peaks[m] if own else shared) or 1.0
+            vel = np.gradient(tr[f"ref_{ax_name}"].to_numpy(dtype=float), t) if t.size > 1 else np.zeros_like(t)
+            if np.max(np.abs(vel), initial=0.0) > 0:
+                ax.fill_between(t, vel / np.max(np.abs(vel)) * limit * 0.9, color="0.5", alpha=0.09, lw=0)
+            ax.plot(t, errors[m], lw=0.8, color=colours.get(m))
+            ax.axhline(0.0, color="0.6", lw=0.4)
+            ax.set_ylim(-limit, limit)
+            rms = float(np.sqrt(np.mean(errors[m] ** 2))) if errors[m].size else float("nan")
+            note = f"RMS {rms:.3g}" + ("  (own y-scale)" if own else "")
+            ax.text(0.99, 0.93, note, transform=ax.transAxes, ha="right", va="top", fontsize=6.5,
+                    color="#b2182b" if own else "0.2", bbox={"facecolor": "white", "edgecolor": "none", "alpha": 0.75,
+                                                             "pad": 1.0})
+            ax.tick_params(labelsize=6.5, length=2)
+            ax.grid(alpha=0.25, lw=0.4)
+            if own:
+                for spine in ax.spines.values():
+                    spine.set_edgecolor("#b2182b")
+            if j == 0:
+                ax.set_ylabel(m, fontsize=7.5, rotation=0, ha="right", va="center")
+            if i == 0:
+                ax.set_title(f"e {ax_name} [deg]", fontsize=8)
+        axs[-1, j].set_xlabel("time [s]", fontsize=7)
+    fig.suptitle(title + "; grey: reference velocity, scaled", fontsize=8.5)
+    fig.tight_layout(h_pad=0.25, w_pad=0.6)
+    return fig

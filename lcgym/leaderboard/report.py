@@ -10,12 +10,13 @@ set's references taken together (dwells included). MA, RMS and Inf are averaged 
 Inf is the mean of the per-seed maxima), ``RMS_std`` is the sample standard deviation of RMS over
 seeds (ddof 1; 0 for one seed) and ``seeds`` their count; methods are ranked by mean RMS (1 = best).
 Failed cells are listed separately. The Markdown and HTML pages add bar charts of RMS per method
-and axis, and the tracking-error traces when the CSV's traces folder is at hand.
+and axis (log axis), and the tracking-error traces as one small panel per method when the CSV's
+traces folder is at hand; the HTML page (``page``) opens on an overview per machine and is one
+self-contained file.
 """
 
 from __future__ import annotations
 
-import html
 from pathlib import Path
 
 import numpy as np
@@ -134,84 +135,85 @@ def format_text(df: pd.DataFrame, reference_set: str = "validation") -> str:
     return "\n".join(out)
 
 
-def bar_charts(df: pd.DataFrame, folder: Path, reference_set: str = "validation") -> list[Path]:
-    """One PNG per (system, signal): RMS per method, grouped by axis, with the seed spread."""
-    import matplotlib
+REFERENCE_METHOD = "physical"
+"""The method the overview's ratios and the bar charts' dashed lines refer to: the physical model's
+feedforward (where a CSV lacks it, the page takes each column's best)."""
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+
+def method_order(table: pd.DataFrame) -> list[str]:
+    """Methods of ranking rows, best first: by mean rank over the rows' axes, then by mean RMS."""
+    if table.empty:
+        return []
+    score = table.groupby("method", sort=False).agg(rank=("rank", "mean"), rms=("RMS", "mean"))
+    return list(score.sort_values(["rank", "rms"], kind="stable").index)
+
+
+def bar_figures(df: pd.DataFrame, reference_set: str = "validation", colours: dict | None = None):
+    """(system, file stem, caption, Figure) per (system, signal): RMS per method and axis on a log axis, with
+    the seed spread (``plots.rms_bar_figure``; period ``all``, the periods' rows are in the tables)."""
+    from .plots import method_colours, rms_bar_figure
 
     table = ranking(df, reference_set)
-    table = table[table["period"] == "all"]  # the periods' rows are in the tables
-    folder.mkdir(parents=True, exist_ok=True)
-    paths = []
+    table = table[table["period"] == "all"]
+    colours = colours or method_colours(sorted(set(table["method"])))
     for (system, signal), part in table.groupby(["system", "signal"], sort=False):
-        axes_names = list(dict.fromkeys(part["axis"]))
-        methods = list(dict.fromkeys(part.sort_values("RMS")["method"]))
-        fig, ax = plt.subplots(figsize=(1.6 + 1.2 * len(axes_names) * max(1, len(methods)) / 2, 3.2))
-        width = 0.8 / max(1, len(methods))
-        for j, m in enumerate(methods):
-            rows = part[part["method"] == m].set_index("axis").reindex(axes_names)
-            x = np.arange(len(axes_names)) + j * width
-            ax.bar(x, rows["RMS"], width, yerr=rows["RMS_std"], label=m, capsize=2)
-        ax.set_xticks(np.arange(len(axes_names)) + width * (len(methods) - 1) / 2, axes_names)
-        ax.set_ylabel(f"RMS [{part['unit'].iloc[0]}]")
-        ax.set_title(f"{system}: {signal} ({reference_set})", fontsize=9)
-        ax.legend(fontsize=7)
-        ax.grid(axis="y", alpha=0.3)
-        fig.tight_layout()
-        path = folder / f"{system}_{signal}.png"
-        atomic_write(path, lambda tmp, f=fig: f.savefig(tmp, dpi=100, format="png"))
-        plt.close(fig)
-        paths.append(path)
-    return paths
+        order = {m: i for i, m in enumerate(method_order(part))}
+        part = part.sort_values("method", key=lambda c: c.map(order), kind="stable")
+        caption = (f"{system}: {signal} RMS per axis\n({reference_set} references; bars: mean over seeds, "
+                   f"whiskers: +- std over seeds)")
+        yield system, f"{system}_{signal}", caption, rms_bar_figure(part, caption, colours, REFERENCE_METHOD)
 
 
-def trace_plots(df: pd.DataFrame, csv_path: str | Path, folder: Path) -> list[Path]:
-    """Per system: tracking error of each method on the first validation reference of the lowest
-    seed, one panel per axis, with the scaled reference velocity (like paper 000, Fig. 9)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+def trace_figures(df: pd.DataFrame, csv_path: str | Path, colours: dict | None = None,
+                  reference_set: str = "validation"):
+    """(system, file stem, caption, Figure) per system whose traces are beside the CSV
+    (``runner.trace_path``): the tracking error of each method on the first validation reference of
+    the lowest seed, one small panel per method and axis (``plots.trace_grid_figure``), methods
+    best first by their tracking-error rank."""
+    from .plots import method_colours, trace_grid_figure
     from .runner import trace_path
 
-    paths = []
     ok = df[df["status"] == "ok"]
+    table = ranking(df, reference_set)
+    colours = colours or method_colours(sorted(set(ok["method"])))
     for system, part in ok.groupby("system", sort=False):
         seed = int(part["seed"].min())
-        traces = {m: trace_path(csv_path, system, m, seed) for m in dict.fromkeys(part["method"])}
+        ranked = method_order(table[(table["system"] == system) & (table["signal"] == "tracking_error")
+                                    & (table["period"] == "all")])
+        methods = ranked + [m for m in dict.fromkeys(part["method"]) if m not in ranked]
+        traces = {m: trace_path(csv_path, system, m, seed) for m in methods}
         traces = {m: pd.read_parquet(p) for m, p in traces.items() if p.exists()}
         if not traces:
             continue
-        axes_names = [c[4:] for c in next(iter(traces.values())).columns if c.startswith("ref_")]
-        fig, axs = plt.subplots(len(axes_names), 1, figsize=(9, 2.6 * len(axes_names)), sharex=True, squeeze=False)
-        for i, ax_name in enumerate(axes_names):
-            ax = axs[i, 0]
-            peak = 0.0
-            order = sorted(traces, key=lambda m: -np.sqrt(np.mean(traces[m][f"error_{ax_name}"] ** 2)))
-            for m in order:
-                tr = traces[m]
-                e = np.degrees(tr[f"error_{ax_name}"].to_numpy())
-                peak = max(peak, float(np.abs(e).max()))
-                ax.plot(tr["t"], e, lw=0.7, label=m)
-            tr = traces[order[0]]
-            v = np.gradient(tr[f"ref_{ax_name}"].to_numpy(), tr["t"].to_numpy())
-            if np.abs(v).max() > 0:
-                ax.plot(tr["t"], v / np.abs(v).max() * peak, "k--", lw=0.6, alpha=0.5, label="reference velocity (scaled)")
-            ax.set_ylabel(f"e {ax_name} [deg]")
-            ax.grid(alpha=0.3)
-            ax.legend(fontsize=7, loc="upper right")
-        axs[-1, 0].set_xlabel("time [s]")
-        fig.suptitle(f"{system}: tracking error on the first validation reference, seed {seed}", fontsize=9)
-        fig.tight_layout()
-        path = folder / f"{system}_traces.png"
+        caption = f"{system}: tracking error on the first validation reference, seed {seed}"
+        yield system, f"{system}_traces", caption, trace_grid_figure(traces, caption, colours)
+
+
+def _save_figures(figures, folder: Path) -> list[Path]:
+    import matplotlib.pyplot as plt
+
+    paths = []
+    for _system, stem, _caption, fig in figures:
         folder.mkdir(parents=True, exist_ok=True)
-        atomic_write(path, lambda tmp, f=fig: f.savefig(tmp, dpi=100, format="png"))
-        plt.close(fig)
+        path = folder / f"{stem}.png"
+        try:
+            atomic_write(path, lambda tmp, f=fig: f.savefig(tmp, dpi=100, format="png"))
+        finally:
+            plt.close(fig)
         paths.append(path)
     return paths
+
+
+def bar_charts(df: pd.DataFrame, folder: Path, reference_set: str = "validation") -> list[Path]:
+    """One PNG per (system, signal) in ``folder``: RMS per method, grouped by axis, log axis, with the
+    seed spread (``bar_figures``)."""
+    return _save_figures(bar_figures(df, reference_set), Path(folder))
+
+
+def trace_plots(df: pd.DataFrame, csv_path: str | Path, folder: Path) -> list[Path]:
+    """One PNG per system in ``folder``: the methods' tracking errors as small multiples, with the
+    scaled reference velocity (like paper 000, Fig. 9; ``trace_figures``)."""
+    return _save_figures(trace_figures(df, csv_path), Path(folder))
 
 
 def write_markdown(df: pd.DataFrame, path: str | Path, reference_set: str = "validation", source: str = "") -> Path:
@@ -241,29 +243,18 @@ def write_markdown(df: pd.DataFrame, path: str | Path, reference_set: str = "val
 
 
 def write_html(df: pd.DataFrame, path: str | Path, reference_set: str = "validation", source: str = "") -> Path:
-    """HTML page with the same content; every string from the CSV is escaped."""
-    path = Path(path)
-    folder = path.parent / f"{path.stem}_figures"
-    figures = bar_charts(df, folder, reference_set) + (trace_plots(df, source, folder) if source else [])
-    table = ranking(df, reference_set)
-    e = html.escape
-    parts = ["<!doctype html><meta charset='utf-8'><title>lcgym leaderboard</title>",
-             f"<h1>lcgym leaderboard</h1><p>{e(_provenance(df, reference_set, source))}</p>"]
-    for (system, signal, axis), part in _sections(table):
-        parts.append(f"<h2>{e(str(system))} / {e(str(signal))} / {e(str(axis))}</h2><table border='1'>")
-        parts.append("<tr>" + "".join(f"<th>{e(str(c))}</th>" for c in part.columns) + "</tr>")
-        for r in part.to_dict("records"):
-            parts.append("<tr>" + "".join(f"<td>{e(_cell(v))}</td>" for v in r.values()) + "</tr>")
-        parts.append("</table>")
-    parts += [f"<p><img src='{e(p.parent.name)}/{e(p.name)}' alt='{e(p.stem)}'></p>" for p in figures]
-    fails = failures(df)
-    if not fails.empty:
-        parts.append("<h2>Failed cells</h2><ul>")
-        parts += [f"<li>{e(str(r['system']))} / {e(str(r['method']))} / seed {e(str(r['seed']))}: {e(str(r['error']))}</li>"
-                  for r in fails.to_dict("records")]
-        parts.append("</ul>")
-    atomic_write(path, lambda tmp: Path(tmp).write_text("\n".join(parts) + "\n"))
-    return path
+    """The leaderboard page (``page.render``): one self-contained HTML file (CSS, JS and figures
+    inline), opening on an overview per machine, then the details. ``path``: a file ending in
+    ``.html`` or a folder (created if its parent exists; the page is ``path/index.html``).
+    ``source``: the results CSV's path, for its traces folder; the page names its file name only.
+    Every string from the CSV is escaped. Written atomically; returns the page's path."""
+    from .page import page_path, render
+
+    target = page_path(path)
+    text = render(df, reference_set, source)
+    target.parent.mkdir(exist_ok=True)
+    atomic_write(target, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+    return target
 
 
 def _provenance(df: pd.DataFrame, reference_set: str, source: str) -> str:

@@ -4,6 +4,7 @@
     ix = systems.get("ix")                              # a built-in benchmark machine
     emps = systems.get("emps")                          # a worked example of real data (``EXAMPLES``)
     arm = systems.get("path/to/robot.urdf", joints=("shoulder", "elbow"))   # a URDF (pinocchio)
+    two = systems.get("two_link", joints=("shoulder", "elbow"))  # a URDF shipped with lcgym (``URDF_EXAMPLES``)
     mine = systems.get("my_module:MY_MACHINE")          # a System (or a function returning one)
 
 Built-in machines (``BUILT_IN``) live in one folder each: ``systems/ix/`` (paper 000's C-arm) and
@@ -18,6 +19,7 @@ import importlib
 import os
 import sys
 from collections.abc import Sequence
+from importlib import resources
 
 from .system import Axis, ParameterVector, SimulationDiverged, System
 
@@ -27,6 +29,10 @@ BUILT_IN = {"ix": ("lcgym.systems.ix", "IX"), "flexarm": ("lcgym.systems.flexarm
 EXAMPLES = {"emps": ("lcgym.systems.examples.emps", "EMPS")}
 """Name -> (module, attribute) of machines shipped as worked examples of real data (no plant: the
 diagnosis and the physical model run on them, the benchmark does not)."""
+
+URDF_EXAMPLES = {"two_link": "two_link.urdf"}
+"""Name -> file in ``lcgym/systems/examples/`` of the URDFs shipped with lcgym (package data): by
+name, ``--system two_link`` works from an installed wheel as well as from the source tree."""
 
 VERSIONS = {"ix": ("v0", "v1"), "flexarm": ("v0", "v1")}
 """The versions of each built-in machine's plant, oldest first. A version is frozen once released: a
@@ -90,6 +96,8 @@ def get(spec: str | System, joints: Sequence[str] | None = None, **options) -> S
     if spec in BUILT_IN or spec in EXAMPLES:
         module, attr = {**BUILT_IN, **EXAMPLES}[spec]
         return getattr(importlib.import_module(module), attr)
+    if spec in URDF_EXAMPLES:
+        spec = str(resources.files("lcgym.systems.examples").joinpath(URDF_EXAMPLES[spec]))
     if spec.lower().endswith(".urdf"):
         from .urdf import from_urdf
 
@@ -97,7 +105,8 @@ def get(spec: str | System, joints: Sequence[str] | None = None, **options) -> S
     module_name, sep, attr = spec.partition(":")
     if sep and module_name and attr:
         return from_python(module_name, attr)
-    raise ValueError(f"unknown machine {spec!r}: give a built-in one ({', '.join([*BUILT_IN, *EXAMPLES])}), a .urdf file, "
+    known = ", ".join([*BUILT_IN, *EXAMPLES, *URDF_EXAMPLES])
+    raise ValueError(f"unknown machine {spec!r}: give a built-in one ({known}), a .urdf file, "
                      "or module:attr naming a lcgym.systems.System")
 
 
@@ -153,6 +162,6 @@ def register_envs() -> None:
             gym.register(id=env_id, **entry)
 
 
-__all__ = ["Axis", "BUILT_IN", "ENVS", "EXAMPLES", "VERSIONS", "ParameterVector", "SimulationDiverged", "System",
+__all__ = ["Axis", "BUILT_IN", "ENVS", "EXAMPLES", "URDF_EXAMPLES", "VERSIONS", "ParameterVector", "SimulationDiverged", "System",
            "benchmark_name", "built_in", "family_of", "from_python", "get", "make_bench", "newest_benchmarks", "of_trials",
            "register_envs"]

@@ -1,0 +1,176 @@
+"""The leaderboard page (``lcgym leaderboard CSV --html DIR``) in a real browser.
+
+Headless Chromium (``lcgym.leaderboard.browser``: Playwright for Python driving the system's
+``chromium``) opens the page by its ``file://`` URL at 1280 x 800 and checks that the overview
+tables are on the first screen, that clicking a header sorts the rows, that every image loads,
+that nothing is logged as an error and that no request leaves ``file:`` and ``data:`` URLs. Once on
+a page built from a small synthetic CSV (with traces and a failed cell whose error is markup), once
+on the shipped ``results/leaderboard.csv``.
+
+Without Playwright or Chromium the browser tests are skipped, saying which is missing, unless
+``LCGYM_REQUIRE_BROWSER=1`` (the CI sets it): then they fail.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from lcgym.cli import main
+from lcgym.leaderboard.browser import VIEWPORT, BrowserUnavailable, chromium_path, open_page
+from lcgym.leaderboard.page import page_path, ratio_colour
+from lcgym.leaderboard.report import select, write_html
+from lcgym.leaderboard.runner import trace_path
+from lcgym.leaderboard.store import SIGNALS, append_rows, read_results
+
+REPO = Path(__file__).resolve().parents[1]
+SHIPPED = REPO / "results" / "leaderboard.csv"
+EVIL = "<script>alert('x')</script> & <img src=missing.png onerror=alert(1)>"
+
+# RMS [deg or mm] per (system, axis, method); the geometric mean of the ratios to physical ranks
+# beta before alpha on ix-v1, while alpha is best on the propeller: sorting by that column moves rows.
+SYNTHETIC = {
+    ("ix-v1", "tracking_error", "propeller"): {"feedback": 0.4, "physical": 0.08, "alpha": 0.01, "beta": 0.05},
+    ("ix-v1", "tracking_error", "roll"): {"feedback": 0.5, "physical": 0.1, "alpha": 0.2, "beta": 0.03},
+    ("flexarm-v1", "tracking_error", "j2"): {"feedback": 0.17, "physical": 0.007, "alpha": 0.03, "beta": 0.009},
+    ("flexarm-v1", "tcp_position_error", "tcp"): {"feedback": 4.4, "physical": 0.2, "alpha": 0.9, "beta": 0.3},
+}
+
+
+def _unit(signal: str, system: str) -> str:
+    unit = SIGNALS[signal]
+    return unit if isinstance(unit, str) else unit[system]
+
+
+def _synthetic_csv(folder: Path) -> Path:
+    """A results CSV of two seeds per cell, their traces, and one failed cell with markup in its error."""
+    out = folder / "leaderboard.csv"
+    folder.mkdir()
+    provenance = {"run_id": "r1", "lcgym_version": "0.1.0", "git_commit": "abc123def456",
+                  "timestamp": "2026-12-02T10:00:00+00:00", "config_hash": "feedc0ffee12"}
+    rows = []
+    for (system, signal, axis), methods in SYNTHETIC.items():
+        for method, rms in methods.items():
+            for seed in (0, 1):
+                value = rms * (1 + 0.05 * seed)
+                for reference_set in ("train", "validation"):
+                    rows.append({**provenance, "system": system, "method": method, "seed": seed,
+                                 "reference_set": reference_set, "axis": axis, "signal": signal, "period": "all",
+                                 "MA": 0.8 * value, "RMS": value, "Inf": 3 * value, "unit": _unit(signal, system),
+                                 "plant_trials": 4, "env_steps": 0, "fit_seconds": 0.5, "status": "ok", "error": ""})
+    rows.append({**provenance, "system": "ix-v1", "method": "evil", "seed": 0, "status": "failed", "error": EVIL})
+    append_rows(out, rows)
+    t = np.arange(0.0, 2.0, 0.01)
+    for (system, _signal, _axis), methods in SYNTHETIC.items():
+        axes = [a for (s, sig, a) in SYNTHETIC if s == system and sig == "tracking_error"]
+        for method in methods:
+            frame = {"t": t}
+            for k, a in enumerate(axes):
+                rms = SYNTHETIC[(system, "tracking_error", a)][method]
+                frame[f"ref_{a}"] = np.sin(np.pi * t + k)
+                frame[f"error_{a}"] = np.radians(rms * np.sqrt(2) * np.sin(3 * np.pi * t + k))
+            path = trace_path(out, system, method, 0)
+            path.parent.mkdir(exist_ok=True)
+            pd.DataFrame(frame).astype("float32").to_parquet(path, index=False)
+    return out
+
+
+def _browser_or_skip() -> None:
+    try:
+        import playwright.sync_api  # noqa: F401
+
+        chromium_path()
+    except (ImportError, BrowserUnavailable) as exc:
+        reason = f"no browser for the page test: {exc} (Playwright for Python and Debian's chromium)"
+        if os.environ.get("LCGYM_REQUIRE_BROWSER") == "1":
+            pytest.fail(f"LCGYM_REQUIRE_BROWSER=1 but {reason}")
+        pytest.skip(reason)
+
+
+def _column(page, table: int, col: int) -> list:
+    """The cells of one column of the table-th overview table, top to bottom: the sort key
+    (``data-value``) as a number, or the text where the cell has none (the method's name)."""
+    return page.evaluate(
+        """([t, c]) => [...document.querySelectorAll('table.overview')[t].tBodies[0].rows].map(r => {
+               const v = r.cells[c].getAttribute('data-value');
+               return v === null ? r.cells[c].textContent : (v === '' ? null : parseFloat(v)); })""",
+        [table, col])
+
+
+def _check_in_browser(html_file: Path) -> dict:
+    """Open the page at 1280 x 800 and check the first screen, sorting, images, console and requests."""
+    with open_page(html_file) as (page, log):
+        width, height = VIEWPORT
+        boxes = [t.bounding_box() for t in page.query_selector_all("table.overview")]
+        assert boxes, "no overview table"
+        for box in boxes:
+            assert box["x"] >= 0 and box["y"] >= 0, box
+            assert box["x"] + box["width"] <= width and box["y"] + box["height"] <= height, \
+                f"overview table {box} is not on the first screen {width} x {height}"
+        # sort each overview table by its first axis column: ascending, then descending
+        order = {}
+        for t, table in enumerate(page.query_selector_all("table.overview")):
+            header = table.query_selector("th[data-col='1']")
+            before = _column(page, t, 0)
+            header.click()
+            ascending = _column(page, t, 1)
+            assert ascending == sorted(ascending) and header.get_attribute("aria-sort") == "ascending"
+            after = _column(page, t, 0)
+            header.click()
+            descending = _column(page, t, 1)
+            assert descending == sorted(descending, reverse=True) and header.get_attribute("aria-sort") == "descending"
+            order[table.get_attribute("data-system")] = (before, after)
+        images = page.evaluate("() => [...document.images].map(i => [i.alt, i.complete, i.naturalWidth])")
+        assert images and all(done and w > 0 for _alt, done, w in images), images
+        assert not log.console_errors and not log.page_errors, (log.console_errors, log.page_errors)
+        assert all(u.startswith(("file:", "data:")) for u in log.requests), log.requests
+        return {"order": order, "images": [a for a, _, _ in images]}
+
+
+def test_page_of_a_synthetic_csv_in_the_browser(tmp_path, capsys):
+    _browser_or_skip()
+    csv = _synthetic_csv(tmp_path / "made")
+    site = tmp_path / "site"
+    assert main(["leaderboard", str(csv), "--html", str(site)]) == 0
+    page = site / "index.html"
+    text = page.read_text()
+    assert str(tmp_path) not in text and "leaderboard.csv" in text  # named by file name, not by path
+    assert "feedc0ffee12" in text and "abc123def456" in text
+    assert EVIL not in text and "&lt;script&gt;alert(&#x27;x&#x27;)&lt;/script&gt;" in text
+    assert "http://" not in text and "https://" not in text  # nothing to fetch: no CDN, no font
+    seen = _check_in_browser(page)
+    before, after = seen["order"]["ix-v1"]
+    assert before[:2] == ["beta", "alpha"] and after[0] == "alpha"  # the click moved the rows
+    assert {"ix-v1_traces", "flexarm-v1_traces", "ix-v1_tracking_error"} <= set(seen["images"])
+
+
+def test_page_of_the_shipped_results_in_the_browser(tmp_path):
+    _browser_or_skip()
+    df, _others = select(read_results(SHIPPED))
+    page = write_html(df, tmp_path / "results", source=str(SHIPPED))
+    assert page == tmp_path / "results" / "index.html"
+    text = page.read_text()
+    assert str(REPO) not in text and ">leaderboard.csv<" in text
+    seen = _check_in_browser(page)
+    assert {f"{s}_traces" for s in set(df["system"])} <= set(seen["images"])
+
+
+def test_page_path_takes_a_folder_or_an_html_file(tmp_path):
+    assert page_path(tmp_path / "board.html") == tmp_path / "board.html"
+    assert page_path(tmp_path / "site") == tmp_path / "site" / "index.html"
+    (tmp_path / "notes.txt").write_text("x")
+    with pytest.raises(ValueError, match="neither a folder nor"):
+        page_path(tmp_path / "notes.txt")
+    with pytest.raises(ValueError, match="does not exist"):
+        page_path(tmp_path / "missing" / "site")
+
+
+def test_ratio_colours_green_below_one_red_above_white_at_one():
+    assert ratio_colour(1.0) == "#ffffff" and ratio_colour(0.0) is None and ratio_colour(float("nan")) is None
+    green, red = ratio_colour(0.1), ratio_colour(10.0)
+    assert int(green[3:5], 16) > int(green[1:3], 16) and int(red[1:3], 16) > int(red[3:5], 16)
+    assert ratio_colour(1e-6) == ratio_colour(1e-3)  # saturated beyond 10**-1.5
