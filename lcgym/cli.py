@@ -186,7 +186,7 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--plot", type=_file_of(".png", ".pdf", ".svg"),
                      help="PNG (or PDF, SVG) of tracking errors with the scaled reference velocity")
     diag = sub.add_parser("diagnose", help="compare the physical model with measurements; find the missing effect")
-    diag.add_argument("data", type=Path, help="measurement file (.csv or .parquet; README, 'Measurement files')")
+    diag.add_argument("data", type=Path, help="measurement file (.csv or .parquet; docs/measurement-format.md)")
     diag.add_argument("--system", required=True, metavar="MACHINE",
                       help="ix, flexarm, a URDF file (the data's pos_<joint> columns name its axes) or module:attr")
     diag.add_argument("--add", action="append", default=[], metavar="EFFECT@AXIS",

@@ -1,5 +1,5 @@
-"""The diagnosis on the EMPS benchmark's real files (README, "Real measurements: the EMPS
-benchmark"): the selection on each file, the residual on the other file (``--validate``), the
+"""The diagnosis on the EMPS benchmark's real files (docs/emps.md): the selection on each file, the
+residual on the other file (``--validate``), the
 fitted parameters against the benchmark's published IDIM-LS values, and how they move with the
 low-pass of the measured position (``PhysicalModel.position_filter_hz``), on the real files and
 on a simulated carriage with the published parameters (the data of ``tests/test_diagnose_emps.py``).

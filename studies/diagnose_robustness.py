@@ -7,7 +7,7 @@ runs of three training references (70,000 samples) per seed; the diagnosis runs,
 selected effects are added. Prints, per case, how often the truth's family and axis (or, for a
 pair, both effects) were named first (in the first two picks), the selected effects of seed 0,
 and the range over the seeds of the truth axis's residual RMS after / before adding the
-selected effects; writes the table as Markdown to ``--out`` (the README's table).
+selected effects; writes the table as Markdown to ``--out`` (the table of docs/diagnosis.md).
 
 Run:  .venv/bin/python studies/diagnose_robustness.py [--seeds 0,1,2] [--out robustness.md]
 """

@@ -7,7 +7,7 @@ offset -3.16 N; asymmetric: Fc+ 20.14 N, Fc- 20.63 N, Fv+ 166.7 N s/m, Fv- 240.4
 The carriage is a one-prismatic-joint URDF simulated by ``URDFPlant`` (the plant side of the
 effects), written as a ``.mat`` file of the benchmark's layout, read back and diagnosed on the
 Python EMPS machine: the data path a user with the real files takes. The real files are not in
-the repository (their licence is not stated); the README shows the diagnosis on them.
+the repository (their licence is not stated); ``docs/emps.md`` shows the diagnosis on them.
 """
 
 from __future__ import annotations

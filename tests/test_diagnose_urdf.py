@@ -1,11 +1,11 @@
-"""The diagnosis on a URDF machine (issue acceptance): the README's worked example, a friction of no
+"""The diagnosis on a URDF machine (issue acceptance): the docs' worked example, a friction of no
 textbook shape on one joint of the two-link arm, named, added, and the joint's residual at most
 half of before; with a one-sided spring on the other joint as well, both selected; nothing claimed
 without a hidden effect. Also: the CLI on URDF files, position-only logs, jittered logs
 (``--resample``), and the PGNN fitted on a URDF machine's trials.
 
-The worked example's code is read from the README (the block that starts with
-``# two_link_data.py``), so the README cannot rot.
+The worked example's code is read from the docs page ``docs/own-machine.md`` (the block that starts
+with ``# two_link_data.py``), so the page cannot rot.
 """
 
 from __future__ import annotations
@@ -26,27 +26,27 @@ from lcgym.physics import effects as fx
 from lcgym.systems.examples import two_link_urdf
 from lcgym.systems.urdf_plant import URDFPlant, random_references
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+PAGE = Path(__file__).resolve().parents[1] / "docs" / "own-machine.md"
 URDF = str(two_link_urdf())
 JOINTS = ("shoulder", "elbow")
 
 
 def readme_example() -> str:
-    blocks = re.findall(r"```python\n(# two_link_data\.py.*?)```", README.read_text(), flags=re.S)
-    assert len(blocks) == 1, "the README has one code block starting with '# two_link_data.py'"
+    blocks = re.findall(r"```python\n(# two_link_data\.py.*?)```", PAGE.read_text(), flags=re.S)
+    assert len(blocks) == 1, "docs/own-machine.md has one code block starting with '# two_link_data.py'"
     return blocks[0]
 
 
 @pytest.fixture(scope="module")
 def example(tmp_path_factory):
-    """The README's data: feedback-only runs of the two-link arm with the hidden elbow friction."""
+    """The page's data: feedback-only runs of the two-link arm with the hidden elbow friction."""
     folder = tmp_path_factory.mktemp("two_link")
     cwd = Path.cwd()
     try:
         import os
 
         os.chdir(folder)
-        exec(compile(readme_example(), "README two_link_data.py", "exec"), {"__name__": "readme_example"})
+        exec(compile(readme_example(), "docs/own-machine.md two_link_data.py", "exec"), {"__name__": "readme_example"})
     finally:
         os.chdir(cwd)
     return folder / "two_link.csv"
@@ -70,7 +70,7 @@ def test_readme_example_names_the_friction_and_adding_it_halves_the_elbow_residu
 def test_friction_and_a_one_sided_spring_on_another_joint_are_both_selected(tmp_path):
     arm = systems.get(URDF, joints=JOINTS)
 
-    def friction(v):  # the README's curve
+    def friction(v):  # the page's curve
         return 2.0 * (2 / np.pi) * np.arctan(v / 0.02) + 0.8 * np.exp(-((v / 0.08) ** 2)) * np.tanh(v / 0.005)
 
     hidden = (fx.TabulatedForce.from_function("elbow", "velocity", friction, -1.5, 1.5, 601),
@@ -192,7 +192,7 @@ def test_write_read_round_trip_keeps_urdf_axes(tmp_path):
 
 
 def test_a_larger_start_model_is_searched_from(example):
-    """The README's start-model recipe: the friction already in the model is not offered again."""
+    """The page's start-model recipe: the friction already in the model is not offered again."""
     arm = systems.get(URDF, joints=JOINTS)
     trials = read_trials(example, axes=arm)
     start = arm.diagnosis_model(trials[0].fs).with_effect("coulomb_friction@elbow")

@@ -1,9 +1,9 @@
-"""A user's machine as Python (``--system module:attr``): the README's one-axis example, run as the
-README says, on the README's log with a hidden friction its model lacks; and the refusals of a bad
-spec.
+"""A user's machine as Python (``--system module:attr``): the docs' one-axis example
+(``docs/own-machine.md``), run as the page says, on the page's log with a hidden friction its model
+lacks; and the refusals of a bad spec.
 
-The example is read from the README itself (the code blocks that start with ``# my_axis.py`` and
-``# make_log.py``), so the README's code cannot rot.
+The example is read from the page itself (the code blocks that start with ``# my_axis.py`` and
+``# make_log.py``), so the page's code cannot rot.
 """
 
 from __future__ import annotations
@@ -19,21 +19,21 @@ import pytest
 from lcgym import systems
 from lcgym.cli import main
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+PAGE = Path(__file__).resolve().parents[1] / "docs" / "own-machine.md"
 FS = 1000.0
 
 
 def readme_example() -> str:
-    blocks = re.findall(r"```python\n(# my_axis\.py.*?)```", README.read_text(), flags=re.S)
-    assert len(blocks) == 1, "the README has one code block starting with '# my_axis.py'"
+    blocks = re.findall(r"```python\n(# my_axis\.py.*?)```", PAGE.read_text(), flags=re.S)
+    assert len(blocks) == 1, "docs/own-machine.md has one code block starting with '# my_axis.py'"
     return blocks[0]
 
 
 @pytest.fixture()
 def my_axis(tmp_path, monkeypatch):
-    """The README's module in a fresh folder, that folder the current one (as a user runs it)."""
+    """The page's module in a fresh folder, that folder the current one (as a user runs it)."""
     code = readme_example()
-    assert len(code.strip().splitlines()) < 30, "the README promises a complete example in under 30 lines"
+    assert len(code.strip().splitlines()) < 30, "the page promises a complete example in under 30 lines"
     (tmp_path / "my_axis.py").write_text(code)
     monkeypatch.chdir(tmp_path)
     monkeypatch.syspath_prepend(str(tmp_path))
@@ -42,16 +42,16 @@ def my_axis(tmp_path, monkeypatch):
 
 
 def readme_log_maker() -> str:
-    blocks = re.findall(r"```python\n(# make_log\.py.*?)```", README.read_text(), flags=re.S)
-    assert len(blocks) == 1, "the README has one code block starting with '# make_log.py'"
+    blocks = re.findall(r"```python\n(# make_log\.py.*?)```", PAGE.read_text(), flags=re.S)
+    assert len(blocks) == 1, "docs/own-machine.md has one code block starting with '# make_log.py'"
     return blocks[0]
 
 
 def _log(folder: Path, friction: float) -> Path:
-    """The README's log of the carriage (``make_log.py``) with its ``FRICTION`` set to ``friction`` [N]."""
+    """The page's log of the carriage (``make_log.py``) with its ``FRICTION`` set to ``friction`` [N]."""
     code = readme_log_maker()
     assert "FRICTION = 8.0" in code
-    exec(compile(code.replace("FRICTION = 8.0", f"FRICTION = {friction!r}"), "README make_log.py", "exec"),
+    exec(compile(code.replace("FRICTION = 8.0", f"FRICTION = {friction!r}"), "docs/own-machine.md make_log.py", "exec"),
          {"__name__": "make_log"})
     return folder / "log.csv"
 

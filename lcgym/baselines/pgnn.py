@@ -1,8 +1,8 @@
 """Leaderboard methods ``pgnn`` (J = J_LS + mu1 R1 + mu2 R2) and ``pgnn-ls`` (J_LS only): the
 PGNN of paper 000 (``lcgym.pgnn``) in the benchmark's protocol.
 
-The protocol, and where it departs from the paper's literal settings (the evidence: README, "The
-PGNN (paper 000)", measured with ``studies/pgnn_protocol.py`` on IX-v1's leaderboard data):
+The protocol, and where it departs from the paper's literal settings (the evidence: docs/methods/pgnn.md,
+measured with ``studies/pgnn_protocol.py`` on IX-v1's leaderboard data):
 
 * **data**: paper 000 learns u as a function of the reference theta_d, assuming the axes follow it
   (V-A). With feedback only they lag it by 0.3-0.6 deg, so on the IX the method first fits the

@@ -11,7 +11,7 @@ cell's training references: one action per control sample, the feedback loop ins
 * **Budget**: ``passes`` x the training references' samples env steps (``RLConfig.passes`` per
   system; ``total_steps`` overrides). Defaults: IX 3 passes (about 5.5e5 steps on the bench's 8
   training references, about 1 min here), FlexArm 1 pass (about 5e4 steps, about 20 s); the
-  README's "RL baseline" gives what they and 10x more reach (``studies/rl_baseline.py``).
+  docs page methods/rl.md gives what they and 10x more reach (``studies/rl_baseline.py``).
 * **Observation**: the env's, with the tracking error the encoders measure (``observe_error``).
   The policy then closes an extra loop around the plant, so its feedforward for a reference is
   what it applies in one deterministic rollout on the plant (``learn``), counted as one plant
@@ -58,8 +58,8 @@ ALGORITHMS = ("ppo", "sac", "td3")
 
 # One documented place for the hyperparameters (stable-baselines3 keyword arguments).
 # PPO: 8 envs x 1024 steps per update (one update per 8192 samples, 16 s of IX motion), 10 epochs;
-# learning rate 1e-3 (SB3's default 3e-4 learned the IX's propeller too slowly: README, "RL
-# baseline"); a small initial exploration noise (std e^-2 of the action's unit: 0.14 V on the IX)
+# learning rate 1e-3 (SB3's default 3e-4 learned the IX's propeller too slowly: docs/methods/rl.md);
+# a small initial exploration noise (std e^-2 of the action's unit: 0.14 V on the IX)
 # because the residual's useful size is a fraction of the bound. SAC and TD3: SB3's defaults with
 # the same network size and a buffer of about a full pass over the IX's training data; not tuned.
 HYPERPARAMETERS: dict[str, dict] = {

@@ -1,0 +1,261 @@
+"""Every fenced code block of the docs (``docs/**/*.md``) and of ``README.md`` runs here, or is
+accounted for, so the pages cannot rot.
+
+The rules, by the fence's language:
+
+- ``python``: run in order, all python blocks of one page in one namespace, in a fresh folder that
+  is the current one (``random`` and numpy's global generator seeded with 0 first). A block whose
+  first line is ``# NAME.py ...`` is a file the user saves: it is written to ``NAME.py`` in that
+  folder, not run itself; a later ``bash`` block of the page runs or imports it (checked).
+- ``bash``: the whole block runs as one ``bash -euo pipefail`` script in the page's folder, with
+  ``.venv/bin/`` rewritten to the bin folder of the Python running the tests (also first on
+  ``PATH``) and repository paths that exist (``lcgym/...``, ``results/...``) made absolute; its
+  exit status must be 0. Exceptions: the set-up and install commands (``python3 -m venv``,
+  ``pip install``) are not run (they would rebuild the venv): each of their ``&&`` parts must be a
+  command of ``.ci/run``, which CI runs (CI's ``-q`` and ``--site-dir DIR`` aside), except the main
+  job's, which must be CI's test command with ``-e .`` for ``-e ".[test]"`` and
+  ``lcgym bench --quick`` for pytest.
+- ``text``: output or a synopsis, not code. The ``text`` blocks that follow a ``bash`` block,
+  before the next ``python`` or ``bash`` block or heading, are the output it shows: each of their
+  lines (blank lines and ``...`` left out) must be a line of what the block printed, compared
+  loosely: every number counts as one token (``#``) and runs of white space as one space, and the
+  order of the lines is free (shown outputs are cut, and what the page shows is of one machine: the
+  last digits differ on others). A synopsis ``lcgym CMD [--opt ...]`` must name only options that
+  ``lcgym CMD --help`` lists.
+
+Marks, an HTML comment on the line before a fence: ``<!-- docs-test: slow -->`` makes the page's
+test ``slow`` (the commands take minutes; ``pytest -m slow tests/test_docs.py`` runs them);
+``<!-- docs-test: emps -->`` puts ``DATA_EMPS.mat`` and ``DATA_EMPS_PULSES.mat`` in the folder
+first, made from ``tests/test_diagnose_emps.py``'s simulated carriage (the real files are not in
+the repository); ``<!-- docs-test: not-compared (why) -->`` before a ``text`` block: output that
+is not compared (the EMPS page's, from the real files).
+
+``.ci/wheel_check`` runs the getting-started, diagnosis and own-machine pages again with lcgym
+installed from its wheel in a fresh venv, outside the source tree (``LCGYM_DOCS_INSTALLED=1``:
+repository paths are left as written, and lcgym must not come from the checkout).
+"""
+
+from __future__ import annotations
+
+import os
+import random
+import re
+import shlex
+import subprocess
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
+PAGES = [*sorted(DOCS.rglob("*.md")), ROOT / "README.md"]
+BIN = Path(sys.executable).parent
+# set by .ci/wheel_check: lcgym is an installed wheel, run away from the source tree (no paths into it)
+INSTALLED = os.environ.get("LCGYM_DOCS_INSTALLED") == "1"
+LANGUAGES = {"python", "bash", "text"}
+MARK = re.compile(r"^<!-- docs-test: ([\w-]+)(?: \(.*\))? -->$")
+FILE_BLOCK = re.compile(r"^# (\w+\.py)\b")
+NUMBER = re.compile(r"[-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?")
+REPO_PATH = re.compile(r"(?<![\w./-])((?:lcgym|results)/[\w./-]+)")
+
+
+@dataclass
+class Block:
+    page: Path
+    line: int  # of the opening fence, 1-based
+    lang: str
+    code: str
+    marks: set[str] = field(default_factory=set)
+    outputs: list[Block] = field(default_factory=list)  # for a bash block: the text blocks it shows
+
+    @property
+    def where(self) -> str:
+        return f"{self.page.relative_to(ROOT)}:{self.line}"
+
+    @property
+    def file_name(self) -> str | None:
+        m = FILE_BLOCK.match(self.code) if self.lang == "python" else None
+        return m.group(1) if m else None
+
+    @property
+    def installs(self) -> bool:
+        return self.lang == "bash" and ("python3 -m venv" in self.code or "pip install" in self.code)
+
+
+def blocks(page: Path) -> list[Block]:
+    """The page's fenced blocks in order; each bash block with the text blocks that show its output."""
+    lines = page.read_text().splitlines()
+    out: list[Block] = []
+    last_bash: Block | None = None
+    k = 0
+    while k < len(lines):
+        line = lines[k]
+        if line.startswith("#") and not line.startswith("#!"):  # a heading ends a command's output
+            last_bash = None
+        if line.lstrip().startswith("```"):
+            indent = len(line) - len(line.lstrip())
+            lang = line.strip()[3:].strip()
+            end = next(j for j in range(k + 1, len(lines)) if lines[j].strip() == "```")
+            code = "\n".join(x[indent:] for x in lines[k + 1:end]) + "\n"
+            prev = next((lines[j].strip() for j in range(k - 1, -1, -1) if lines[j].strip()), "")
+            marks = {MARK.match(prev).group(1)} if MARK.match(prev) else set()
+            block = Block(page, k + 1, lang, code, marks)
+            out.append(block)
+            if lang == "bash":
+                last_bash = block
+            elif lang == "text" and last_bash is not None:
+                last_bash.outputs.append(block)
+            elif lang != "text":
+                last_bash = None
+            k = end + 1
+            continue
+        k += 1
+    return out
+
+
+ALL = [b for p in PAGES for b in blocks(p)]
+
+
+def _normalized(line: str) -> str:
+    return " ".join(NUMBER.sub("#", line).split())
+
+
+def _script(code: str) -> str:
+    code = code.replace(".venv/bin/", f"{BIN}/")
+    if INSTALLED:
+        return code
+    return REPO_PATH.sub(lambda m: str(ROOT / m.group(1)) if (ROOT / m.group(1)).exists() else m.group(1), code)
+
+
+def _emps_files(folder: Path) -> None:
+    """``DATA_EMPS.mat`` / ``DATA_EMPS_PULSES.mat`` of the benchmark's layout from the simulated
+    carriage with the published asymmetric friction (two experiments, seeds 0 and 1)."""
+    from test_diagnose_emps import ASYMMETRIC, CARRIAGE, GTAU, write_mat
+
+    from lcgym import systems
+    from lcgym.systems.urdf_plant import URDFPlant, random_references
+
+    (folder / "carriage.urdf").write_text(CARRIAGE)
+    carriage = systems.get(str(folder / "carriage.urdf"), joints=("x",))
+    for name, seed in (("DATA_EMPS.mat", 0), ("DATA_EMPS_PULSES.mat", 1)):
+        run = URDFPlant(carriage, effects=ASYMMETRIC, encoder_resolution=1e-6, seed=seed).run(
+            random_references(carriage, n=1, duration=25.0, seed=seed))[0]
+        write_mat(folder / name, run.t, run.pos[:, 0], run.ref[:, 0], run.u[:, 0] / GTAU)
+
+
+def _run_bash(block: Block, folder: Path) -> str:
+    env = {**os.environ, "PATH": f"{BIN}{os.pathsep}{os.environ.get('PATH', '')}", "MPLBACKEND": "Agg"}
+    done = subprocess.run(["bash", "-euo", "pipefail", "-c", _script(block.code)], cwd=folder, env=env,
+                          capture_output=True, text=True, timeout=1800)
+    assert done.returncode == 0, (f"{block.where}: exit status {done.returncode}\n{block.code}\n"
+                                  f"{done.stdout[-3000:]}\n{done.stderr[-3000:]}")
+    return done.stdout.replace(f"{ROOT}/", "")
+
+
+def _check_output(block: Block, printed: str) -> None:
+    have = {_normalized(x) for x in printed.splitlines()}
+    for shown in block.outputs:
+        if "not-compared" in shown.marks:
+            continue
+        missing = [x for x in shown.code.splitlines() if x.strip() and x.strip() != "..." and _normalized(x) not in have]
+        assert not missing, (f"{shown.where}: lines the page shows that {block.where} did not print:\n"
+                             + "\n".join(missing) + f"\n--- it printed:\n{printed[-4000:]}")
+
+
+def run_page(page: Path, folder: Path, monkeypatch) -> None:
+    if INSTALLED:
+        import lcgym
+
+        assert ROOT not in Path(lcgym.__file__).resolve().parents, f"lcgym imported from the source tree: {lcgym.__file__}"
+    monkeypatch.chdir(folder)
+    monkeypatch.syspath_prepend(str(folder))
+    random.seed(0)
+    np.random.seed(0)
+    namespace = {"__name__": "__docs__"}
+    for block in blocks(page):
+        if block.lang == "python" and block.file_name:
+            (folder / block.file_name).write_text(block.code)
+        elif block.lang == "python":
+            exec(compile(block.code, block.where, "exec"), namespace)
+        elif block.lang == "bash" and not block.installs:
+            if "emps" in block.marks:
+                _emps_files(folder)
+            _check_output(block, _run_bash(block, folder))
+
+
+def _page_param(page: Path):
+    runnable = [b for b in blocks(page) if b.lang == "python" or (b.lang == "bash" and not b.installs)]
+    if not runnable:
+        return None
+    slow = any("slow" in b.marks for b in runnable)
+    return pytest.param(page, id=str(page.relative_to(ROOT)), marks=[pytest.mark.slow] if slow else [])
+
+
+@pytest.mark.parametrize("page", [p for p in map(_page_param, PAGES) if p is not None])
+def test_page_code_runs_as_written(page, tmp_path, monkeypatch):
+    run_page(page, tmp_path, monkeypatch)
+
+
+def test_every_block_is_accounted_for():
+    """Known languages only; file blocks used by the page; marks spelled right."""
+    assert ALL, "no code blocks found"
+    for b in ALL:
+        assert b.lang in LANGUAGES, f"{b.where}: a block in {b.lang!r}; the tests know {sorted(LANGUAGES)}"
+        assert b.marks <= {"slow", "emps", "not-compared"}, f"{b.where}: unknown mark {b.marks}"
+        if b.file_name:
+            module = b.file_name.removesuffix(".py")
+            later = [c.code for c in blocks(b.page) if c.line > b.line and c.lang in ("bash", "python")]
+            assert any(b.file_name in c or re.search(rf"\b{module}[:.]|import {module}\b", c) for c in later), \
+                f"{b.where}: {b.file_name} is saved but no later block of the page runs or imports it"
+    assert [b for b in ALL if b.marks & {"slow"}], "no slow block: drop the mark's handling or mark one"
+    slow_pages = {b.page for b in ALL if "slow" in b.marks}
+    assert len(slow_pages) <= 4, f"keep the slow set small: {sorted(map(str, slow_pages))}"
+
+
+def test_install_commands_are_the_ones_ci_runs():
+    """The set-up commands are not run here: CI runs them (.ci/run), verbatim."""
+    ci = [x.strip() for x in (ROOT / ".ci" / "run").read_text().splitlines()]
+    test_line = next(x for x in ci if x.startswith("python3 -m venv") and "pytest" in x)
+    main_job = test_line.replace('-e ".[test]"', "-e .").replace(".venv/bin/python -m pytest -q", ".venv/bin/lcgym bench --quick")
+    commands = [x.strip() for b in ALL if b.installs for x in b.code.splitlines() if x.strip()]
+    assert test_line in commands and main_job in commands
+    for page in (ROOT / "README.md", DOCS / "getting-started.md"):
+        shown = {x.strip() for b in blocks(page) if b.installs for x in b.code.splitlines()}
+        assert {test_line, main_job} <= shown, f"{page.name}: the set-up commands differ from CI's"
+    ci_parts = {_quiet(part) for line in ci for part in line.split(" && ")}
+    for command in commands:
+        assert command == main_job or all(_quiet(part) in ci_parts for part in command.split(" && ")), \
+            f"{command!r} is shown as a set-up command but .ci/run does not run it"
+
+
+def _quiet(command: str) -> str:
+    """A command as CI's form of it is compared: without ``-q`` and ``--site-dir DIR``."""
+    return " ".join(re.sub(r'--site-dir ("[^"]*"|\S+)', "", command).replace(" -q ", " ").split())
+
+
+def test_synopses_name_only_real_options():
+    for b in ALL:
+        m = re.match(r"lcgym (\w+) \[", b.code) if b.lang == "text" else None
+        if not m:
+            continue
+        helptext = subprocess.run([str(BIN / "lcgym"), m.group(1), "--help"], capture_output=True, text=True).stdout
+        for option in set(re.findall(r"--[\w-]+", b.code)):
+            assert option in helptext, f"{b.where}: lcgym {m.group(1)} has no option {option}"
+
+
+def test_readme_fits_a_first_read():
+    readme = (ROOT / "README.md").read_text()
+    assert len(readme.splitlines()) < 150
+    for target in re.findall(r"\]\((docs/[^)#]+)", readme):
+        assert (ROOT / target).is_file(), f"README links to {target}, which does not exist"
+
+
+def test_the_loose_comparison_is_loose_only_in_numbers():
+    have = {_normalized(x) for x in ["  roll           0.0655   0.0165     -75%", "  1. cable_spring@roll [spring]: 64%"]}
+    assert _normalized("  roll  0.1  0.2   -7%") in have
+    assert _normalized("  1. coulomb_friction@roll [friction]: 64%") not in have
+    urdf = "lcgym/systems/examples/two_link.urdf"
+    assert shlex.split(_script(f"x {urdf} y"))[1] == str(ROOT / urdf)
