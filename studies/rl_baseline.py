@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from lcgym.leaderboard.systems import BENCH_SYSTEMS
 
+from lcgym import systems
 from lcgym.baselines import BasicArmFeedforward, PhysicalFeedforward
 from lcgym.baselines.rl import RLConfig, RLFeedforward
 from lcgym.leaderboard.runner import BenchConfig
@@ -40,7 +40,7 @@ def validation_rms(bench, references, controller, plant) -> np.ndarray:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--system", choices=("ix", "flexarm"), default="ix")
+    parser.add_argument("--system", default="ix", help="a benchmark machine: ix, flexarm (the newest version) or ix-v0, ...")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--passes", default=None, help="comma-separated passes over the training samples "
                                                          "(default: RLConfig's for the system)")
@@ -54,30 +54,31 @@ def main() -> None:
     torch.set_num_threads(1)
     overrides = {k: ast.literal_eval(v) for k, v in (s.split("=", 1) for s in args.set)}
     defaults = RLConfig().passes
-    passes = [float(p) for p in args.passes.split(",")] if args.passes else [defaults[args.system]]
-
-    bench = BENCH_SYSTEMS[args.system]()
+    bench = systems.make_bench(args.system)
+    family = bench.family
+    passes = [float(p) for p in args.passes.split(",")] if args.passes else [defaults[family]]
     cfg = BenchConfig()
     train = bench.references("train", args.seed, cfg.n_train, cfg.duration)
     val = bench.references("validation", args.seed, cfg.n_validation, cfg.duration)
     trials = bench.run(train)
-    start = (PhysicalFeedforward() if args.system == "ix" else BasicArmFeedforward()).fit(trials)
+    start = (PhysicalFeedforward() if family == "ix" else BasicArmFeedforward()).fit(trials)
     axes = ", ".join(bench.tables(trials, [t.ff for t in trials])[0]["axis"])
-    print(f"{args.system}, seed {args.seed}: validation RMS tracking error [deg] ({axes})")
+    print(f"{bench.name}, seed {args.seed}: validation RMS tracking error [deg] ({axes})")
     print(f"  {start.name} alone: {np.round(validation_rms(bench, val, start, bench.plant), 4)}")
     for p in passes:
         config = RLConfig(algorithm=args.algorithm, observe_error=not args.no_error,
-                          passes={**defaults, args.system: p}, hyperparameters=overrides, seed=args.seed,
+                          passes={**defaults, family: p}, hyperparameters=overrides, seed=args.seed,
                           cache=not args.no_cache, progress=True)
         rl = RLFeedforward(config).fit(trials)
         t0 = time.perf_counter()
         rms = validation_rms(bench, val, rl, bench.plant)
         seconds = rl.record_["seconds"]
-        tag = f"{args.algorithm}_{p:g}passes{'_noerror' if args.no_error else ''}_seed{args.seed}"
+        settings = "".join(f"_{k}{v}" for k, v in sorted(overrides.items()))  # --set KEY=VALUE: a file of its own
+        tag = f"{args.algorithm}_{p:g}passes{'_noerror' if args.no_error else ''}{settings}_seed{args.seed}"
         out = Path(args.out)
         out.mkdir(exist_ok=True)
-        rl.curve_.to_csv(out / f"rl_{args.system}_{tag}.csv", index=False)
-        rl.plot_curve(out / f"rl_{args.system}_{tag}.png")
+        rl.curve_.to_csv(out / f"rl_{bench.name}_{tag}.csv", index=False)
+        rl.plot_curve(out / f"rl_{bench.name}_{tag}.png")
         cached = " (loaded from the cache)" if rl.cost_.cached_seconds else ""
         print(f"  rl {tag}: {np.round(rms, 4)}; {rl.record_['env_steps']} training env steps in {seconds:.0f} s "
               f"({rl.record_['env_steps'] / seconds:.0f} steps/s){cached}; cell total: {rl.cost_.env_steps} env steps, "
