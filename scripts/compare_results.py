@@ -18,16 +18,21 @@ import sys
 import numpy as np
 import pandas as pd
 
+from lcgym.leaderboard.store import ResultsFileError, read_results
+
 KEY = ["system", "method", "seed", "reference_set", "axis", "signal", "period"]
 NORMS = ["MA", "RMS", "Inf"]
 COUNTS = ["env_steps", "plant_trials"]
 
 
 def relative(a: pd.Series, b: pd.Series) -> pd.Series:
-    """|a - b| / |a|; 0 where both are equal (zeros and NaN of failed cells included)."""
+    """|a - b| / |a|: 0 where both are equal (zeros and NaN of failed cells included), infinite where
+    a is 0 or NaN and b is not (or the other way round)."""
     a, b = a.astype(float), b.astype(float)
     same = (a == b) | (a.isna() & b.isna())
-    return ((a - b).abs() / a.abs().where(a != 0, np.inf)).where(~same, 0.0).fillna(np.inf)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = (a - b).abs() / a.abs()
+    return rel.where(~same, 0.0).fillna(np.inf).replace(np.nan, np.inf)
 
 
 def compare(a: pd.DataFrame, b: pd.DataFrame, names: tuple[str, str] = ("first", "second")
@@ -66,8 +71,11 @@ def main(argv: list[str] | None = None) -> int:
     frames = []
     for path in (args.first, args.second):
         try:
-            frames.append(pd.read_csv(path))
-        except (OSError, UnicodeDecodeError, pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
+            frames.append(read_results(path))  # the benchmark's own reader: schema and values checked
+        except ResultsFileError as exc:  # names the file, column and row
+            print(f"compare_results: {exc}", file=sys.stderr)
+            return 2
+        except (OSError, UnicodeDecodeError, pd.errors.ParserError) as exc:
             print(f"compare_results: cannot read {path}: {exc}", file=sys.stderr)
             return 2
     try:

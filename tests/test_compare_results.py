@@ -51,6 +51,14 @@ def test_failed_cells_compare_equal_and_a_new_failure_counts_as_infinite():
     assert compare_results.compare(a, b)[0].loc[("ix-v1", "physical"), "RMS_max"] == np.inf
 
 
+def test_a_value_leaving_zero_counts_as_infinite():
+    a, b = results(), results()
+    a.loc[0, "Inf"] = 0.0
+    table, _ = compare_results.compare(a, b)
+    assert table.loc[("ix-v1", "physical"), "values_differ"] == 1
+    assert table.loc[("ix-v1", "physical"), "any_max"] == np.inf
+
+
 def test_rows_in_one_file_only_are_listed():
     _, only = compare_results.compare(results(n_seeds=2), results(n_seeds=1))
     assert len(only) == 4 and set(only["only_in"]) == {"first"} and set(only["seed"]) == {1}
@@ -61,10 +69,11 @@ def test_not_a_results_file_or_two_runs_in_one_fail_clearly(tmp_path, capsys):
         compare_results.compare(results().drop(columns="RMS"), results())
     with pytest.raises(ValueError, match="holds a cell twice"):
         compare_results.compare(pd.concat([results(), results()]), results())
-    good = tmp_path / "a.csv"
-    results().to_csv(good, index=False)
-    bad = tmp_path / "b.csv"
-    bad.write_text("just text\nwith, more, fields\n")
-    assert compare_results.main([str(good), str(bad)]) == 2
-    assert str(bad) in capsys.readouterr().err
+    good = SCRIPT.parents[1] / "results" / "leaderboard.csv"
+    for text in ("just text\nwith, more, fields\n", results().to_csv(index=False)):  # not CSV; not the schema
+        bad = tmp_path / "b.csv"
+        bad.write_text(text)
+        assert compare_results.main([str(good), str(bad)]) == 2
+        assert str(bad) in capsys.readouterr().err
     assert compare_results.main([str(good), str(good)]) == 0
+    assert "values_differ" in capsys.readouterr().out
