@@ -146,7 +146,8 @@ def test_store_refuses_a_corrupt_csv(tmp_path):
 def test_store_reads_files_from_before_the_period_column_and_refuses_an_unknown_period(tmp_path):
     out = tmp_path / "r.csv"
     run_benchmark(BenchConfig(methods=("feedback",), **TINY), out, progress=False)
-    df = pd.read_csv(out)
+    # as text, so that the file written back holds what it held (a commit such as 0913454 is no number)
+    df = pd.read_csv(out, dtype=str, keep_default_na=False)
     df.drop(columns="period").to_csv(tmp_path / "old.csv", index=False)
     old = read_results(tmp_path / "old.csv")
     assert list(old.columns) == list(COLUMNS) and (old["period"] == "all").all()
@@ -327,3 +328,15 @@ def test_eight_concurrent_quick_benchmarks_share_one_csv(tmp_path, tally):
     for trace in (tmp_path / "shared.csv.traces").glob("*.parquet"):
         assert len(pd.read_parquet(trace)) > 0
     tally("rows_checked", len(df))
+
+
+def test_a_commit_of_digits_only_reads_back_as_written(tmp_path, monkeypatch):
+    """A short hash like 0913454... parses as a number; the store keeps it text, leading zero included."""
+    from lcgym.leaderboard import runner
+
+    monkeypatch.setattr(runner, "git_commit", lambda: "012345678901")
+    out = tmp_path / "r.csv"
+    for _ in range(2):  # the second run appends: the store reads the first one back
+        run_benchmark(BenchConfig(methods=("feedback",), **TINY), out, progress=False)
+    df = read_results(out)
+    assert len(df) > 0 and (df["git_commit"] == "012345678901").all()
