@@ -200,7 +200,8 @@ def build_parser() -> argparse.ArgumentParser:
                       help="velocity and acceleration from the reference corrected by the measured error (default; "
                            "a file without ref_ columns uses the measured position) or from the measured position")
     diag.add_argument("--resample", type=_rate, metavar="HZ",
-                      help="put a log with non-uniform time stamps on a uniform grid at HZ (linear interpolation)")
+                      help="the rate of the uniform grid a log with non-uniform time stamps is put on (linear "
+                           "interpolation; default the log's own: its median step)")
     diag.add_argument("--validate", type=Path, metavar="OTHER",
                       help="another measurement file of the machine: residuals there, not fitted, before and after")
     imp = sub.add_parser("import", help="convert a public benchmark's files into a measurement file")
@@ -216,7 +217,8 @@ def build_parser() -> argparse.ArgumentParser:
 def cmd_diagnose(args) -> int:
     from .data import MeasurementFileError, read_trials
     from .diagnose import diagnose
-    from .diagnose.search import DataTooShort
+    from .diagnose.layout import DataTooShort
+    from .diagnose.workflow import bridged_gap
 
     if args.plots is not None:  # the folder must be creatable: check before any work
         existing = next(p for p in (args.plots, *args.plots.parents) if p.exists())
@@ -227,9 +229,10 @@ def cmd_diagnose(args) -> int:
         except OSError as exc:
             raise ValueError(f"--plots {args.plots}: cannot make a folder in {existing} ({exc.strerror})") from None
     system = _machine(args.system, args.data)
-    trials = read_trials(args.data, axes=system, min_samples=100, resample=args.resample)
+    rate = args.resample or "auto"  # a log with jitter or dropouts is put on uniform grids (its own rate by default)
+    trials = read_trials(args.data, axes=system, min_samples=100, resample=rate, max_gap=bridged_gap())
     other = None if args.validate is None else read_trials(args.validate, axes=system, min_samples=100,
-                                                           resample=args.resample)
+                                                           resample=rate, max_gap=bridged_gap())
     try:
         report = diagnose(trials, system=system, add=args.add, replay=args.replay, kinematics=args.kinematics,
                           min_explained=args.min_explained, progress=sys.stderr.isatty(), spec=args.system,

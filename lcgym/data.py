@@ -12,9 +12,9 @@ other columns are kept as extras. Axes are named as the machine's joints. An opt
 sidecar ``<file>.json`` carries metadata. Reading is strict: a missing required column, a
 non-numeric, NaN or inf value, a non-increasing or non-uniform time column, or too few samples
 raises ``MeasurementFileError`` naming the file, the column and the first offending data row (1 =
-first row after the header). A log with jitter can instead be put on a uniform grid
-(``read_trials(..., resample=HZ)``: every column interpolated linearly; a gap longer than
-``MAX_GAP_STEPS`` nominal steps is refused, naming its row). Files are read in chunks, so a large
+first row after the header). A log with jitter and dropouts can instead be put on uniform grids
+(``read_trials(..., resample=HZ or "auto")``, ``regularize``: every column interpolated linearly,
+short gaps bridged, the trial split at long ones). Files are read in chunks, so a large
 file needs memory for its numbers, not for a table of the file. Writing goes to a temporary file
 that is renamed into place, so an existing file is never left half-written.
 """
@@ -36,7 +36,8 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 UNIFORM_TOLERANCE = 1e-3  # relative deviation of a time step from the file's step
-MAX_GAP_STEPS = 5.0  # resampling: the longest gap, in nominal steps, that interpolation may bridge
+MAX_GAP_STEPS = 5.0  # resampling: the longest gap, in nominal steps, that interpolation bridges (or max_gap, if longer)
+GAP_STEPS = 2.0  # a step longer than this many median steps lost samples (shorter ones are jitter)
 CHUNK_ROWS = 50_000  # rows read at a time: memory holds the trials and one chunk, not the file
 
 
@@ -156,13 +157,16 @@ def _jsonable(obj):
     return obj
 
 
-def read_trials(path: str | Path, axes=None, min_samples: int = 3, resample: float | None = None) -> list[Trial]:
+def read_trials(path: str | Path, axes=None, min_samples: int = 3, resample: float | str | None = None,
+                max_gap: float = 0.0) -> list[Trial]:
     """Read a measurement file (CSV or Parquet) into trials, enforcing the reading rules.
 
     ``axes``: the expected axis names (a sequence, or a machine: anything with ``axis_names``);
-    without them the axes are taken from the ``pos_<axis>`` columns present. ``resample`` [Hz]:
-    put every trial on a uniform grid at that rate instead of refusing a non-uniform time column
-    (``resample_trial``; each trial's ``meta["resampled"]`` says so, with the largest gap). The file
+    without them the axes are taken from the ``pos_<axis>`` columns present. ``resample``: [Hz] or
+    "auto" (the log's own rate): put a trial whose time column is not uniform on a uniform grid
+    instead of refusing it (``regularize``: gaps up to ``max_gap`` [s] or ``MAX_GAP_STEPS`` steps
+    bridged, longer ones split the trial, segments shorter than ``min_samples`` left out; each
+    new trial's ``meta["resampled"]`` says what was done). The file
     is streamed in chunks of ``CHUNK_ROWS`` rows into arrays sized once from a count of the file's
     lines: memory holds the trials' arrays and one chunk, never the whole file as a table, and a
     bad value stops the reading at its chunk.
@@ -172,8 +176,8 @@ def read_trials(path: str | Path, axes=None, min_samples: int = 3, resample: flo
     if not path.exists():
         raise MeasurementFileError(f"{where}: file not found")
     axes = tuple(getattr(axes, "axis_names", axes) or ())
-    if resample is not None and not (np.isfinite(resample) and resample > 0):
-        raise ValueError(f"resample must be a sample rate > 0 Hz, got {resample}")
+    if resample is not None and resample != "auto" and not (np.isfinite(resample) and resample > 0):
+        raise ValueError(f"resample must be a sample rate > 0 Hz or 'auto', got {resample}")
 
     table: _Table | None = None
     for chunk in _chunks(path, where):
@@ -221,30 +225,74 @@ def read_trials(path: str | Path, axes=None, min_samples: int = 3, resample: flo
         tm["source"] = where
         extra = {c: v[rows] for c, v in extras.items()}
         trial = Trial(t=t, axes=table.axes, ff=ff, extra=extra, meta=tm, **sig)
-        trials.append(trial if resample is None else resample_trial(trial, resample, file_rows, trial_where))
+        if resample is None:
+            trials.append(trial)
+            continue
+        parts = regularize(trial, None if resample == "auto" else float(resample), max_gap, trial_where, file_rows)
+        kept = [p for p in parts if p.n_samples >= need]
+        if not kept:
+            raise MeasurementFileError(f"{trial_where}: column 't': no part between the log's gaps holds {need} samples")
+        for p in kept:
+            if len(kept) < len(parts):
+                p.meta["resampled"]["short_segments_left_out"] = len(parts) - len(kept)
+        trials.extend(kept)
     return trials
 
 
-def resample_trial(trial: Trial, fs: float, rows: np.ndarray | None = None, where: str = "trial") -> Trial:
-    """``trial`` on the uniform grid t0, t0 + 1/fs, ... <= t_end: every signal and extra column
-    interpolated linearly in time. A gap between samples longer than ``MAX_GAP_STEPS`` steps of the
-    log's median step is refused (``MeasurementFileError`` naming the row: ``rows`` are the trial's
-    0-based data rows of the file). ``meta["resampled"]`` records the rate and the largest gap [s]."""
+def regularize(trial: Trial, fs: float | None = None, max_gap: float = 0.0, where: str = "trial",
+               rows: np.ndarray | None = None) -> list[Trial]:
+    """``trial`` on uniform time grids, as real controllers' logs need (jittered stamps, dropouts).
+
+    The rate is ``fs`` [Hz], or the log's own: its median step, the rate rounded to 3 significant
+    digits (the controller's nominal rate, not the jittered mean). A step of more than
+    ``GAP_STEPS`` median steps is a gap (samples lost): up to ``max(MAX_GAP_STEPS steps, max_gap
+    [s])`` it is bridged by the interpolation, longer ones split the trial into segments there, each
+    put on its own grid (every signal and extra column interpolated linearly in time). A uniform
+    trial at the rate asked is returned as it is. Each new trial's ``meta["resampled"]`` records what
+    was done: the rate, the log's median step, the gaps bridged (count, largest [s]), the splits
+    (count, largest gap [s]) and, for a segment, which of the trial's segments it is. ``rows``: the
+    trial's 0-based data rows of its file, and ``where`` its name, for errors.
+    """
     t = trial.t
+    if t.size < 3:
+        raise MeasurementFileError(f"{where}: column 't': only {t.size} samples")
     dt = np.diff(t)
     step = float(np.median(dt))
-    k = int(np.argmax(dt))
-    if dt[k] > MAX_GAP_STEPS * step:
-        row = (int(rows[k + 1]) + 1) if rows is not None else k + 1
-        raise MeasurementFileError(
-            f"{where}: column 't', row {row}: a gap of {dt[k]:.6g} s ({dt[k] / step:.1f} of the log's {step:.6g} s steps) "
-            f"is too long to resample (at most {MAX_GAP_STEPS:g} steps); split the log into trials there")
-    grid = t[0] + np.arange(int(np.floor((t[-1] - t[0]) * fs + 1e-9)) + 1) / fs
-    if grid.size < 3:
-        raise MeasurementFileError(f"{where}: column 't': only {grid.size} samples at {fs:g} Hz")
+    rate = float(f"{1.0 / step:.3g}") if fs is None else float(fs)
+    if not (np.isfinite(rate) and rate > 0):
+        raise ValueError(f"{where}: the resampling rate must be > 0 Hz, got {rate}")
+    uniform = bool(np.all(np.abs(dt - 1.0 / rate) <= UNIFORM_TOLERANCE / rate))
+    if uniform:
+        return [trial]
+    bridge = max(MAX_GAP_STEPS * step, float(max_gap))
+    gap = dt > GAP_STEPS * step
+    split = np.flatnonzero(dt > bridge)
+    bridged = gap & (dt <= bridge)
+    note = {"fs": rate, "log_step": step, "largest_gap": float(dt.max()),
+            "gaps_bridged": int(bridged.sum()), "largest_bridged": float(dt[bridged].max()) if bridged.any() else 0.0,
+            "splits": int(split.size), "largest_split": float(dt[split].max()) if split.size else 0.0}
+    edges = np.concatenate([[0], split + 1, [t.size]])
+    out = []
+    for k in range(edges.size - 1):
+        part = np.arange(edges[k], edges[k + 1])
+        grid = t[part[0]] + np.arange(int(np.floor((t[part[-1]] - t[part[0]]) * rate + 1e-9)) + 1) / rate
+        if grid.size < 3:
+            continue  # a sliver between two gaps: nothing to interpolate
+        meta = {**trial.meta, "resampled": {**note, **({"segment": k, "segments": edges.size - 1} if split.size else {})}}
+        out.append(_interpolated(trial, part, grid, meta))
+    if not out:
+        row = (int(rows[split[0] + 1]) + 1) if rows is not None and split.size else 1
+        raise MeasurementFileError(f"{where}: column 't', row {row}: no part between the log's gaps (longer than "
+                                   f"{bridge:.6g} s) holds 3 samples at {rate:g} Hz")
+    return out
+
+
+def _interpolated(trial: Trial, part: np.ndarray, grid: np.ndarray, meta: dict) -> Trial:
+    """The samples ``part`` of ``trial`` interpolated linearly in time onto ``grid``."""
+    t = trial.t[part]
 
     def interp(a):
-        a = np.asarray(a, dtype=float)
+        a = np.asarray(a, dtype=float)[part]
         if a.ndim == 1:
             return np.interp(grid, t, a)
         return np.column_stack([np.interp(grid, t, a[:, i]) for i in range(a.shape[1])])
@@ -252,8 +300,7 @@ def resample_trial(trial: Trial, fs: float, rows: np.ndarray | None = None, wher
     extra = {}
     for name, values in trial.extra.items():
         v = np.asarray(values)
-        extra[name] = interp(v) if v.dtype.kind in "fiu" and v.shape[:1] == t.shape else v
-    meta = {**trial.meta, "resampled": {"fs": float(fs), "largest_gap": float(dt[k]), "log_step": step}}
+        extra[name] = interp(v) if v.dtype.kind in "fiu" and v.shape[:1] == trial.t.shape else v
     return Trial(t=grid, ref=None if trial.ref is None else interp(trial.ref), pos=interp(trial.pos), u=interp(trial.u),
                  axes=trial.axes, ff=None if trial.ff is None else interp(trial.ff), extra=extra, meta=meta)
 
@@ -445,9 +492,9 @@ def _check_time(t: np.ndarray, rows: np.ndarray, where: str, resample: float | N
             g = int(gaps[0])
             raise MeasurementFileError(
                 f"{where}: column 't', row {int(rows[g + 1]) + 1}: a gap of {dt[g]:.6g} s ({dt[g] / step:.1f} of the "
-                f"log's {step:.6g} s steps): split the log into trials there (a 'trial' column)")
-        rate = float(f"{1 / step:.3g}")  # the controller's nominal rate, not the jittered mean
+                f"log's {step:.6g} s steps): split the log into trials there (a 'trial' column), or read it with "
+                "resample='auto' (lcgym diagnose does)")
         raise MeasurementFileError(
             f"{where}: column 't', row {r}: non-uniform sampling (step {dt[off[0]]:.6g} s, file step {step:.6g} s); "
-            f"to put the log on a uniform grid, resample it (lcgym diagnose --resample {rate:g})"
+            "read it with resample='auto' to put it on a uniform grid at its own rate (lcgym diagnose does)"
         )

@@ -1,6 +1,7 @@
-"""How robust the diagnosis is to shapes it does not know and to effects that hide each other.
+"""How robust the diagnosis is to shapes it does not know, to effects that hide each other, and to
+logs as real controllers write them.
 
-For each effect of the vocabulary that a plant can carry in another shape than the library's
+Part "ix". For each effect of the vocabulary that a plant can carry in another shape than the library's
 formula, an IX plant hides that version (a ``TabulatedForce`` curve); for pairs, one effect five
 times the RMS of the other (along the references' motion), on one axis or on two. Feedback-only
 runs of three training references (70,000 samples) per seed; the diagnosis runs, then the
@@ -9,7 +10,19 @@ pair, both effects) were named first (in the first two picks), the selected effe
 and the range over the seeds of the truth axis's residual RMS after / before adding the
 selected effects; writes the table as Markdown to ``--out`` (the table of docs/diagnosis.md).
 
-Run:  .venv/bin/python studies/diagnose_robustness.py [--seeds 0,1,2] [--out robustness.md]
+Part "logs" (``LOG_CASES``). URDF arms simulated with pinocchio (``URDFPlant``: the Franka Panda
+of ``tests/data/panda``, lcgym's ``cobot6`` and ``two_link``) under PD feedback, their runs
+made to look like real controllers' logs (``lcgym.systems.logs``): logging dropouts, three runs of
+5-6 s, standstill held at both ends, 100 Hz logs with jittered stamps and no reference, an
+unsettled start with moves cut off; hidden effects outside the library's formulas (a friction
+growing with the square root of speed, a one-sided spring growing quadratically), a Coulomb level
+that grows with the gravity load, and none at all. Per case: how often every true effect was named
+(family and axis) with nothing else selected, the selected effects of the first seed, the true
+axes' residual RMS after / before adding the selected effects, and what the truth allows (the same
+runs without the hidden effects: their residual / before). ``tests/test_diagnose_logs.py`` runs
+each case (one seed).
+
+Run:  .venv/bin/python studies/diagnose_robustness.py [--part ix|logs|all] [--seeds 0,1,2] [--out robustness.md]
 """
 
 from __future__ import annotations
@@ -17,19 +30,28 @@ from __future__ import annotations
 import argparse
 import math
 import time
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
-from lcgym.data import atomic_write
+from lcgym import systems
+from lcgym.data import Trial, atomic_write
 from lcgym.diagnose import diagnose
 from lcgym.physics import effects as fx
+from lcgym.systems import logs
 from lcgym.systems.ix import IX
 from lcgym.systems.ix.plant import IXPlant
 from lcgym.systems.ix.references import reference_set
+from lcgym.systems.urdf_plant import URDFPlant, random_references
 
 DEG = math.pi / 180.0
+PANDA = Path(__file__).resolve().parents[1] / "tests" / "data" / "panda" / "panda.urdf"
+COBOT = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint")
+COBOT_FRICTION = (6.0, 6.0, 4.0, 1.5, 1.5, 1.0)  # N m, Coulomb levels of the cobot's joints (a UR5's are 5-10, 1-2)
+ENCODER = 2 * math.pi / 2**18  # rad per count: 18-bit encoders
 
 
 def table(axis: str, variable: str, function, lo: float, hi: float) -> fx.TabulatedForce:
@@ -107,12 +129,211 @@ def gear_harmonic(rms: float, refs) -> fx.GearHarmonic:
     return shape(rms / rms_along(shape(1.0), refs))
 
 
+# ---------------------------------------------------------------------------------------------
+# Part "logs": URDF arms, logs as real controllers write them
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class LogCase:
+    """A simulated log with a known truth: ``make(seed, hidden)`` -> (machine, trials) simulates the
+    case's machine with the effects ``hidden`` (the case's ``hidden``, or none for the twin that
+    says what the truth allows); ``truth``: the (family, axis) pairs to be named, nothing else."""
+
+    name: str
+    hidden: tuple
+    truth: tuple[tuple[str, str], ...]
+    make: Callable[[int, tuple], tuple[systems.System, list[Trial]]]
+    note: str = ""
+
+
+def _cobot(joints=COBOT) -> systems.System:
+    return systems.get("cobot6", joints=joints)
+
+
+def _run(machine, hidden, seed: int, n: int, duration: float, **plant) -> list[Trial]:
+    """``n`` feedback-only runs of ``duration`` s of seeded random moves at 1 kHz, 18-bit encoders."""
+    plant = {"encoder_resolution": ENCODER, **plant}
+    return URDFPlant(machine, effects=hidden, seed=seed, **plant).run(
+        random_references(machine, n=n, duration=duration, seed=seed))
+
+
+def _every(trials: list[Trial], k: int) -> list[Trial]:
+    """Every k-th sample: a log at 1/k of the plant's rate."""
+    return [logs.jittered(tr, (k / tr.fs, k / tr.fs), np.random.default_rng(0)) if k > 1 else tr for tr in trials]
+
+
+def make_dropouts(seed: int, hidden: tuple):
+    """The Panda, 1 kHz, one 21 s run, four logging dropouts of 8.5-8.8 ms, no reference."""
+    panda = systems.get(str(PANDA), joints=tuple(f"panda_joint{i}" for i in range(1, 8)))
+    run = _run(panda, hidden, seed, 1, 21.0)[0]
+    rng = np.random.default_rng(seed)
+    gaps = [(t, rng.uniform(0.0085, 0.0088)) for t in sorted(rng.uniform(2.0, 19.0, 4))]
+    return panda, [logs.without_reference(logs.drop(run, gaps))]
+
+
+def make_short(seed: int, hidden: tuple):
+    """The cobot at 250 Hz: three runs of 5-6 s (an identification experiment's window)."""
+    cobot = _cobot()
+    runs = [logs.cut(r, 0.0, 5.0 + 0.5 * k) for k, r in enumerate(_run(cobot, hidden, seed, 3, 6.0))]
+    return cobot, _every(runs, 4)
+
+
+def make_standstill(seed: int, hidden: tuple):
+    """The cobot, 1 kHz, three runs of 10 s with 2 s of standstill before and after, the axes held
+    while static friction carries an unknown share (up to 1.5 x the Coulomb level) of the load."""
+    cobot = _cobot()
+    rng = np.random.default_rng(seed)
+    levels = 1.5 * np.asarray(COBOT_FRICTION)
+    return cobot, [logs.held_at_rest(r, 2.0, 2.0, levels, rng) for r in _run(cobot, hidden, seed, 3, 10.0)]
+
+
+def make_jittered(seed: int, hidden: tuple):
+    """The cobot logged at 100 Hz with steps of 2-16 ms, no reference, the input with 1 % noise of
+    its RMS (motor currents times drive gains): three runs of 20 s."""
+    cobot = _cobot()
+    rng = np.random.default_rng(seed)
+    out = []
+    for r in _run(cobot, hidden, seed, 3, 20.0):
+        tr = logs.without_reference(logs.jittered(r, (0.002, 0.016), rng))
+        tr.u = tr.u + 0.01 * np.sqrt(np.mean(tr.u**2, axis=0)) * rng.standard_normal(tr.u.shape)
+        out.append(tr)
+    return cobot, out
+
+
+def make_plain(machine: Callable[[], systems.System], n: int = 3, duration: float = 20.0):
+    """A machine's feedback-only runs at 1 kHz, as logged (``n`` runs of ``duration`` s)."""
+    def make(seed: int, hidden: tuple):
+        m = machine()
+        return m, _run(m, hidden, seed, n, duration)
+    return make
+
+
+def make_unsettled(seed: int, hidden: tuple):
+    """The cobot's first three joints (the wrist locked): runs that start before the loop has
+    settled (no pre-roll: the arm sags under gravity at first) and are cut off mid-move."""
+    arm = _cobot(COBOT[:3])
+    runs = _run(arm, hidden, seed, 3, 20.0, preroll=0.0)
+    out = []
+    for r in runs:  # cut where a joint moves fast, in the run's last fifth
+        speed = np.abs(np.gradient(r.ref, axis=0)).max(axis=1) * r.fs
+        late = np.flatnonzero((speed > 0.5) & (r.t > 0.8 * r.t[-1]))
+        out.append(logs.cut(r, 0.0, float(r.t[late[0]]) if late.size else float(r.t[-1])))
+    return arm, out
+
+
+def concave(v):
+    """N m over the elbow's speed [rad/s]: a small breakaway level and a rise with sqrt(speed)."""
+    return np.tanh(v / 0.005) * (0.8 + 5.0 * np.sqrt(np.abs(v)))
+
+
+def balancer(q):
+    """N m over the two-link shoulder angle [rad]: nothing below 0.2 rad, then a smooth onset
+    growing quadratically (a one-sided balancer spring)."""
+    x = np.maximum(q - 0.2, 0.0)
+    return 12.0 * x**2 * (1.0 - np.exp(-x / 0.05))
+
+
+def _cobot_friction(joints=COBOT) -> tuple:
+    return tuple(fx.CoulombFriction(j, Fc=f, eps=0.005) for j, f in zip(joints, COBOT_FRICTION, strict=False))
+
+
+def _friction_truth(joints=COBOT) -> tuple:
+    return tuple(("friction", j) for j in joints)
+
+
+LOG_CASES: dict[str, LogCase] = {case.name: case for case in (
+    LogCase("logging dropouts (7 joints, 1 kHz, no reference)",
+            tuple(fx.CoulombFriction(f"panda_joint{i}", Fc=f, eps=0.005) for i, f in zip(range(4, 8), (2.0, 1.2, 1.0, 0.8),
+                                                                                       strict=True)),
+            tuple(("friction", f"panda_joint{i}") for i in range(4, 8)), make_dropouts),
+    LogCase("three runs of 5-6 s (6 joints, 250 Hz)",
+            _cobot_friction() + tuple(fx.RotorInertia(j, J=J) for j, J in zip(COBOT[:3], (0.6, 0.6, 0.3), strict=True)),
+            _friction_truth() + tuple(("inertia", j) for j in COBOT[:3]), make_short),
+    LogCase("standstill held at both ends (6 joints)", _cobot_friction(), _friction_truth(), make_standstill),
+    LogCase("100 Hz, jittered stamps, no reference (6 joints)", _cobot_friction(), _friction_truth(), make_jittered),
+    LogCase("friction growing with sqrt(speed) (elbow)",
+            (fx.TabulatedForce.from_function("elbow_joint", "velocity", concave, -3.2, 3.2, 1025),),
+            (("friction", "elbow_joint"),), make_plain(_cobot)),
+    LogCase("Coulomb level growing with the gravity load (shoulder, elbow)",
+            (fx.LoadFriction("shoulder_lift_joint", Fc=1.0, mu=0.06, eps=0.005),
+             fx.LoadFriction("elbow_joint", Fc=0.5, mu=0.06, eps=0.005)),
+            (("friction", "shoulder_lift_joint"), ("friction", "elbow_joint")), make_plain(_cobot)),
+    LogCase("one-sided spring growing quadratically (two-link shoulder)",
+            (fx.TabulatedForce.from_function("shoulder", "position", balancer, -2.6, 2.6, 1025),),
+            (("spring", "shoulder"),), make_plain(lambda: systems.get("two_link", joints=("shoulder", "elbow")))),
+    LogCase("unsettled start, moves cut off (3 joints)", (fx.CoulombFriction("elbow_joint", Fc=4.0, eps=0.005),),
+            (("friction", "elbow_joint"),), make_unsettled),
+    LogCase("no hidden effect (6 joints)", (), (), make_plain(_cobot)),
+    LogCase("no hidden effect (7 joints, Panda)", (), (),
+            make_plain(lambda: systems.get(str(PANDA), joints=tuple(f"panda_joint{i}" for i in range(1, 8))), 2)),
+)}
+
+
+def named(report, truth) -> tuple[bool, list[str]]:
+    """Whether ``report`` named every (family, axis) of ``truth`` and nothing else; its selections."""
+    picks = [(c["family"], c["axis"]) for c in report.candidates if c["selected"]]
+    return set(truth) == set(picks) and len(picks) == len(set(picks)), [f"{c['effect']}@{c['axis']}" for c in
+                                                                       report.candidates if c["selected"]]
+
+
+def log_row(case: LogCase, seeds) -> tuple:
+    """One table row of the logs part: named right, selected (first seed), cut, what the truth allows, time."""
+    hits, cuts, floors, picks, seconds = 0, [], [], None, 0.0
+    for seed in seeds:
+        machine, trials = case.make(seed, case.hidden)
+        t0 = time.perf_counter()
+        rep = diagnose(trials, machine)
+        seconds = max(seconds, time.perf_counter() - t0)
+        ok, sel = named(rep, case.truth)
+        hits += ok
+        picks = picks if picks is not None else (", ".join(sel) or "none")
+        axes = sorted({a for _, a in case.truth})
+        if rep.missing and axes:
+            after = diagnose(trials, machine, add=rep.missing).after["residual"]
+            cuts += [after[a]["RMS"] / rep.residual[a]["RMS"] for a in axes]
+        if axes:
+            _, clean = case.make(seed, ())
+            twin = diagnose(clean, machine)
+            floors += [twin.residual[a]["RMS"] / rep.residual[a]["RMS"] for a in axes]
+    span = lambda x: f"{min(x):.2f}-{max(x):.2f}x" if x else "-"  # noqa: E731
+    return case.name, f"{hits} of {len(seeds)}", picks, span(cuts), span(floors), f"{seconds:.0f} s"
+
+
+def logs_part(seeds) -> list[str]:
+    rows = []
+    for case in tqdm(LOG_CASES.values(), desc="log cases"):
+        rows.append(log_row(case, seeds))
+        tqdm.write("  ".join(rows[-1]))
+    return ["| case (URDF arm) | named right, nothing else | selected (first seed) | true axes' residual after / before "
+            "| the truth allows | time |", "|---|---|---|---|---|---|"] + [f"| {' | '.join(r)} |" for r in rows]
+
+
+def ix_none(seeds) -> str:
+    """The IX with no hidden effect: how often nothing is selected."""
+    nothing = sum(not diagnose(IXPlant(effects=()).run(reference_set("train", seed, 3)), IX).missing for seed in seeds)
+    return f"| no hidden effect | nothing selected, {nothing} of {len(seeds)} | | | |"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--part", choices=("ix", "logs", "all"), default="all")
     parser.add_argument("--seeds", default="0,1,2")
-    parser.add_argument("--out", type=Path, help="write the table as Markdown")
+    parser.add_argument("--out", type=Path, help="write the table(s) as Markdown")
     args = parser.parse_args()
     seeds = [int(s) for s in args.seeds.split(",")]
+    tables = []
+    if args.part in ("logs", "all"):
+        tables.append("\n".join(logs_part(seeds)))
+        print(tables[-1])
+    if args.part in ("ix", "all"):
+        tables.append(ix_part(seeds))
+    if args.out:
+        atomic_write(args.out, lambda tmp: Path(tmp).write_text("\n\n".join(tables) + "\n"))
+        print(f"wrote {args.out}")
+
+
+def ix_part(seeds) -> str:
     refs0 = reference_set("train", 0, 3)
     cases = {**OTHER_SHAPES, **pairs(refs0)}
     rows = []
@@ -138,11 +359,9 @@ def main() -> None:
         rows.append((name, f"{hits} of {len(seeds)}", picks, cut, f"{seconds:.0f} s"))
         tqdm.write(f"{name:66s} {rows[-1][1]:>7s}  {cut:12s} {picks}")
     lines = ["| hidden (IX plant) | named first | selected (seed 0) | residual RMS after / before | time |",
-             "|---|---|---|---|---|"] + [f"| {' | '.join(r)} |" for r in rows]
+             "|---|---|---|---|---|"] + [f"| {' | '.join(r)} |" for r in rows] + [ix_none(seeds)]
     print("\n".join(lines))
-    if args.out:
-        atomic_write(args.out, lambda tmp: Path(tmp).write_text("\n".join(lines) + "\n"))
-        print(f"wrote {args.out}")
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":

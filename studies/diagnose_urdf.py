@@ -1,7 +1,7 @@
 """How the diagnosis does on a URDF robot it was not developed on: the Franka Panda (7 axes, fingers
 locked) with a friction of no textbook shape on joint 3, with and without a one-sided spring on
 joint 6, and with no hidden effect, each logged as a position-only log (no reference columns) at
-1 kHz and at 250 Hz with jittered time stamps that are resampled (``data.resample_trial``).
+1 kHz and at 250 Hz with jittered time stamps that are resampled (``data.regularize``).
 
 The plant runs at 1 kHz (``URDFPlant``, PD feedback, 18-bit encoders); a 250 Hz log is every 4th
 sample with up to 20 % of a step of jitter. Prints per case the effects selected, the first
@@ -20,7 +20,7 @@ import numpy as np
 from tqdm import tqdm
 
 from lcgym import systems
-from lcgym.data import Trial, resample_trial
+from lcgym.data import Trial, regularize
 from lcgym.diagnose import diagnose
 from lcgym.physics import effects as fx
 from lcgym.systems.urdf_plant import URDFPlant, random_references
@@ -48,7 +48,7 @@ def log(runs, fs: float, rng) -> list[Trial]:
     out = []
     for r in runs:
         t = r.t[::k] + rng.uniform(-0.2, 0.2, r.t[::k].size) / fs
-        out.append(resample_trial(Trial(t=t, ref=None, pos=r.pos[::k], u=r.u[::k], axes=r.axes), fs))
+        out.extend(regularize(Trial(t=t, ref=None, pos=r.pos[::k], u=r.u[::k], axes=r.axes), fs))
     return out
 
 

@@ -252,13 +252,14 @@ def test_read_back_keeps_the_plant_record_for_replay(tmp_path):
 @pytest.mark.bad_input
 def test_cli_refuses_too_short_data_and_an_unusable_plot_folder(tmp_path, capsys):
     runs = _trials(())
-    short = [Trial(t=r.t[:1500], ref=r.ref[:1500], pos=r.pos[:1500], u=r.u[:1500], axes=r.axes) for r in runs]
+    short = [Trial(t=r.t[:600], ref=r.ref[:600], pos=r.pos[:600], u=r.u[:600], axes=r.axes) for r in runs]  # 3 x 1.2 s
     data = write_trials(tmp_path / "short.csv", short)
     out = tmp_path / "r.json"
     out.write_text("{}")
     assert main(["diagnose", str(data), "--system", "ix", "--json", str(out)]) == 1
     err = capsys.readouterr().err
-    assert str(data) in err and "column 't'" in err and "two complete 4 s blocks" in err
+    assert str(data) in err and "column 't'" in err and "3 blocks of at least 1 s in each of its two folds" in err
+    assert "6 s of data at the least" in err and len(err.strip().splitlines()) == 1
     assert out.read_text() == "{}"  # an existing file is left as it was
     full = write_trials(tmp_path / "m.csv", runs)
     assert main(["diagnose", str(full), "--system", "ix", "--json", str(out), "--plots", str(out / "sub")]) == 1

@@ -2,7 +2,7 @@
 textbook shape on one joint of the two-link arm, named, added, and the joint's residual at most
 half of before; with a one-sided spring on the other joint as well, both selected; nothing claimed
 without a hidden effect. Also: the CLI on URDF files, position-only logs, jittered logs
-(``--resample``), and the PGNN fitted on a URDF machine's trials.
+(resampled at their own rate; short gaps bridged, long ones split), and the PGNN fitted on a URDF machine's trials.
 
 The worked example's code is read from the docs page ``docs/own-machine.md`` (the block that starts
 with ``# two_link_data.py``), so the page cannot rot.
@@ -20,8 +20,9 @@ import pytest
 
 from lcgym import systems
 from lcgym.cli import main
-from lcgym.data import read_trials, write_trials
+from lcgym.data import MeasurementFileError, read_trials, write_trials
 from lcgym.diagnose import diagnose
+from lcgym.diagnose.workflow import bridged_gap
 from lcgym.physics import effects as fx
 from lcgym.systems.examples import two_link_urdf
 from lcgym.systems.urdf_plant import URDFPlant, random_references
@@ -101,41 +102,51 @@ def test_a_log_without_references_is_diagnosed_from_its_measured_positions(examp
     assert _rms(report, "elbow", "after") <= 0.55 * _rms(report, "elbow")
 
 
-def _jittered(example: Path, tmp_path: Path, gap_at: int | None = None) -> Path:
+def _jittered(example: Path, tmp_path: Path, gap_at: int | None = None, steps: int = 10) -> Path:
     """The example's first trial with time stamps off their grid by up to 30 % of a step (a
-    controller's logging jitter); with ``gap_at`` a gap of 10 steps at that row."""
+    controller's logging jitter); with ``gap_at`` a gap of ``steps`` steps at that row."""
     frame = pd.read_csv(example)
     frame = frame[frame["trial"] == 0].drop(columns=["trial"]).reset_index(drop=True)
     rng = np.random.default_rng(0)
     frame["t"] = frame["t"] + rng.uniform(-0.3e-3, 0.3e-3, len(frame))
     if gap_at is not None:
-        frame = frame.drop(index=range(gap_at, gap_at + 9)).reset_index(drop=True)
+        frame = frame.drop(index=range(gap_at, gap_at + steps - 1)).reset_index(drop=True)
     path = tmp_path / "jittered.csv"
     frame.to_csv(path, index=False)
     return path
 
 
-@pytest.mark.bad_input
-def test_jittered_time_is_refused_with_the_resample_hint_and_resampled_on_request(example, tmp_path, capsys):
+def test_a_jittered_log_is_resampled_at_its_own_rate_and_the_report_says_so(example, tmp_path, capsys):
     log = _jittered(example, tmp_path)
-    assert main(["diagnose", str(log), "--system", URDF]) == 1
-    err = capsys.readouterr().err
-    assert "non-uniform sampling" in err and "--resample" in err and len(err.strip().splitlines()) == 1
     json_path = tmp_path / "r.json"
-    assert main(["diagnose", str(log), "--system", URDF, "--resample", "1000", "--json", str(json_path)]) == 0
+    assert main(["diagnose", str(log), "--system", URDF, "--json", str(json_path)]) == 0
     out = capsys.readouterr().out
-    assert "resampled to 1000 Hz by linear interpolation (largest gap in the log" in out
+    assert "1 trial(s) with non-uniform time stamps resampled to 1000 Hz by linear interpolation" in out
     assert "coulomb_friction@elbow" in out and json_path.exists()
+    assert main(["diagnose", str(log), "--system", URDF, "--resample", "500"]) == 0  # the rate chosen by the user
+    assert "resampled to 500 Hz" in capsys.readouterr().out
 
 
 @pytest.mark.bad_input
-def test_a_gap_too_long_to_resample_is_refused_naming_its_row(example, tmp_path, capsys):
-    log = _jittered(example, tmp_path, gap_at=5000)
-    listing = sorted(p.name for p in tmp_path.iterdir())
-    assert main(["diagnose", str(log), "--system", URDF, "--resample", "1000", "--json", str(tmp_path / "r.json")]) == 1
-    err = capsys.readouterr().err
-    assert "row 5001" in err and "too long to resample" in err and len(err.strip().splitlines()) == 1, err
-    assert sorted(p.name for p in tmp_path.iterdir()) == listing
+def test_read_trials_alone_still_refuses_jitter_naming_the_row(example, tmp_path):
+    with pytest.raises(MeasurementFileError, match="row 2: non-uniform sampling"):
+        read_trials(_jittered(example, tmp_path))
+
+
+@pytest.mark.parametrize("steps, bridged", [(10, True), (40, False)])
+def test_a_short_gap_is_bridged_and_a_long_one_splits_the_trial(example, tmp_path, capsys, steps, bridged):
+    """Dropouts of 10 ms (under the 12.5 ms that the analysis's 10 Hz low-pass cannot tell from
+    nothing) are interpolated; one of 40 ms splits the log into two trials there."""
+    log = _jittered(example, tmp_path, gap_at=5000, steps=steps)
+    trials = read_trials(log, resample="auto", max_gap=bridged_gap())
+    assert len(trials) == (1 if bridged else 2)
+    note = trials[0].meta["resampled"]
+    assert (note["gaps_bridged"], note["splits"]) == ((1, 0) if bridged else (0, 1))
+    assert note["largest_gap"] == pytest.approx(steps * 1e-3, abs=0.7e-3)  # the jitter moves the stamps by 0.3 ms
+    assert main(["diagnose", str(log), "--system", URDF]) == 0
+    out = capsys.readouterr().out
+    expected = "1 gap(s) bridged (the largest " if bridged else "split at 1 gap(s) too long to bridge (the largest "
+    assert expected in out, out
 
 
 @pytest.mark.bad_input
@@ -199,11 +210,3 @@ def test_a_larger_start_model_is_searched_from(example):
     report = diagnose(trials, arm, model=start)
     assert "coulomb_friction@elbow" in report.model_effects and "coulomb_friction@elbow" not in report.missing
     assert report.residual["elbow"]["RMS"] < 0.4  # N m: the friction is in from the start (0.67 without it)
-
-
-@pytest.mark.bad_input
-def test_a_gap_is_named_before_resampling_is_suggested(example, tmp_path, capsys):
-    log = _jittered(example, tmp_path, gap_at=5000)
-    assert main(["diagnose", str(log), "--system", URDF]) == 1
-    err = capsys.readouterr().err
-    assert "row 5001" in err and "split the log into trials there" in err and "--resample" not in err, err

@@ -64,7 +64,7 @@ def register_effect(effect, family: str = "user", grid: dict | None = None, peri
 def _function_effect(function, name: str, n_coefficients: int, nonlinear: tuple[str, ...]) -> type[fx.Effect]:
     """An Effect subclass whose columns are ``function`` of the axis's own kinematics."""
 
-    def _columns(self, q, qd, qdd, base):
+    def _columns(self, q, qd, qdd, loads):
         i = self._i()
         kw = {p: getattr(self, p) for p in nonlinear}
         cols = np.asarray(function(q[..., i], qd[..., i], qdd[..., i], **kw), dtype=float)

@@ -68,14 +68,20 @@ def region_masks(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, trial: np.ndarr
     return out
 
 
-def region_table(residual: np.ndarray, masks: dict, axes: tuple[str, ...], min_share: float = 0.02) -> list[dict]:
-    """Rows {axis, where, RMS, ratio, samples, energy} for every region of every axis, worst ratio first."""
+def region_table(residual: np.ndarray, masks: dict, axes: tuple[str, ...], used: np.ndarray | None = None,
+                 min_share: float = 0.02) -> list[dict]:
+    """Rows {axis, where, RMS, ratio, samples, energy} for every region of every axis, worst ratio
+    first, over each axis's ``used`` rows (R, A) (default all)."""
     rows = []
     for i, ax in enumerate(axes):
-        r = residual[:, i]
+        keep = np.ones(residual.shape[0], dtype=bool) if used is None else used[:, i]
+        r = residual[keep, i]
+        if r.size == 0:
+            continue
         total = float((r * r).sum()) or 1.0
         overall = math.sqrt(total / r.size)
         for where, m in masks.get(ax, ()):
+            m = m[keep]
             share = float(m.mean())
             if share < min_share:
                 continue

@@ -53,6 +53,8 @@ class Diagnosis:
     steps: list = field(default_factory=list)
     stop: str = ""
     options: str = ""  # command-line options the hints repeat (--kinematics measured)
+    samples: dict = field(default_factory=dict)  # what was fitted and what left out (``workflow._samples_record``)
+    blocks: str = ""  # how held-out scoring split the data
     model: object = field(repr=False, default=None)
     suggested_model: object = field(repr=False, default=None)
     series: dict = field(repr=False, default_factory=dict)
@@ -102,47 +104,61 @@ class Diagnosis:
         one_unit = len(set(unit.values())) == 1
         head = f" [{self.unit}]" if one_unit else ""
         col = "" if one_unit else " unit"
+        w = max(12, *(len(ax) for ax in self.axes))  # the axis column, as wide as the longest joint name
         lines = [f"lcgym diagnose: system {self.system}, {self.n_samples} samples at {self.fs:g} Hz",
                  f"model: {', '.join(self.model_effects)} (least squares; residual = u - f after a 5 Hz zero-phase low-pass)",
                  f"kinematics: {self.kinematics}" if self.kinematics else None,
                  f"data: {self.resampled}" if self.resampled else None,
+                 *self._samples_lines(w),
+                 f"held-out scoring: {self.blocks}" if self.blocks else None,
                  (f"identified: {self.identified[0]} combinations of the model's {self.identified[1]} free parameters "
                   "(the rest keep their nominal values)") if self.identified and self.identified[0] < self.identified[1]
                  else None,
-                 "", f"residual{head}:", f"  {'axis':12s} {'MA':>8s} {'RMS':>8s} {'Inf':>8s}{col}"]
+                 "", f"residual{head} (floor: the least RMS an effect must remove to count, the noise floor):",
+                 f"  {'axis':{w}s} {'MA':>9s} {'RMS':>9s} {'Inf':>9s} {'floor':>9s}{col}"]
         lines = [x for x in lines if x is not None]
         for ax in self.axes:
             r = self.residual[ax]
-            lines.append(f"  {ax:12s} {r['MA']:8.4f} {r['RMS']:8.4f} {r['Inf']:8.4f}" + ("" if one_unit else f" {r['unit']}"))
+            lines.append(f"  {ax:{w}s} {_num(r['MA'])} {_num(r['RMS'])} {_num(r['Inf'])} {_num(self.min_rms[ax])}"
+                         + ("" if one_unit else f" {r['unit']}"))
         lines += ["", "where the model fails worst (residual RMS there / overall):"]
         for ax in self.axes:
             for reg in [r for r in self.regions if r["axis"] == ax][:n_regions]:
-                lines.append(f"  {ax:10s} {reg['where']:44s} RMS {reg['RMS']:.4f} {unit[ax]} ({reg['ratio']:.2f}x, "
+                lines.append(f"  {ax:{w}s} {reg['where']:44s} RMS {reg['RMS']:.4g} {unit[ax]} ({reg['ratio']:.2f}x, "
                              f"{100 * reg['samples']:.0f}% of samples)")
         lines += ["", "candidate missing effects (share of the axis's residual energy each removes alone on held-out"
                   " data; selected ones in the order of greedy forward selection):"]
         if not self.candidates:
-            floors = sorted({f"{v:.3g} {unit[ax]}" for ax, v in self.min_rms.items()})
-            lines.append(f"  {NOTHING_FOUND} (none removes {100 * self.min_explained:.0f}% with at least "
-                         f"{' / '.join(floors)} RMS)")
+            lines.append(f"  {NOTHING_FOUND} (none removes {100 * self.min_explained:.0f}% of its axis's residual with at "
+                         "least the axis's floor)")
         for k, c in enumerate(self.candidates, 1):
             how = (f"selected at step {c['step']}: {100 * c['explained_at_selection']:.0f}% of what was left, "
-                   f"{c['RMS_before_at_selection']:.4f} -> {c['RMS_after_at_selection']:.4f} {c['unit']}"
+                   f"{c['RMS_before_at_selection']:.4g} -> {c['RMS_after_at_selection']:.4g} {c['unit']}"
                    if c["selected"] else "not needed once the selected ones are in")
+            if c.get("named_as"):
+                how += f"; named {c['named_as']}@{c['axis']}, then its shape refined by this curve of no set shape"
             display = self.displays.get(c["axis"], (180 / math.pi, "deg"))
             params = ", ".join(f"{n}={_fmt(n, v, display)}" for n, v in c["parameters"].items())
             if c.get("refined_from"):
                 params += " (refined from " + ", ".join(f"{n}={_fmt(n, v, display)}"
                                                         for n, v in c["refined_from"].items()) + ")"
             lines.append(f"  {k}. {c['effect']}@{c['axis']} [{c['family']}]: {100 * c['explained']:.0f}%, "
-                         f"held-out RMS {c['RMS_before']:.4f} -> {c['RMS_after']:.4f} {c['unit']} "
+                         f"held-out RMS {c['RMS_before']:.4g} -> {c['RMS_after']:.4g} {c['unit']} "
                          f"({how}{'; ' + params if params else ''})")
         if self.candidates:
             lines.append(f"  add the selected ones: lcgym diagnose DATA --system {self.spec or self.system} "
                          + (f"{self.options} " if self.options else "") + " ".join(f"--add {m}" for m in self.missing))
+        refused = self.refused()
+        if refused:
+            lines += ["", f"refused (removed at least {100 * self.min_explained:.0f}% of what its axis had left at some "
+                      "step, but failed another rule of the significance test):"]
+            wr = max(len(f"{c['effect']}@{c['axis']}") for c in refused)
+            for c in refused:
+                lines.append(f"  {c['effect'] + '@' + c['axis']:{wr}s}  step {c['step']}: {100 * c['share_of_left']:3.0f}% "
+                             f"of what was left, {100 * c['share_of_original']:3.0f}% of the original: {c['verdict']}")
         if self.steps:
-            lines += ["", "selection step by step (held-out RMS each axis had left; the candidates that removed most "
-                      "of it, share of what was left / of the original error; all of them in the JSON):"]
+            lines += ["", "selection step by step (held-out RMS each axis had left; the candidates that removed most of it, "
+                      "share of what was left / of the original error; all of them in the JSON):"]
             for st in self.steps:
                 left = ", ".join(f"{ax} {v:.4g}" + ("" if one_unit else f" {unit[ax]}") for ax, v in st["left_RMS"].items())
                 revised = "".join(f"; then {r}" for r in st.get("revised", []))
@@ -150,17 +166,18 @@ class Diagnosis:
                              + revised)
                 shown = st["candidates"][:n_shown]
                 shown += [c for c in st["candidates"][n_shown:] if c["verdict"] == "passes"]
+                ws = max([34] + [len(c["effect"]) + len(c["axis"]) + 1 for c in shown])
                 for c in shown:
-                    lines.append(f"    {c['effect'] + '@' + c['axis']:34s} {100 * c['share_of_left']:4.0f}% / "
+                    lines.append(f"    {c['effect'] + '@' + c['axis']:{ws}s} {100 * c['share_of_left']:4.0f}% / "
                                  f"{100 * c['share_of_original']:4.0f}%  {c['verdict']}")
             lines.append(f"  stopped: {self.stop}")
         if self.after is not None:
             lines += ["", f"after adding {', '.join(self.after['added'])} and refitting, residual RMS{head}:",
-                      f"  {'axis':12s} {'before':>8s} {'after':>8s} {'change':>8s}"]
+                      f"  {'axis':{w}s} {'before':>9s} {'after':>9s} {'change':>8s}"]
             for ax in self.axes:
                 b, a = self.residual[ax]["RMS"], self.after["residual"][ax]["RMS"]
                 change = f"{100 * (a - b) / b:+7.0f}%" if b > 0 else "       -"
-                lines.append(f"  {ax:12s} {b:8.4f} {a:8.4f} {change}" + ("" if one_unit else f" {unit[ax]}"))
+                lines.append(f"  {ax:{w}s} {_num(b)} {_num(a)} {change}" + ("" if one_unit else f" {unit[ax]}"))
             params = self.after.get("parameters", {})
             if 0 < len(params) <= MAX_PRINTED_PARAMETERS:
                 lines.append("  fitted parameters: " + ", ".join(f"{n} {v:.4g}" for n, v in params.items()))
@@ -173,17 +190,49 @@ class Diagnosis:
             what = f"with {', '.join(v['added'])}" if v["added"] else "with no effect added (none selected)"
             lines += ["", f"validation on {v['n_samples']} samples of other data, not fitted (the model as fitted "
                       f"above, before and {what}), residual RMS{head}:",
-                      f"  {'axis':12s} {'before':>8s} {'after':>8s} {'change':>8s}"]
+                      f"  {'axis':{w}s} {'before':>9s} {'after':>9s} {'change':>8s}"]
             for ax in self.axes:
                 b, a = v["residual"][ax]["RMS"], v["residual_after"][ax]["RMS"]
                 change = f"{100 * (a - b) / b:+7.0f}%" if b > 0 else "       -"
-                lines.append(f"  {ax:12s} {b:8.4f} {a:8.4f} {change}" + ("" if one_unit else f" {unit[ax]}"))
+                lines.append(f"  {ax:{w}s} {_num(b)} {_num(a)} {change}" + ("" if one_unit else f" {unit[ax]}"))
         if self.replay is not None:
             lines += ["", f"replay on the plant, tracking-error RMS [{self.replay.get('unit', 'deg')}] with the model's "
-                      "feedforward:", f"  {'axis':12s} {'before':>8s} {'after':>8s}"]
+                      "feedforward:", f"  {'axis':{w}s} {'before':>9s} {'after':>9s}"]
             for ax in self.axes:
-                lines.append(f"  {ax:12s} {self.replay['before'][ax]:8.4f} {self.replay['after'][ax]:8.4f}")
+                lines.append(f"  {ax:{w}s} {_num(self.replay['before'][ax])} {_num(self.replay['after'][ax])}")
         return "\n".join(lines)
+
+    def refused(self) -> list[dict]:
+        """The candidates that removed at least ``min_explained`` of what their axis had left at some
+        step but failed another rule (a sign, the original error, the noise floor, a simpler form),
+        each once (at the step where it removed the largest share), the largest share first; each a
+        step row of ``steps`` with its ``step``."""
+        best: dict[str, dict] = {}
+        picked = set(self.missing)
+        for st in self.steps:
+            for c in st["candidates"]:
+                key = f"{c['effect']}@{c['axis']}"
+                if c["verdict"] == "passes" or c["share_of_left"] < self.min_explained or key in picked:
+                    continue
+                if key not in best or c["share_of_left"] > best[key]["share_of_left"]:
+                    best[key] = {**c, "step": st["step"]}
+        return sorted(best.values(), key=lambda c: -c["share_of_left"])
+
+    def _samples_lines(self, w: int) -> list[str]:
+        """What was fitted and what was left out (``samples``), for ``text``."""
+        s = self.samples
+        if not s:
+            return []
+        total, still = s["total"], s["standstill"]
+        trimmed = (f", and {s['edges_trimmed']} more where the residual was dominated by trial edges (an unsettled start "
+                   "or a move cut off)") if s["edges_trimmed"] else ""
+        out = [f"samples: {total} in {s['trials']} trial(s); left out on every axis: {s['edges']} at trial edges "
+               f"(the filters' first and last {s['settle_s']:.2g} s{trimmed})"]
+        if any(still.values()):
+            speed = {ax: _fmt("eps", v, self.displays.get(ax, (180 / math.pi, "deg"))) for ax, v in s["rest_speed"].items()}
+            rest = ", ".join(f"{ax} {100 * n / total:.0f}% (below {speed[ax]})" for ax, n in still.items() if n)
+            out.append(f"standstill left out of its axis's fit and score: {rest}")
+        return out
 
     def plot(self, folder: str | Path) -> list[Path]:
         """residual_time.png, residual_map.png and (with ``after``) before_after.png in ``folder``."""
@@ -257,12 +306,17 @@ class Diagnosis:
         return fig
 
 
+def _num(x: float) -> str:
+    """A residual figure in a 9-wide column: 4 significant digits, whatever its size."""
+    return f"{x:9.4g}" if x != 0 else f"{0:9d}"
+
+
 def _fmt(name: str, value: float, display: tuple[float, str] = (180 / math.pi, "deg")) -> str:
     """Nonlinear parameters in readable units: positions and speeds in the axis's display unit
     (``display`` = (factor, unit): deg and deg/s, or mm and mm/s)."""
     f, unit = display
-    if name in ("q0", "width", "period"):
+    if name in ("q0", "width", "period", "lo", "hi"):
         return f"{value * f:.3g} {unit}"
-    if name in ("eps", "vs", "v_ref"):
+    if name in ("eps", "vs", "v_ref", "v_top"):
         return f"{value * f:.3g} {unit}/s"
     return f"{value:.3g}"

@@ -70,8 +70,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..physics.effects import Loads
 from ..physics.model import PhysicalModel
 from .candidates import Candidate
+from .layout import Layout
 
 DEG = math.pi / 180.0
 LATE_FACTOR = 0.5  # a pick must also remove this fraction of min_explained of its axis's original error ...
@@ -80,78 +82,85 @@ REVEALED = 1 / 3  # ... unless it removes at least this share of what is left: a
 
 @dataclass
 class Prepared:
-    """Trials reduced once: full-rate kinematics ``kin``, model torque ``torque`` and its rigid-body
-    part ``rigid_torque`` (T, A);
+    """Trials reduced once: full-rate kinematics ``kin``, model torque ``torque`` and the model's
+    own torques ``loads`` (``physics.effects.Loads``: its rigid-body torque, and its gravity torque
+    where a candidate reads it) (T, A);
     reduced input ``u`` and reduced design ``design`` (R, A, p) of the fitted model (the columns
     of its free parameters, ``PhysicalModel.free_design``: the IX's rigid regressor at its fitted
-    centres of mass; + its effects' columns). The torque of parameters the model holds fixed
-    is subtracted from both ``u`` and ``torque``; ``fold`` (R,) in {0, 1};
+    centres of mass; + its effects' columns), zero where ``used`` (R, A) is False (a sample the
+    layout leaves out of that axis's fit and score). The torque of parameters the model holds fixed
+    is subtracted from both ``u`` and ``torque``; ``fold`` (R,) in {0, 1}; ``guard`` (R,) rows
+    within the filters' reach of a block boundary (left out of the training folds);
     ``rows`` (R,) the full-rate sample of each reduced row; ``trial`` (R,) its trial index."""
 
     model: PhysicalModel
     kin: tuple[np.ndarray, np.ndarray, np.ndarray]
     lengths: list[int]
     torque: np.ndarray
-    rigid_torque: np.ndarray
+    loads: Loads
     u: np.ndarray
     design: np.ndarray
+    mask: np.ndarray
+    used: np.ndarray
     fold: np.ndarray
+    guard: np.ndarray
     rows: np.ndarray
     trial: np.ndarray
 
-    def reduce(self, columns: np.ndarray) -> np.ndarray:
-        return self.model.reduce(columns, self.lengths)
+    def reduce(self, columns: np.ndarray, axis: int) -> np.ndarray:
+        """Columns (T, k) of ``axis`` reduced as the design is (``PhysicalModel.masked_reduce``)."""
+        return self.model.masked_reduce(columns, self.lengths, self.mask[:, axis])
 
     @property
     def residual(self) -> np.ndarray:
-        """Reduced residual (R, A) of the fitted model: u minus the reduced model torque."""
-        return self.u - self.reduce(self.torque)
+        """Reduced residual (R, A) of the fitted model: u minus the reduced model torque (zero where not used)."""
+        return self.u - self.model.masked_reduce(self.torque, self.lengths, self.mask)
+
+    @property
+    def n_used(self) -> np.ndarray:
+        """Rows used per axis (A,)."""
+        return self.used.sum(axis=0)
+
+    def with_gravity(self) -> Prepared:
+        """This, with the model's gravity torque in ``loads`` (a candidate that reads it)."""
+        if self.loads.gravity is None:
+            q, qd, qdd = self.kin
+            p = self.model.fitted_params.to_vector()
+            gravity = self.model.system.inverse_dynamics(p, q, np.zeros_like(qd), np.zeros_like(qdd))
+            self.loads = Loads(torque=self.loads.torque, gravity=gravity)
+        return self
 
 
-class DataTooShort(ValueError):
-    """Too little data for held-out scoring."""
-
-
-def check_length(trials: Sequence, block_seconds: float) -> None:
-    """Held-out scoring needs at least two complete blocks in each fold (``prepare``'s layout)."""
-    complete = [0, 0]
-    for k, tr in enumerate(trials):
-        for b in range(int(tr.n_samples / tr.fs // block_seconds)):
-            complete[(b + k) % 2] += 1
-    if min(complete) < 2:
-        total = sum(tr.n_samples / tr.fs for tr in trials)
-        raise DataTooShort(
-            f"{total:.1f} s of data in {len(trials)} trial(s): held-out scoring needs two complete {block_seconds:g} s "
-            f"blocks in each of its two folds (at least {4 * block_seconds:g} s in all, in trials of at least "
-            f"{block_seconds:g} s; blocks alternate between the folds)")
-
-
-def prepare(trials: Sequence, model: PhysicalModel, block_seconds: float = 4.0) -> Prepared:
-    """Fit ``model`` (unfitted) on ``trials`` and reduce everything the search needs."""
-    model.fit(trials)
+def prepare(trials: Sequence, model: PhysicalModel, layout: Layout) -> Prepared:
+    """Fit ``model`` (unfitted) on the samples of ``trials`` that ``layout`` uses and reduce
+    everything the search needs."""
+    model.fit(trials, mask=layout.used)
     kin, lengths = model.kinematics(trials)
     free, fixed, theta = model.free_design(kin)
     rigid_torque = free @ theta + fixed
     torque = model.torque(*kin) - fixed  # the held part (e.g. CAD inertia) is moved to the input side
+    rows = model.reduced_rows(lengths)
+    used = layout.used[rows]
     if getattr(model, "reduced_", None) is not None:  # a linear fit's own reduced design: the same columns
         design, u = model.reduced_
     else:
-        effect_cols = model._effect_columns(kin, rigid_torque)  # ripple columns scale the rigid torque
+        effect_cols = model._effect_columns(kin, model.loads(kin))
         nonlinear = model.nonlinear_design(kin)  # zeta_n refitted to first order with each candidate
         parts = [free] + ([] if nonlinear is None else [nonlinear]) + [effect_cols]
-        design = model.reduce(np.concatenate(parts, axis=2), lengths)
-        u = model.reduce(model.inputs(trials) - fixed, lengths)
-    dec = max(1, model.decimate)
-    rows, trial, fold = [], [], []
-    start = 0
+        design = model.masked_reduce(np.concatenate(parts, axis=2), lengths, layout.used)
+        u = model.masked_reduce(model.inputs(trials) - fixed, lengths, layout.used)
+    trial, fold, guard = [], [], []
     for k, n in enumerate(lengths):
-        local = np.arange(0, n, dec)
-        rows.append(start + local)
-        trial.append(np.full(local.size, k))
-        fold.append((np.floor(local / model.fs / block_seconds).astype(int) + k) % 2)
-        start += n
-    fold = np.concatenate(fold)
-    return Prepared(model, kin, lengths, torque, rigid_torque, u, design, fold, np.concatenate(rows), np.concatenate(trial))
+        t = np.arange(0, n, max(1, model.decimate)) / model.fs
+        length = layout.blocks[k]
+        n_blocks = max(1, int(round(n / model.fs / length)))
+        block = np.minimum(np.floor(t / length + 1e-9).astype(int), n_blocks - 1)
+        nearest = np.clip(np.round(t / length), 1, max(1, n_blocks - 1))  # the closest boundary between two blocks
+        trial.append(np.full(t.size, k))
+        fold.append((block + k) % 2)
+        guard.append((np.abs(t - nearest * length) < layout.settle) & (n_blocks > 1))
+    return Prepared(model, kin, lengths, torque, Loads(torque=rigid_torque), u, design, layout.used, used,
+                    np.concatenate(fold), np.concatenate(guard), rows, np.concatenate(trial))
 
 
 def verdict(removed: float, left: float, own: float, min_explained: float, min_rms: float, n_rows: int,
@@ -184,15 +193,16 @@ def _solve(G, b, rtol=1e-10):
 class Scorer:
     """Two-fold least squares of the reduced design plus one candidate's columns on one axis."""
 
-    def __init__(self, design: np.ndarray, u: np.ndarray, fold: np.ndarray):
+    def __init__(self, design: np.ndarray, u: np.ndarray, fold: np.ndarray, guard: np.ndarray | None = None):
         self.design, self.u, self.fold = design, u, fold
+        self.guard = np.zeros(fold.shape, dtype=bool) if guard is None else guard
         self.memo: dict = {}  # what candidates of this scorer share (spectral peaks)
         # every fold's fit is a minimum-norm correction to the fit on all data (as PhysicalModel.fit
         # corrects the nominal values): directions one fold cannot identify keep the full-data values
         self.theta0 = _solve(np.einsum("rap,raq->pq", design, design), np.einsum("rap,ra->p", design, u))
         self.parts = []
         for f in (0, 1):
-            tr, te = np.flatnonzero(fold != f), np.flatnonzero(fold == f)
+            tr, te = np.flatnonzero((fold != f) & ~self.guard), np.flatnonzero(fold == f)
             D, y = design[tr], u[tr]
             G = np.einsum("rap,raq->pq", D, D)
             b = np.einsum("rap,ra->p", D, y)
@@ -230,7 +240,11 @@ class Scorer:
         """A scorer whose design has ``cols`` (R, k) added on ``axis`` (a selected effect)."""
         extra = np.zeros((cols.shape[0], self.design.shape[1], cols.shape[1]))
         extra[:, axis, :] = cols
-        return Scorer(np.concatenate([self.design, extra], axis=2), self.u, self.fold)
+        return Scorer(np.concatenate([self.design, extra], axis=2), self.u, self.fold, self.guard)
+
+    @classmethod
+    def of(cls, prep: Prepared) -> Scorer:
+        return cls(prep.design, prep.u, prep.fold, prep.guard)
 
 
 def period_peaks(r: np.ndarray, q: np.ndarray, weight: np.ndarray | None, n_peaks: int = 3,
@@ -285,19 +299,20 @@ class ColumnCache:
         self.prep, self.axes, self.store = prep, tuple(axes), {}
 
     def use(self, prep: Prepared) -> None:
-        """Switch to a refitted model's data: columns that scale its torque are recomputed."""
+        """Switch to a refitted model's data: columns that read its torques are recomputed."""
         self.prep = prep
         self.store = {k: v for k, v in self.store.items() if not k[3]}
 
     def __call__(self, cand: Candidate, axis: int, params: dict, keep: bool = True) -> np.ndarray:
-        """The reduced columns; ``keep=False``: not stored (a refinement's trial parameters)."""
-        key = (cand.name, axis, tuple(sorted(params.items())), cand.effect.needs_base_torque)
+        """The reduced columns (zero where the axis's rows are not used); ``keep=False``: not stored
+        (a refinement's trial parameters)."""
+        key = (cand.name, axis, tuple(sorted(params.items())), bool(cand.effect.reads))
         if key in self.store:
             return self.store[key]
         eff = cand.build(self.axes[axis], **params).bound(self.axes)
         q, qd, qdd = self.prep.kin
-        base = self.prep.rigid_torque[:, axis] if eff.needs_base_torque else None
-        cols = self.prep.reduce(eff.columns(q, qd, qdd, base=base))
+        loads = self.prep.with_gravity().loads if "gravity" in eff.reads else self.prep.loads
+        cols = self.prep.reduce(eff.columns(q, qd, qdd, loads), axis)
         if keep:
             self.store[key] = cols
         return cols
@@ -306,14 +321,17 @@ class ColumnCache:
 def score_candidate(scorer: Scorer, cand: Candidate, axis: int, prep: Prepared, cache: ColumnCache,
                     scale: dict) -> Score | None:
     """Nested choice of the nonlinear parameters: per fold, the grid value with the smallest
-    training SSE, scored on the held-out fold; the reported parameters minimize the SSE on all
-    data (summed training SSE of both folds). ``scale``: the axis's {"speed", "position"} scales of
-    the grids (``physics.candidates.Scaled``; the shortest period searched is 1 % of "position")."""
+    training SSE among those whose fit has the effect's physical signs (``Effect.physical``; any
+    value where none has), scored on the held-out fold: a one-sided spring is tried on both sides of
+    its onset before its sign is judged. The reported parameters minimize the SSE on all data
+    (summed training SSE of both folds), among the physical ones where there are. ``scale``: the
+    axis's {"speed", "position"} scales of the grids (``physics.candidates.Scaled``; the shortest
+    period searched is 1 % of "position")."""
     q_full = prep.kin[0]
     grid = cand.settings(q_full, prep.kin[1], axis, scale)
     shortest = 0.01 * scale["position"]
     q_red = q_full[prep.rows, axis]
-    weight = prep.rigid_torque[prep.rows, axis] if cand.effect.needs_base_torque else None
+    weight = prep.loads.torque[prep.rows, axis] if "torque" in cand.effect.reads else None
 
     def peaks(f: int) -> list[float]:
         """Spectral peaks of fold f's training residual (kept on the scorer: every periodic candidate
@@ -332,18 +350,19 @@ def score_candidate(scorer: Scorer, cand: Candidate, axis: int, prep: Prepared, 
         return [{**g, cand.period: float(p)} for g in grid for p in periods]
 
     held_out, physical = 0.0, True
-    signed = [cand.effect.linear.index(n) for n in cand.effect.positive]
     for f in (0, 1):
         options = settings(f)
         if not options:
             return None
         results = [scorer.evaluate(cache(cand, axis, s), axis, f) for s in options]
-        chosen = min(results, key=lambda r: r[0])  # chosen by the training fit alone
+        signed = [r for r in results if cand.effect.physical(r[2])]
+        chosen = min(signed or results, key=lambda r: r[0])  # chosen by the training fit alone
         held_out += chosen[1]
-        physical &= bool(np.all(chosen[2][signed] > 0))
+        physical &= bool(signed)
     options = settings(None)
-    totals = [sum(scorer.evaluate(cache(cand, axis, s), axis, f)[0] for f in (0, 1)) for s in options]
-    best = options[int(np.argmin(totals))]
+    fits = [[scorer.evaluate(cache(cand, axis, s), axis, f) for f in (0, 1)] for s in options]
+    signed = [k for k, r in enumerate(fits) if all(cand.effect.physical(x[2]) for x in r)] or range(len(options))
+    best = options[min(signed, key=lambda k: fits[k][0][0] + fits[k][1][0])]
     return Score(cand, axis, held_out, best, cache(cand, axis, best), physical)
 
 
@@ -352,27 +371,29 @@ class Step:
     """One step of the greedy selection: ``left`` (n_axes,) each axis's held-out SSE before it,
     ``original`` each axis's original error then (rule 2), ``scores`` every candidate scored at
     this step as (Score, held-out SSE it removes from its axis, verdict: "passes" or the rule it
-    fails), ``picked`` the Score selected (None: the selection stopped here); ``revised``: earlier
-    picks put in another form of theirs once this one was in (``rank``)."""
+    fails), ``picked`` the Score selected (None: the selection stopped here); ``revised``: picks
+    put in another form of theirs once this one was in (``rank``)."""
 
     left: np.ndarray
     original: np.ndarray
     scores: list[tuple[Score, float, str]]
     picked: Score | None = None
-    revised: list[str] = field(default_factory=list)  # earlier picks put in another form once this one is in
+    revised: list[str] = field(default_factory=list)
 
 
 @dataclass
 class Ranking:
-    """Outcome of the search: ``baseline`` held-out SSE per axis of the model alone;
-    ``alone`` every candidate's Score against the model alone; ``selected`` the greedy picks
-    as (Score at its step, share of what was left removed at that step, held-out SSE of its axis
-    before that step); ``model`` the model refitted with
-    the selected effects; ``min_rms`` (n_axes,) the noise floor per axis; ``steps`` every step's
-    record (``Step``); ``stop`` why the selection ended."""
+    """Outcome of the search: ``baseline`` held-out SSE per axis of the model alone; ``n_rows``
+    (n_axes,) the rows each axis is scored on; ``alone`` every candidate's Score against the model
+    alone; ``selected`` the greedy picks as (Score at its step, or of the form it was revised to;
+    share of what was left removed at that step, held-out SSE of its axis before that step);
+    ``named`` per selected entry, the candidate its step picked (a form of no set shape revised from
+    it keeps its name: ``cable_spring`` -> ``position_map`` is a spring); ``model`` the model refitted
+    with the selected effects; ``min_rms`` (n_axes,) the noise floor per axis; ``steps`` every
+    step's record (``Step``); ``stop`` why the selection ended."""
 
     baseline: np.ndarray
-    n_rows: int
+    n_rows: np.ndarray
     alone: list[Score]
     selected: list[tuple[Score, float, float]]
     model: PhysicalModel
@@ -380,45 +401,49 @@ class Ranking:
     min_rms: np.ndarray
     steps: list[Step] = field(default_factory=list)
     stop: str = ""
+    named: list[Candidate] = field(default_factory=list)
 
     def explained(self, s: Score) -> float:
         return max(0.0, 1.0 - s.held_out_sse / self.baseline[s.axis]) if self.baseline[s.axis] > 0 else 0.0
 
     def removed_rms(self, s: Score) -> float:
-        return math.sqrt(max(self.baseline[s.axis] - s.held_out_sse, 0.0) / self.n_rows)
+        return math.sqrt(max(self.baseline[s.axis] - s.held_out_sse, 0.0) / self.n_rows[s.axis])
 
     def passes_alone(self, s: Score) -> bool:
         return s.physical and self.explained(s) >= self.min_explained and self.removed_rms(s) >= self.min_rms[s.axis]
 
 
-def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes: Sequence[str],
+def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes: Sequence[str], layout: Layout,
          min_explained: float = 0.1, min_rms: float | Sequence[float] = 0.004, tie: float = 0.01, max_steps: int = 4,
-         block_seconds: float = 4.0, progress=None, search_axes: Sequence[int] | None = None,
-         scales: Sequence[dict] | None = None, kinds: Sequence | None = None) -> Ranking:
+         progress=None, search_axes: Sequence[int] | None = None, scales: Sequence[dict] | None = None,
+         kinds: Sequence | None = None) -> Ranking:
     """Score every candidate on every axis, then select greedily (module docstring). After each
     pick the model is refitted with it (centres of mass included) before the rest are rescored.
 
     The pass rule at every step (module docstring, ``verdict``): the candidate removes at least
     ``min_explained`` of its axis's current held-out residual energy, ``LATE_FACTOR`` times that
     share of the original one (or ``REVEALED`` of what is left), with a removed RMS of at least
-    ``min_rms`` (one value, or one per axis). ``search_axes``: the axis indices candidates are tried on (default all); ``scales``:
-    each axis's grid scales (``score_candidate``; default the IX's 20 deg/s and 100 deg); ``kinds``:
-    the ``systems.Axis`` of each axis, where a candidate whose formula does not apply to the axis
-    (``Effect.applies_to``) is skipped.
+    ``min_rms`` (one value, or one per axis). ``layout``: the samples used and the held-out blocks
+    (``diagnose.layout``); ``search_axes``: the axis indices candidates are tried on (default all);
+    ``scales``: each axis's grid scales (``score_candidate``; default the IX's 20 deg/s and 100
+    deg); ``kinds``: the ``systems.Axis`` of each axis, where a candidate whose formula does not
+    apply to the axis (``Effect.applies_to``) is skipped.
     """
     min_rms = np.broadcast_to(np.asarray(min_rms, dtype=float), (len(axes),))
     if scales is None:
         scales = [{"speed": 20 * DEG, "position": 100 * DEG}] * len(axes)
     cache = ColumnCache(prep, axes)
-    scorer = Scorer(prep.design, prep.u, prep.fold)
+    scorer = Scorer.of(prep)
     baseline = scorer.test_sse.copy()
     own = baseline.copy()  # each axis's original error without what picks on other axes removed from it
-    n_rows = prep.u.shape[0]
+    n_rows = np.maximum(prep.n_used, 1)
     have = {e.key for e in prep.model.effects}  # a start model's own effects are not offered again
     pairs = [(c, a) for a in (range(len(axes)) if search_axes is None else search_axes) for c in candidates
              if (kinds is None or c.effect.applies_to(kinds[a])) and f"{c.name}@{axes[a]}" not in have]
-    alone, selected, steps, model = [], [], [], prep.model
+    by_name = {c.name: c for c in candidates}
+    alone, selected, named, steps, model = [], [], [], [], prep.model
     stop = f"{max_steps} effects selected (the most allowed)"
+    context = _Context(trials, candidates, axes, own, min_explained, min_rms, n_rows, layout, scales)
     for step in range(max_steps):
         current = scorer.test_sse
         if progress is not None:
@@ -440,12 +465,13 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
         by_key = {(s.candidate.name, s.axis): s for s in scores}
         for s in scores:
             a = s.axis
-            why = verdict(current[a] - s.held_out_sse, current[a], own[a], min_explained, min_rms[a], n_rows, s.physical)
-            inner = by_key.get((s.candidate.extends, a))
-            if why == "passes" and inner is not None:  # its extra parameters must pass against the simpler form
-                if verdict(inner.held_out_sse - s.held_out_sse, inner.held_out_sse, own[a], min_explained, min_rms[a],
-                           n_rows) != "passes":
-                    why = f"adds too little to {inner.candidate.name}"
+            why = verdict(current[a] - s.held_out_sse, current[a], own[a], min_explained, min_rms[a], n_rows[a], s.physical)
+            inner = [by_key[(e, a)] for e in s.candidate.extends if (e, a) in by_key and by_key[(e, a)].physical]
+            if why == "passes" and inner:  # its extra parameters must pass against the best simpler form
+                best = min(inner, key=lambda x: x.held_out_sse)
+                if verdict(best.held_out_sse - s.held_out_sse, best.held_out_sse, own[a], min_explained, min_rms[a],
+                           n_rows[a]) != "passes":
+                    why = f"adds too little to {best.candidate.name}"
             rows.append((s, float(current[a] - s.held_out_sse), why))
         record = Step(left=current.copy(), original=own.copy(), scores=rows)
         steps.append(record)
@@ -454,31 +480,55 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
             stop = "no candidate passes the significance rule"
             break
         top = max(passing, key=lambda x: x[2])
-        near = [x for x in passing if x[0].axis == top[0].axis and x[1] >= top[1] - tie]
-        pick = min(near, key=lambda x: (x[0].candidate.n_params, -x[1]))[:2]
+        simpler = [x for x in passing if x[0].axis == top[0].axis and x[0].candidate.name in _simpler(top[0].candidate, by_name)]
+        if simpler and top[0].candidate.shape_free:  # named by the library's effect whose shape it refines (revised below)
+            top = max(simpler, key=lambda x: x[2])
+        near = [x for x in passing if x[0].axis == top[0].axis and x[1] >= top[1] - tie and not x[0].candidate.shape_free]
+        pick = min(near or [top], key=lambda x: (x[0].candidate.n_params, -x[1]))[:2]
         params = refine(scorer, pick[0], cache)
         new_model = model.with_effect(pick[0].candidate.build(axes[pick[0].axis], **params))
-        new_prep = prepare(trials, new_model, block_seconds)
-        new_scorer = Scorer(new_prep.design, new_prep.u, new_prep.fold)
+        new_prep = prepare(trials, new_model, layout)
+        new_scorer = Scorer.of(new_prep)
         if new_scorer.test_sse[pick[0].axis] >= current[pick[0].axis]:
             stop = (f"{pick[0].candidate.name}@{axes[pick[0].axis]} passed, but refitted with it the model does no "
                     "better held-out (not kept)")
             break
         record.picked = pick[0]
         selected.append((*pick, float(current[pick[0].axis])))
+        named.append(pick[0].candidate)
         others = np.arange(len(axes)) != pick[0].axis
         own[others] -= np.clip(current - new_scorer.test_sse, 0.0, None)[others]
         model, prep, scorer = new_model, new_prep, new_scorer
         cache.use(prep)
-        for k, (s, share, before) in enumerate(selected[:-1]):  # with the new pick in, is another form better now?
-            other = _other_form(s, model, trials, candidates, axes, own, min_explained, min_rms, n_rows, scorer,
-                                block_seconds, scales)
+        # with the new pick in, is another form of an earlier pick better now? The new pick itself is
+        # revisited only towards a form of no set shape that passed at this step (its shape refined)
+        richer = {x[0].candidate.name for x in passing if x[0].axis == pick[0].axis and x[0].candidate.shape_free}
+        for k, (s, share, before) in enumerate(selected):
+            latest = k == len(selected) - 1
+            if latest and not richer:
+                continue
+            other = _other_form(s, model, scorer, context, only=richer if latest else None)
             if other is not None:
                 record.revised.append(f"{s.candidate.name}@{axes[s.axis]} -> {other[0].candidate.name}@{axes[s.axis]}")
                 selected[k] = (other[0], share, before)
-                model, prep, scorer = other[1], other[2], Scorer(other[2].design, other[2].u, other[2].fold)
+                model, prep, scorer = other[1], other[2], Scorer.of(other[2])
                 cache.use(prep)
-    return Ranking(baseline, n_rows, alone, selected, model, min_explained, min_rms, steps, stop)
+    return Ranking(baseline, n_rows, alone, selected, model, min_explained, min_rms, steps, stop, named)
+
+
+@dataclass
+class _Context:
+    """What revisiting a pick needs of the selection (``_other_form``)."""
+
+    trials: Sequence
+    candidates: Sequence[Candidate]
+    axes: Sequence[str]
+    own: np.ndarray
+    min_explained: float
+    min_rms: np.ndarray
+    n_rows: np.ndarray
+    layout: Layout
+    scales: Sequence[dict]
 
 
 def _without(model: PhysicalModel, key: str) -> PhysicalModel:
@@ -487,52 +537,69 @@ def _without(model: PhysicalModel, key: str) -> PhysicalModel:
                                effects=tuple(e for e in model.fitted_effects if e.key != key))
 
 
+def _simpler(cand: Candidate, by_name: dict[str, Candidate]) -> set[str]:
+    """Names of every candidate whose form ``cand`` contains (``extends``, followed through)."""
+    out, todo = set(), list(cand.extends)
+    while todo:
+        name = todo.pop()
+        if name not in out and name in by_name:
+            out.add(name)
+            todo.extend(by_name[name].extends)
+    return out
+
+
 def _forms(cand: Candidate, candidates: Sequence[Candidate]) -> list[str]:
-    """Names of the other forms of ``cand``: the simpler one it extends and those that extend it."""
-    return [c.name for c in candidates if c.name != cand.name and (c.name == cand.extends or c.extends == cand.name)]
+    """Names of the other forms of ``cand``: the simpler ones it extends and those that extend it."""
+    return [c.name for c in candidates if c.name != cand.name and (c.name in cand.extends or cand.name in c.extends)]
 
 
-def _other_form(s: Score, model: PhysicalModel, trials, candidates, axes, own, min_explained, min_rms, n_rows,
-                scorer: Scorer, block_seconds: float, scales) -> tuple[Score, PhysicalModel, Prepared] | None:
+def _other_form(s: Score, model: PhysicalModel, scorer: Scorer, ctx: _Context,
+                only: set[str] | None = None) -> tuple[Score, PhysicalModel, Prepared] | None:
     """Revisit a pick that has another form (asymmetric friction and the Coulomb friction it extends)
-    once later picks are in: each form is scored against the model without the pick, and the richer
+    once later picks are in: each form is scored against the model without the pick, and a richer
     one is kept only where its extra parameters pass the significance rule against what the
     simpler one leaves (a direction-dependent level can stand in for part of a one-sided spring
-    until the spring is in; a spring picked first can hide a friction's asymmetry). Returns (the
-    other form's Score, the model with it instead, prepared), or None to keep ``s``."""
-    a = s.axis
-    others = [c for c in candidates if c.name in _forms(s.candidate, candidates)]
+    until the spring is in; a spring picked first can hide a friction's asymmetry). ``only``: the
+    forms to try (default all). Returns (the other form's Score, the model with it instead,
+    prepared), or None to keep ``s``."""
+    a, axes = s.axis, ctx.axes
+    others = [c for c in ctx.candidates if c.name in _forms(s.candidate, ctx.candidates) and (only is None or c.name in only)]
     if not others:
         return None
-    without = prepare(trials, _without(model, f"{s.candidate.name}@{axes[a]}"), block_seconds)
-    base, cache = Scorer(without.design, without.u, without.fold), ColumnCache(without, axes)
+    without = prepare(ctx.trials, _without(model, f"{s.candidate.name}@{axes[a]}"), ctx.layout)
+    base, cache = Scorer.of(without), ColumnCache(without, axes)
     best = None
     for other in others:
-        alt = score_candidate(base, other, a, without, cache, scales[a])
+        alt = score_candidate(base, other, a, without, cache, ctx.scales[a])
         if alt is None or not alt.physical:
             continue
-        richer, simpler = (alt, None) if other.extends == s.candidate.name else (None, alt)
+        richer, simpler = (alt, None) if s.candidate.name in other.extends else (None, alt)
         richer_sse = scorer.test_sse[a] if richer is None else alt.held_out_sse
         simpler_sse = scorer.test_sse[a] if simpler is None else alt.held_out_sse
-        richer_needed = verdict(simpler_sse - richer_sse, simpler_sse, own[a], min_explained, min_rms[a], n_rows) == "passes"
+        richer_needed = verdict(simpler_sse - richer_sse, simpler_sse, ctx.own[a], ctx.min_explained, ctx.min_rms[a],
+                                ctx.n_rows[a]) == "passes"
         if (richer is not None and richer_needed) or (simpler is not None and not richer_needed):
             if best is None or alt.held_out_sse < best.held_out_sse:
                 best = alt
     if best is None:
         return None
-    swapped = without.model.with_effect(best.candidate.build(axes[a], **best.params))
-    return best, swapped, prepare(trials, swapped, block_seconds)
+    params = refine(base, best, cache)
+    swapped = without.model.with_effect(best.candidate.build(axes[a], **params))
+    return best, swapped, prepare(ctx.trials, swapped, ctx.layout)
 
 
 def refine(scorer: Scorer, score: Score, cache: ColumnCache, iterations: int = 60) -> dict:
     """The picked candidate's continuous nonlinear parameters (those its grid spans as a range or
-    from the data, and a period; not a grid of fixed values such as a spring's side) refined from
-    the grid's best by Nelder-Mead on the training SSE of both folds: a spring found on a 9-point
-    grid of onsets at 25.7 deg, 1 deg wide, where the truth is 20 deg, 3 deg, leaves its own
-    shape's mismatch in the residual, and that can hide a five-times-smaller effect on its axis.
-    Positive parameters (widths, smoothing speeds, periods) are searched in log space."""
+    from the data, and a period; not a grid of fixed values such as a spring's side, nor those the
+    candidate keeps ``fixed``) refined from the grid's best by Nelder-Mead on the training SSE of
+    both folds: a spring found on a 9-point grid of onsets at 25.7 deg, 1 deg wide, where the truth
+    is 20 deg, 3 deg, leaves its own shape's mismatch in the residual, and that can hide a
+    five-times-smaller effect on its axis. Positive parameters (widths, smoothing speeds, periods)
+    are searched in log space; the refined values are kept only where the held-out error falls
+    too and both folds' fits keep the effect's physical signs."""
     cand, axis = score.candidate, score.axis
-    names = [n for n, g in cand.grid.items() if not isinstance(g, tuple)] + ([cand.period] if cand.period else [])
+    names = [n for n, g in cand.grid.items() if not isinstance(g, tuple) and n not in cand.fixed]
+    names += [cand.period] if cand.period else []
     if not names:
         return dict(score.params)
     logged = [n != "q0" for n in names]  # every continuous parameter but an onset position is > 0
@@ -553,6 +620,9 @@ def refine(scorer: Scorer, score: Score, cache: ColumnCache, iterations: int = 6
     if result.fun >= start:
         return dict(score.params)
     refined = params(result.x)
-    held_out = sum(scorer.evaluate(cache(cand, axis, refined, keep=False), axis, f)[1] for f in (0, 1))
+    cols = cache(cand, axis, refined, keep=False)
+    fits = [scorer.evaluate(cols, axis, f) for f in (0, 1)]
+    if score.physical and not all(cand.effect.physical(r[2]) for r in fits):
+        return dict(score.params)
+    held_out = sum(r[1] for r in fits)
     return refined if held_out < score.held_out_sse else dict(score.params)  # a better training fit that holds
-

@@ -32,40 +32,60 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from .. import systems
+from ..data import regularize
 from ..metrics import norms as metric_norms
 from ..physics.effects import Effect, parse_key
 from ..physics.kinematics import lowpass_zero_phase, reference_kinematics
 from ..physics.model import PhysicalModel
 from .candidates import Candidate, candidates_for
+from .layout import edge_outliers, layout, used_samples
 from .regions import region_masks, region_table
 from .report import Diagnosis
-from .search import check_length, prepare, rank
+from .search import prepare, rank
 
 DEG = math.pi / 180.0
 NOISE_SHARE = 0.01  # a machine without its own noise_rms: 1 % of each axis's low-passed input RMS
 KINEMATICS = {"reference": "measured", "measured": "position"}  # option -> PhysicalModel.positions
+GAP_PERIODS = 0.125  # a gap bridged by interpolation: up to this share of a period of the fastest low-pass
 
 
-def norms(x: np.ndarray, axes: Sequence[str], units: Sequence[str]) -> dict:
-    """{axis: {MA, RMS, Inf, unit}} of a residual (R, A)."""
-    n = metric_norms(x)
-    return {ax: {**{k: float(v[i]) for k, v in n.items()}, "unit": units[i]} for i, ax in enumerate(axes)}
+def norms(x: np.ndarray, axes: Sequence[str], units: Sequence[str], used: np.ndarray | None = None) -> dict:
+    """{axis: {MA, RMS, Inf, unit}} of a residual (R, A), over each axis's ``used`` rows (default all)."""
+    out = {}
+    for i, ax in enumerate(axes):
+        col = x[:, i] if used is None else x[used[:, i], i]
+        n = metric_norms(col[:, None]) if col.size else {"MA": [0.0], "RMS": [0.0], "Inf": [0.0]}
+        out[ax] = {**{k: float(v[0]) for k, v in n.items()}, "unit": units[i]}
+    return out
 
 
-def _check_trials(trials, system: systems.System) -> None:
+def _check_trials(trials, system: systems.System, what: str = "trial") -> list:
+    """The trials on uniform time grids (``data.regularize``: a log with jitter or dropouts, from
+    Python; files are read that way), checked against the machine."""
     if not trials:
         raise ValueError("diagnose: no trials given")
+    out = []
     for k, tr in enumerate(trials):
         if tuple(tr.axes) != system.axis_names:
-            raise ValueError(f"diagnose: trial {k} has axes {', '.join(tr.axes)}; machine {system.name} has "
+            raise ValueError(f"diagnose: {what} {k} has axes {', '.join(tr.axes)}; machine {system.name} has "
                              f"{', '.join(system.axis_names)}")
-        if abs(tr.fs - trials[0].fs) > 1e-6 * trials[0].fs:
-            raise ValueError(f"diagnose: trial {k} is sampled at {tr.fs:g} Hz, trial 0 at {trials[0].fs:g} Hz")
+        out.extend(regularize(tr, max_gap=bridged_gap(), where=f"{what} {k}"))
+    for k, tr in enumerate(out):
+        if abs(tr.fs - out[0].fs) > 1e-6 * out[0].fs:
+            raise ValueError(f"diagnose: {what} {k} is sampled at {tr.fs:g} Hz, {what} 0 at {out[0].fs:g} Hz")
+    return out
+
+
+def bridged_gap(filter_hz: float = PhysicalModel.filter_hz) -> float:
+    """The longest gap [s] in a log that the diagnosis bridges by interpolation (``data.regularize``;
+    longer ones split the trial): ``GAP_PERIODS`` of a period of its fastest low-pass, the
+    kinematics' at twice the fit's corner ``filter_hz`` (12.5 ms at 5 Hz)."""
+    return GAP_PERIODS / (2.0 * filter_hz)
 
 
 def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequence[str | Effect] = (),
              replay: bool = False, candidates: Sequence[Candidate] | None = None, model: PhysicalModel | None = None,
-             min_explained: float = 0.1, min_rms: float | None = None, block_seconds: float = 4.0,
+             min_explained: float = 0.1, min_rms: float | None = None, block_seconds: float | None = None,
              max_steps: int | None = None, kinematics: str = "reference", progress: bool = False,
              spec: str | None = None, validate: Sequence | None = None) -> Diagnosis:
     """Run the workflow of this module on measured ``trials`` of ``system`` (a ``systems.System`` or
@@ -82,14 +102,16 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
     "measured" (the measured position, low-passed and differentiated). Candidates are tried on the
     axes that move (reference range above the axis's ``min_travel``: a joint that stands still shows
     neither friction nor inertia); max_steps: most effects selected (default two per moving axis).
+    block_seconds: the held-out blocks' length [s] (default from the data, ``layout.py``).
     spec: the machine as the user named it (a URDF path, ``module:attr``) for the report's hints
     (default ``system`` when it is a name). validate: trials of another experiment of the same
     machine, not fitted: the residuals there of the model fitted here, before and after its effects
     (those of ``add``, else the selected ones), computed the same way (``Diagnosis.validation``).
+    Trials whose time stamps are not uniform are put on uniform grids first (``data.regularize``).
     """
     spec = spec or (system if isinstance(system, str) else None)
     system = systems.get(system)
-    _check_trials(trials, system)
+    trials = _check_trials(trials, system)
     if not 0.0 < min_explained < 1.0:
         raise ValueError(f"min_explained must be in (0, 1), got {min_explained}")
     if kinematics not in KINEMATICS:
@@ -106,7 +128,7 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
     if len(set(keys)) < len(keys):
         raise ValueError(f"an effect is added twice: {keys}")
     if validate is not None:
-        _check_trials(validate, system)
+        validate = _check_trials(validate, system, "validation trial")
         if abs(validate[0].fs - trials[0].fs) > 1e-6 * trials[0].fs:
             raise ValueError(f"diagnose: the validation data are sampled at {validate[0].fs:g} Hz, the data fitted at "
                              f"{trials[0].fs:g} Hz; resample one of them (--resample)")
@@ -114,7 +136,8 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
         raise ValueError("--replay needs data simulated by lcgym: the file's sidecar has no 'plant' record")
     if replay and system.bench is None:
         raise ValueError(f"--replay needs a built-in machine with a plant; {system.name} has none")
-    check_length(trials, block_seconds)
+    kin, lengths = model.kinematics(trials)
+    lay = layout(trials, kin, lengths, fs, model.filter_hz, _velocity_filter_hz(model, trials), block_seconds)
     moving = moving_axes(trials, system)
     if not moving:
         raise ValueError("diagnose: no axis moves more than its minimum travel (1 deg, 1 mm) in the data")
@@ -123,28 +146,36 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
     with system.caching() if system.caching is not None else nullcontext():
         bar = tqdm(total=2, desc="diagnose", disable=not progress, leave=False)
         bar.set_postfix_str("fit nominal model")
-        prep = prepare(trials, model, block_seconds)
+        prep = prepare(trials, model, lay)
+        fs_rows = fs / max(1, prep.model.decimate)
+        time = (prep.rows - np.concatenate([[0], np.cumsum(lengths)[:-1]])[prep.trial]) / fs
+        trim = edge_outliers(prep.residual, prep.used, prep.trial, time, [n / fs for n in lengths], fs, lay.settle)
+        if trim is not None:  # the residual is dominated by trial edges: leave them out, fit again
+            lay = layout(trials, kin, lengths, fs, model.filter_hz, _velocity_filter_hz(model, trials), block_seconds, trim)
+            prep = prepare(trials, model, lay)
         bar.update()
         residual = prep.residual
         q, qd, qdd = (k[prep.rows] for k in prep.kin)
         floor = _noise_floor(system, prep, min_rms)
         scales = axis_scales(system, prep.kin[0], prep.kin[1])
-        fs_rows = fs / max(1, prep.model.decimate)
-        regions = region_table(residual, region_masks(q, qd, qdd, prep.trial, fs_rows, system.axes), axes)
+        regions = region_table(residual, region_masks(q, qd, qdd, prep.trial, fs_rows, system.axes), axes, prep.used)
         bar.update()
         bar.set_postfix_str("candidates")
-        ranking = rank(prep, trials, cands, axes, min_explained=min_explained, min_rms=floor,
-                       block_seconds=block_seconds, max_steps=max_steps, progress=bar, search_axes=moving,
-                       scales=scales, kinds=system.axes)
+        ranking = rank(prep, trials, cands, axes, lay, min_explained=min_explained, min_rms=floor, max_steps=max_steps,
+                       progress=bar, search_axes=moving, scales=scales, kinds=system.axes)
         bar.close()
 
         rows = []
         alone = {(s.candidate.name, s.axis): s for s in ranking.alone}
         refined = {e.key: e for e in ranking.model.effects}
         for k, (s, share, before) in enumerate(ranking.selected, 1):  # explained, RMS_after: the effect alone
+            n = ranking.n_rows[s.axis]
             row = _candidate_row(ranking, alone.get((s.candidate.name, s.axis), s), axes, units, selected=True, step=share)
-            row.update(step=k, RMS_before_at_selection=math.sqrt(before / ranking.n_rows),
-                       RMS_after_at_selection=math.sqrt(max(before * (1.0 - share), 0.0) / ranking.n_rows))
+            row.update(step=k, RMS_before_at_selection=math.sqrt(before / n),
+                       RMS_after_at_selection=math.sqrt(max(before * (1.0 - share), 0.0) / n))
+            named = ranking.named[k - 1]
+            if named.name != s.candidate.name:  # a form of no set shape, revised from the effect the step named
+                row.update(family=named.family, named_as=named.name)
             final = refined.get(f"{s.candidate.name}@{axes[s.axis]}")
             if final is not None:  # the nonlinear parameters as the selection refined them
                 scored = row["parameters"]
@@ -161,15 +192,16 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
         info = prep.model.fit_info_
         report = Diagnosis(system=system.name, axes=axes, unit=system.input_unit, n_samples=sum(prep.lengths), fs=fs,
                            model_effects=[*prep.model.parts(), *(e.key for e in prep.model.effects)],
-                           residual=norms(residual, axes, units), regions=regions, candidates=rows,
+                           residual=norms(residual, axes, units, prep.used), regions=regions, candidates=rows,
                            min_explained=min_explained, min_rms=dict(zip(axes, map(float, floor), strict=True)),
                            model=prep.model, suggested_model=ranking.model,
-                           series={"t": prep.rows / fs, "residual": residual, "q": q, "qd": qd,
+                           series={"t": prep.rows / fs, "residual": residual, "q": q, "qd": qd, "used": prep.used,
                                    "ref_velocity": _velocity(trials, fs)[prep.rows]},
                            kinematics=_kinematics_note(trials, prep.model), identified=(info["rank"], info["n_free"]),
                            displays={a.name: a.display for a in system.axes},
                            resampled=_resampled_note(trials), spec=spec, steps=steps, stop=ranking.stop,
-                           options="--kinematics measured" if kinematics == "measured" else "")
+                           options="--kinematics measured" if kinematics == "measured" else "",
+                           samples=_samples_record(lay, axes, system.axes, trials, fs), blocks=_blocks_note(lay))
         report.found = {f"{s.candidate.name}@{axes[s.axis]}": s.candidate.build(axes[s.axis], **s.params)
                         for s in ranking.alone}
         picked = {f"{s.candidate.name}@{axes[s.axis]}" for s, _, _ in ranking.selected}
@@ -179,8 +211,8 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
             after_model = prep.model
             for e in effects:
                 after_model = after_model.with_effect(e)
-            after = prepare(trials, after_model, block_seconds)
-            report.after = {"added": [e.key for e in effects], "residual": norms(after.residual, axes, units),
+            after = prepare(trials, after_model, lay)
+            report.after = {"added": [e.key for e in effects], "residual": norms(after.residual, axes, units, after.used),
                             "effects": [_effect_params(e) for e in after.model.fitted_effects],
                             "parameters": dict(zip(system.param_names,
                                                    map(float, after.model.fitted_params.to_vector()), strict=True))}
@@ -192,6 +224,27 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
             after_model = report.after_model if report.after_model is not None else report.suggested_model
             report.replay = replay_tracking(trials, report.model, after_model, system)
     return report
+
+
+def _velocity_filter_hz(model: PhysicalModel, trials) -> float:
+    """The corner [Hz] of the low-pass the fit's velocity went through (``PhysicalModel.kinematics``)."""
+    return model.kinematics_filter_hz if any(model.uses_position(tr) for tr in trials) else model.error_filter_hz
+
+
+def _samples_record(lay, axes, kinds, trials, fs) -> dict:
+    """What the layout left out, per axis, for the report (``Diagnosis.samples``)."""
+    total = lay.counts["samples"]
+    return {"total": total, "trials": len(trials), "edges": lay.counts["edges"], "edges_trimmed": lay.counts["edge_trimmed"],
+            "settle_s": lay.settle,
+            "standstill": {ax: int(n) for ax, n in zip(axes, lay.counts["standstill"], strict=True)},
+            "rest_speed": {ax: float(v) for ax, v in zip(axes, lay.rest_speed, strict=True)},
+            "used": {ax: int(n) for ax, n in zip(axes, lay.used.sum(axis=0), strict=True)}}
+
+
+def _blocks_note(lay) -> str:
+    lengths = sorted(set(round(b, 2) for b in lay.blocks))
+    what = f"{lengths[0]:g} s" if len(lengths) == 1 else f"{lengths[0]:g}-{lengths[-1]:g} s"
+    return f"held-out blocks of {what}, alternating between two folds within each trial"
 
 
 def moving_axes(trials: Sequence, system: systems.System) -> list[int]:
@@ -218,7 +271,7 @@ def _noise_floor(system: systems.System, prep, min_rms: float | None) -> np.ndar
         return np.full(system.n_axes, float(min_rms))
     if system.noise_rms is not None:
         return np.full(system.n_axes, float(system.noise_rms))
-    return NOISE_SHARE * np.sqrt(np.mean(prep.u**2, axis=0))
+    return NOISE_SHARE * np.sqrt((prep.u**2).sum(axis=0) / np.maximum(prep.n_used, 1))
 
 
 def _velocity(trials, fs) -> np.ndarray:
@@ -237,11 +290,26 @@ def _kinematics_note(trials, model: PhysicalModel) -> str:
 
 
 def _resampled_note(trials) -> str | None:
+    """What ``data.regularize`` did to the log, in one line (None: nothing)."""
     done = [tr.meta["resampled"] for tr in trials if isinstance(tr.meta.get("resampled"), dict)]
+    done = [d for d in done if d.get("segment", 0) == 0]  # one note per trial of the log, not per segment
     if not done:
         return None
-    gap = max(d["largest_gap"] for d in done)
-    return f"resampled to {done[0]['fs']:g} Hz by linear interpolation (largest gap in the log {gap:.6g} s)"
+    step = float(np.median([d["log_step"] for d in done]))
+    text = (f"{len(done)} trial(s) with non-uniform time stamps resampled to {done[0]['fs']:g} Hz by linear "
+            f"interpolation (the log's median step {1e3 * step:.4g} ms)")
+    bridged = sum(d.get("gaps_bridged", 0) for d in done)
+    if bridged:
+        text += f"; {bridged} gap(s) bridged (the largest {1e3 * max(d['largest_bridged'] for d in done):.4g} ms)"
+    splits = sum(d.get("splits", 0) for d in done)
+    if splits:
+        text += (f"; split at {splits} gap(s) too long to bridge (the largest {1e3 * max(d['largest_split'] for d in done):.4g}"
+                 f" ms; at most {1e3 * bridged_gap():.3g} ms are bridged)")
+    dropped = sum(tr.meta["resampled"].get("short_segments_left_out", 0) for tr in trials
+                  if isinstance(tr.meta.get("resampled"), dict) and tr.meta["resampled"].get("segment", 0) == 0)
+    if dropped:
+        text += f"; {dropped} segment(s) between gaps too short to use left out"
+    return text
 
 
 def _parse_add(item, model: PhysicalModel, system: systems.System, spec: str) -> Effect:
@@ -265,9 +333,10 @@ def _effect_params(e: Effect) -> dict:
 
 def _candidate_row(ranking, s, axes, units, selected: bool, step: float | None) -> dict:
     cand = s.candidate
+    n = ranking.n_rows[s.axis]
     return {"effect": cand.name, "axis": axes[s.axis], "family": cand.family, "explained": ranking.explained(s),
-            "RMS_before": math.sqrt(ranking.baseline[s.axis] / ranking.n_rows),
-            "RMS_after": math.sqrt(s.held_out_sse / ranking.n_rows), "unit": units[s.axis], "selected": selected,
+            "RMS_before": math.sqrt(ranking.baseline[s.axis] / n),
+            "RMS_after": math.sqrt(s.held_out_sse / n), "unit": units[s.axis], "selected": selected,
             "explained_at_selection": step, "parameters": {k: float(v) for k, v in s.params.items()}}
 
 
@@ -276,12 +345,16 @@ def validation(trials: Sequence, report: Diagnosis, axes, units) -> dict:
     effects (``after_model`` with ``add``, else the model refitted with the selected effects)."""
     after_model = report.after_model if report.after_model is not None else report.suggested_model
     added = [e.key for e in after_model.effects if e.key not in {f.key for f in report.model.effects}]
+    model = report.model
+    kin, lengths = model.kinematics(trials)
+    used = used_samples(trials, kin, lengths, model.fs, model.filter_hz, _velocity_filter_hz(model, trials))[0]
+    used = used[model.reduced_rows(lengths)]  # standstill and trial edges left out, as in the data fitted
     return {"trials": len(trials), "n_samples": int(sum(tr.n_samples for tr in trials)), "added": added,
-            "residual": norms(report.model.residual(trials), axes, units),
-            "residual_after": norms(after_model.residual(trials), axes, units)}
+            "residual": norms(model.residual(trials), axes, units, used),
+            "residual_after": norms(after_model.residual(trials), axes, units, used)}
 
 
-def _step_row(k: int, step, axes, n_rows: int) -> dict:
+def _step_row(k: int, step, axes, n_rows: np.ndarray) -> dict:
     """One greedy step for the report: each axis's held-out RMS left, and every candidate scored
     then, the most removed first (``removed_RMS``: RMS of what it removes; ``share_of_left`` of
     the axis's held-out energy then; ``share_of_original`` of its original error; ``verdict``);
@@ -289,12 +362,12 @@ def _step_row(k: int, step, axes, n_rows: int) -> dict:
     rows = []
     for s, removed, why in sorted(step.scores, key=lambda x: -x[1]):
         a = s.axis
-        rows.append({"effect": s.candidate.name, "axis": axes[a], "removed_RMS": math.sqrt(max(removed, 0.0) / n_rows),
+        rows.append({"effect": s.candidate.name, "axis": axes[a], "removed_RMS": math.sqrt(max(removed, 0.0) / n_rows[a]),
                      "share_of_left": max(removed, 0.0) / step.left[a] if step.left[a] > 0 else 0.0,
                      "share_of_original": max(removed, 0.0) / step.original[a] if step.original[a] > 0 else 0.0,
                      "verdict": why})
     picked = None if step.picked is None else f"{step.picked.candidate.name}@{axes[step.picked.axis]}"
-    return {"step": k, "left_RMS": {ax: math.sqrt(float(step.left[i]) / n_rows) for i, ax in enumerate(axes)},
+    return {"step": k, "left_RMS": {ax: math.sqrt(float(step.left[i]) / n_rows[i]) for i, ax in enumerate(axes)},
             "picked": picked, "revised": list(step.revised), "candidates": rows}
 
 

@@ -50,16 +50,25 @@ class Candidate:
     ``family`` (friction, spring, inertia, periodic, gravity, user) and ``grid``: for each
     nonlinear parameter, a tuple of values, a ``Scaled`` or a function ``(q, qd, axis_index) ->
     values``. ``period``: the name of a nonlinear parameter that is a period over the axis position,
-    found from the spectrum of the residual (not gridded), or None. ``extends``: the name of a
-    simpler candidate whose form this one contains (asymmetric friction contains Coulomb friction):
-    it is taken only where its extra parameters pass the significance rule against what the
-    simpler one leaves (``diagnose.search``)."""
+    found from the spectrum of the residual (not gridded), or None. ``extends``: the names of
+    simpler candidates whose form this one contains (asymmetric friction contains Coulomb friction):
+    it is taken only where its extra parameters pass the significance rule against what the best
+    simpler one leaves (``diagnose.search``). ``shape_free``: a curve of no set shape (a spline):
+    where one of the simpler forms it extends passes too, that one is named first and then revised
+    to this one (its shape refined). ``fixed``: nonlinear parameters the search takes from the grid
+    and does not refine (a spline's knot range)."""
 
     effect: type[fx.Effect]
     family: str
     grid: dict[str, tuple | Scaled | Callable] = field(default_factory=dict)
     period: str | None = None
-    extends: str | None = None
+    extends: tuple[str, ...] = ()
+    shape_free: bool = False
+    fixed: tuple[str, ...] = ()
+
+    def __post_init__(self):
+        if isinstance(self.extends, str):
+            object.__setattr__(self, "extends", (self.extends,))
 
     @property
     def name(self) -> str:
@@ -90,13 +99,30 @@ def angle_quantiles(q, qd, i, n=9):
     return np.quantile(q[:, i], np.linspace(0.05, 0.95, n))
 
 
+def position_low(q, qd, i):
+    """The low end of a position map's knots: the axis position's 0.5 % quantile [rad or m]."""
+    return [float(np.quantile(q[:, i], 0.005))]
+
+
+def position_high(q, qd, i):
+    """The high end of a position map's knots: the axis position's 99.5 % quantile [rad or m]."""
+    return [float(np.quantile(q[:, i], 0.995))]
+
+
+FRICTION_FORMS = ("coulomb_friction", "asymmetric_friction", "stribeck_friction")
+
+
 LIBRARY: tuple[Candidate, ...] = (
     Candidate(fx.CoulombFriction, "friction", {"eps": Scaled((0.0025, 0.01, 0.025, 0.05, 0.1))}),
     # Stribeck velocities stop at 40 % of the speed scale: a wider bump is Coulomb friction
     Candidate(fx.StribeckFriction, "friction", {"vs": Scaled(tuple(np.geomspace(0.005, 0.4, 20))),
                                                 "eps": Scaled((0.0025, 0.01))}),
     Candidate(fx.AsymmetricFriction, "friction", {"eps": Scaled((0.0025, 0.01, 0.025, 0.05, 0.1))},
-              extends="coulomb_friction"),
+              extends=("coulomb_friction",)),
+    Candidate(fx.LoadFriction, "friction", {"eps": Scaled((0.0025, 0.01, 0.025, 0.05, 0.1))},
+              extends=("coulomb_friction",)),
+    Candidate(fx.FrictionCurve, "friction", {"eps": Scaled((0.0025, 0.01, 0.05)), "v_top": Scaled((1.0,))},
+              extends=FRICTION_FORMS, shape_free=True, fixed=("v_top",)),
     Candidate(fx.Offset, "offset"),
     Candidate(fx.CableSpring, "spring", {"q0": angle_quantiles, "width": Scaled((0.01, 0.05), "position"),
                                          "side": (-1.0, 1.0)}),
@@ -106,5 +132,7 @@ LIBRARY: tuple[Candidate, ...] = (
     Candidate(fx.GearHarmonic, "periodic", period="period"),
     Candidate(fx.TorqueRipple, "periodic", period="period"),
     Candidate(fx.CableDrape, "gravity"),
+    Candidate(fx.PositionMap, "position", {"lo": position_low, "hi": position_high},
+              extends=("offset", "cable_spring", "cable_drape"), shape_free=True, fixed=("lo", "hi")),
 )
 """The library's candidates, in the order the diagnosis tries them."""

@@ -118,6 +118,24 @@ def gear_harmonic_basis(q, qd, period, v_ref):
     return s, c, r * s, r * c, 2.0 * s * c, c * c - s * s
 
 @register_jitable
+def load_friction_basis(v, load, eps):
+    """Basis of a friction whose Coulomb level grows with the load torque the joint carries:
+    (s, |load| s), s = tanh(v / eps) [-, input unit]."""
+    s = smooth_sign(v, eps)
+    return s, np.abs(load) * s
+
+
+def hat_basis(x, knots) -> np.ndarray:
+    """Piecewise-linear "hat" functions (..., K) of x on the K sorted ``knots``: column j is 1 at
+    knots[j] and 0 at the others, linear in between, held constant beyond the ends; their
+    combination with weights c is the curve through the points (knots[j], c[j])."""
+    knots = np.asarray(knots, dtype=float)
+    x = np.asarray(x, dtype=float)
+    eye = np.eye(knots.size)
+    return np.stack([np.interp(x, knots, eye[j]) for j in range(knots.size)], axis=-1)
+
+
+@register_jitable
 def table_lookup(x, lo, hi, values):
     """Piecewise-linear curve through ``values`` on a uniform grid over [lo, hi], held constant
     outside it; x a float. Used by plants to carry force curves of any shape."""
@@ -137,6 +155,16 @@ def table_lookup(x, lo, hi, values):
 
 
 @dataclass(frozen=True)
+class Loads:
+    """The model's own torques (T, n_axes) [input unit] that some effects' formulas read (an
+    effect's ``reads`` names them; None where nothing reads it): ``torque`` the rigid-body torque
+    M(q) qdd + h(q, qd) + D qd of the model's parameters, ``gravity`` the same at rest, g(q)."""
+
+    torque: np.ndarray | None = None
+    gravity: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
 class Effect:
     """Base class: an effect on one axis. Subclasses set ``name`` and the parameter lists.
 
@@ -150,7 +178,7 @@ class Effect:
     positive: ClassVar[tuple[str, ...]] = ()  # the coefficients that are positive physically (a level, a stiffness)
     nonlinear: ClassVar[tuple[str, ...]] = ()  # nonlinear parameter attribute names
     plant_only: ClassVar[bool] = False
-    needs_base_torque: ClassVar[bool] = False
+    reads: ClassVar[tuple[str, ...]] = ()  # the model torques the formula reads (``Loads``): "torque", "gravity"
     revolute_only: ClassVar[bool] = False  # the formula is periodic in the angle (no meaning on a prismatic axis)
 
     def __post_init__(self):
@@ -193,21 +221,31 @@ class Effect:
             raise ValueError(f"{self.key}: expected {len(self.linear)} coefficients, got {values.size}")
         return dataclasses.replace(self, **dict(zip(self.linear, map(float, values), strict=True)))
 
-    def columns(self, q, qd, qdd, base=None) -> np.ndarray:
+    def columns(self, q, qd, qdd, loads: Loads | None = None) -> np.ndarray:
         """Regressor columns (T, len(linear)) of this effect's torque on its own axis [input unit per unit];
-        q, qd, qdd (T, n_axes) of the machine; ``base`` (T,): the model's torque on the axis (ripple)."""
+        q, qd, qdd (T, n_axes) of the machine; ``loads``: the model's torques the effect ``reads``."""
         if self.plant_only:
             raise TypeError(f"{self.key} has internal dynamics and no static regressor (plant only)")
-        cols = self._columns(np.asarray(q, float), np.asarray(qd, float), np.asarray(qdd, float), base)
+        missing = [r for r in self.reads if loads is None or getattr(loads, r) is None]
+        if missing:
+            raise ValueError(f"{self.key}: its regressor needs the model's {' and '.join(missing)} torque (loads=)")
+        cols = self._columns(np.asarray(q, float), np.asarray(qd, float), np.asarray(qdd, float), loads)
         return np.stack(np.broadcast_arrays(*cols), axis=-1)
 
-    def torque(self, q, qd, qdd, base=None) -> np.ndarray:
+    def torque(self, q, qd, qdd, loads: Loads | None = None) -> np.ndarray:
         """Torque (T, n_axes) [input unit] this effect adds to the required input (zero on the other axes)."""
         out = np.zeros(np.shape(q), dtype=float)
-        out[..., self._i()] = self.columns(q, qd, qdd, base) @ self.coefficients()
+        out[..., self._i()] = self.columns(q, qd, qdd, loads) @ self.coefficients()
         return out
 
-    def _columns(self, q, qd, qdd, base):  # pragma: no cover - abstract
+    @classmethod
+    def physical(cls, coefficients: np.ndarray) -> bool:
+        """Whether fitted ``coefficients`` (in ``linear`` order) have the signs the effect has
+        physically: every one named in ``positive`` > 0 (a friction level, a stiffness, an inertia)."""
+        c = np.asarray(coefficients, dtype=float)
+        return bool(all(c[cls.linear.index(n)] > 0 for n in cls.positive))
+
+    def _columns(self, q, qd, qdd, loads):  # pragma: no cover - abstract
         raise NotImplementedError
 
     def _v(self, qd):
@@ -226,7 +264,7 @@ class ViscousFriction(Effect):
     linear: ClassVar[tuple[str, ...]] = ("d",)
     positive: ClassVar[tuple[str, ...]] = ("d",)
 
-    def _columns(self, q, qd, qdd, base):
+    def _columns(self, q, qd, qdd, loads):
         return (self._v(qd),)
 
 
@@ -241,7 +279,7 @@ class CoulombFriction(Effect):
     positive: ClassVar[tuple[str, ...]] = ("Fc",)
     nonlinear: ClassVar[tuple[str, ...]] = ("eps",)
 
-    def _columns(self, q, qd, qdd, base):
+    def _columns(self, q, qd, qdd, loads):
         return (smooth_sign(self._v(qd), self.eps),)
 
 
@@ -261,7 +299,7 @@ class StribeckFriction(Effect):
     positive: ClassVar[tuple[str, ...]] = ("dF",)
     nonlinear: ClassVar[tuple[str, ...]] = ("vs", "eps")
 
-    def _columns(self, q, qd, qdd, base):
+    def _columns(self, q, qd, qdd, loads):
         v = self._v(qd)
         return (stribeck_shape(v, self.vs) * smooth_sign(v, self.eps),)
 
@@ -289,8 +327,115 @@ class AsymmetricFriction(Effect):
     positive: ClassVar[tuple[str, ...]] = ("Fc_pos", "Fc_neg")
     nonlinear: ClassVar[tuple[str, ...]] = ("eps",)
 
-    def _columns(self, q, qd, qdd, base):
+    def _columns(self, q, qd, qdd, loads):
         return asymmetric_friction_basis(self._v(qd), self.eps)
+
+
+@dataclass(frozen=True)
+class LoadFriction(Effect):
+    """Friction whose Coulomb level grows with the gravity load the joint holds (the tooth and
+    bearing forces of a geared joint grow with the torque it transmits):
+
+        (Fc + mu |g(q)|) tanh(qd / eps)
+
+    with g(q) the rigid body's gravity torque on the axis [input unit] (the model's own, at its
+    fitted parameters; a plant's, its true one). Fc [input unit] and mu [-] linear; eps [rad/s or
+    m/s] nonlinear (smoothing). Physical: mu > 0 (a level that falls with the load is something else).
+    """
+
+    Fc: float = 0.0
+    mu: float = 0.0
+    eps: float = 1e-3
+    name: ClassVar[str] = "load_friction"
+    linear: ClassVar[tuple[str, ...]] = ("Fc", "mu")
+    positive: ClassVar[tuple[str, ...]] = ("mu",)
+    nonlinear: ClassVar[tuple[str, ...]] = ("eps",)
+    reads: ClassVar[tuple[str, ...]] = ("gravity",)
+
+    def _columns(self, q, qd, qdd, loads):
+        return load_friction_basis(self._v(qd), loads.gravity[..., self._i()], self.eps)
+
+
+FRICTION_KNOTS = (0.0, 0.05, 0.15, 0.35, 0.65, 1.0)  # of v_top: dense near standstill, where curves bend
+
+
+@dataclass(frozen=True)
+class FrictionCurve(Effect):
+    """A friction curve of no set shape, per direction of motion: piecewise linear in the speed
+    through its levels at the speeds ``FRICTION_KNOTS`` x v_top, held beyond v_top,
+
+        h(qd) sum_j p_j hat_j(|qd|) - (1 - h(qd)) sum_j n_j hat_j(|qd|),   h = (1 + tanh(qd / eps)) / 2
+
+    p_j, n_j [input unit] the levels forward and backward at the knots (p0, n0: at standstill, the
+    breakaway levels), linear; eps [rad/s or m/s] smoothing and v_top [rad/s or m/s] the speed of
+    the last knot, nonlinear. It holds Coulomb, viscous, Stribeck-like, asymmetric and concave
+    (square-root-like) friction alike; the diagnosis names it only where no curve of the
+    library explains as much. Physical: p0, n0 > 0 (friction opposes the motion it starts).
+    """
+
+    p0: float = 0.0
+    p1: float = 0.0
+    p2: float = 0.0
+    p3: float = 0.0
+    p4: float = 0.0
+    p5: float = 0.0
+    n0: float = 0.0
+    n1: float = 0.0
+    n2: float = 0.0
+    n3: float = 0.0
+    n4: float = 0.0
+    n5: float = 0.0
+    eps: float = 1e-3
+    v_top: float = 1.0
+    name: ClassVar[str] = "friction_curve"
+    linear: ClassVar[tuple[str, ...]] = ("p0", "p1", "p2", "p3", "p4", "p5", "n0", "n1", "n2", "n3", "n4", "n5")
+    positive: ClassVar[tuple[str, ...]] = ("p0", "n0")
+    nonlinear: ClassVar[tuple[str, ...]] = ("eps", "v_top")
+
+    def _columns(self, q, qd, qdd, loads):
+        v = self._v(qd)
+        hats = hat_basis(np.abs(v), np.asarray(FRICTION_KNOTS) * self.v_top)
+        s = smooth_sign(v, self.eps)[..., None]
+        return (*np.moveaxis(0.5 * (1.0 + s) * hats, -1, 0), *np.moveaxis(-0.5 * (1.0 - s) * hats, -1, 0))
+
+
+POSITION_KNOTS = 9
+
+
+@dataclass(frozen=True)
+class PositionMap(Effect):
+    """A force of no set shape over the axis position: piecewise linear through its values at
+    ``POSITION_KNOTS`` evenly spaced positions from lo to hi, held beyond them,
+
+        sum_j c_j hat_j(q)
+
+    c0 .. c8 [input unit] linear; lo, hi [rad or m] nonlinear (the range the data cover). It holds
+    springs of any profile (one-sided, progressive), a drape, an offset and its drift; the
+    diagnosis names it only where no effect of the library explains as much.
+    """
+
+    c0: float = 0.0
+    c1: float = 0.0
+    c2: float = 0.0
+    c3: float = 0.0
+    c4: float = 0.0
+    c5: float = 0.0
+    c6: float = 0.0
+    c7: float = 0.0
+    c8: float = 0.0
+    lo: float = -1.0
+    hi: float = 1.0
+    name: ClassVar[str] = "position_map"
+    linear: ClassVar[tuple[str, ...]] = tuple(f"c{j}" for j in range(POSITION_KNOTS))
+    nonlinear: ClassVar[tuple[str, ...]] = ("lo", "hi")
+
+    def __post_init__(self):
+        super().__post_init__()
+        if not self.hi > self.lo:
+            raise ValueError(f"{self.key}: need lo < hi, got [{self.lo}, {self.hi}]")
+
+    def _columns(self, q, qd, qdd, loads):
+        return tuple(np.moveaxis(hat_basis(self._q(q), np.linspace(self.lo, self.hi, POSITION_KNOTS)), -1, 0))
 
 
 @dataclass(frozen=True)
@@ -302,7 +447,7 @@ class Offset(Effect):
     name: ClassVar[str] = "offset"
     linear: ClassVar[tuple[str, ...]] = ("c",)
 
-    def _columns(self, q, qd, qdd, base):
+    def _columns(self, q, qd, qdd, loads):
         return (np.ones_like(self._v(qd)),)
 
 
@@ -341,7 +486,7 @@ class CableSpring(Effect):
     positive: ClassVar[tuple[str, ...]] = ("k",)
     nonlinear: ClassVar[tuple[str, ...]] = ("q0", "width", "side")
 
-    def _columns(self, q, qd, qdd, base):
+    def _columns(self, q, qd, qdd, loads):
         return (cable_spring_basis(self._q(q), self.q0, self.width, self.side),)
 
 
@@ -361,7 +506,7 @@ class CableInertia(Effect):
     positive: ClassVar[tuple[str, ...]] = ("dJ",)
     nonlinear: ClassVar[tuple[str, ...]] = ("q0", "width")
 
-    def _columns(self, q, qd, qdd, base):
+    def _columns(self, q, qd, qdd, loads):
         i = self._i()
         return (cable_inertia_basis(q[..., i], qd[..., i], qdd[..., i], self.q0, self.width)[1],)
 
@@ -379,7 +524,7 @@ class RotorInertia(Effect):
     linear: ClassVar[tuple[str, ...]] = ("J",)
     positive: ClassVar[tuple[str, ...]] = ("J",)
 
-    def _columns(self, q, qd, qdd, base):
+    def _columns(self, q, qd, qdd, loads):
         return (qdd[..., self._i()],)
 
 
@@ -399,15 +544,14 @@ class TorqueRipple(Effect):
     name: ClassVar[str] = "torque_ripple"
     linear: ClassVar[tuple[str, ...]] = ("a_sin", "a_cos")
     nonlinear: ClassVar[tuple[str, ...]] = ("period",)
-    needs_base_torque: ClassVar[bool] = True
+    reads: ClassVar[tuple[str, ...]] = ("torque",)
 
     @classmethod
     def from_amplitude(cls, axis: str, amplitude: float, period: float, phase: float) -> TorqueRipple:
         return cls(axis, amplitude * math.cos(phase), amplitude * math.sin(phase), period)
 
-    def _columns(self, q, qd, qdd, base):
-        if base is None:
-            raise ValueError(f"{self.key}: the ripple regressor needs the base torque of the model")
+    def _columns(self, q, qd, qdd, loads):
+        base = loads.torque[..., self._i()]
         s, c = periodic_basis(self._q(q), self.period)
         return (-base * s, -base * c)
 
@@ -445,7 +589,7 @@ class GearHarmonic(Effect):
             a2 * math.cos(phase2), a2 * math.sin(phase2), period, v_ref,
         )
 
-    def _columns(self, q, qd, qdd, base):
+    def _columns(self, q, qd, qdd, loads):
         return gear_harmonic_basis(self._q(q), self._v(qd), self.period, self.v_ref)
 
 
@@ -468,7 +612,7 @@ class CableDrape(Effect):
     def from_amplitude(cls, axis: str, amplitude: float, phase: float) -> CableDrape:
         return cls(axis, amplitude * math.cos(phase), amplitude * math.sin(phase))
 
-    def _columns(self, q, qd, qdd, base):
+    def _columns(self, q, qd, qdd, loads):
         return periodic_basis(self._q(q), 2 * math.pi)
 
 
@@ -537,8 +681,8 @@ class TabulatedForce(Effect):
 EFFECTS: dict[str, type[Effect]] = {
     cls.name: cls
     for cls in (
-        ViscousFriction, CoulombFriction, StribeckFriction, AsymmetricFriction, Offset, Stiction,
-        CableSpring, CableInertia, RotorInertia, TorqueRipple, GearHarmonic, CableDrape, DrivetrainFlexibility,
+        ViscousFriction, CoulombFriction, StribeckFriction, AsymmetricFriction, LoadFriction, FrictionCurve, PositionMap,
+        Offset, Stiction, CableSpring, CableInertia, RotorInertia, TorqueRipple, GearHarmonic, CableDrape, DrivetrainFlexibility,
         TabulatedForce,
     )
 }

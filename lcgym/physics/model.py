@@ -62,7 +62,7 @@ from typing import Any, ClassVar
 import numpy as np
 from scipy.optimize import least_squares
 
-from .effects import Effect
+from .effects import Effect, Loads
 from .kinematics import lowpass_zero_phase, reference_kinematics, reference_positions
 
 POSITIONS = ("reference", "measured", "position")
@@ -133,9 +133,24 @@ class PhysicalModel:
         p = self.fitted_params.to_vector()
         base = self.system.inverse_dynamics(p, q, qd, qdd)
         tau = base.copy()
+        loads = self.loads((q, qd, qdd), p, rigid=base)
         for e in self.fitted_effects:
-            tau += e.torque(q, qd, qdd, base=base[:, e.index] if e.needs_base_torque else None)
+            tau += e.torque(q, qd, qdd, loads)
         return tau
+
+    def loads(self, kin, p=None, rigid=None) -> Loads | None:
+        """The model torques its effects read (``Effect.reads``) for kinematics ``kin`` at the
+        parameter vector ``p`` (default the fitted one); ``rigid``: the rigid-body torque there,
+        where the caller has it. None when no effect reads any."""
+        reads = {r for e in self.effects for r in e.reads}
+        if not reads:
+            return None
+        p = self.fitted_params.to_vector() if p is None else p
+        q, qd, qdd = kin
+        if "torque" in reads and rigid is None:
+            rigid = self.system.inverse_dynamics(p, q, qd, qdd)
+        gravity = self.system.inverse_dynamics(p, q, np.zeros_like(qd), np.zeros_like(qdd)) if "gravity" in reads else None
+        return Loads(torque=rigid if "torque" in reads else None, gravity=gravity)
 
     def predict(self, reference) -> np.ndarray:
         """Feedforward (T, n_axes) [input unit] for a reference: an array of positions (T, n_axes)
@@ -189,13 +204,14 @@ class PhysicalModel:
             cols.append((self.system.inverse_dynamics(hi, *kin) - self.system.inverse_dynamics(lo, *kin)) / (2 * h))
         return np.stack(cols, axis=-1)
 
-    def _effect_columns(self, kin, base):
-        """Regressor columns (T, A, n_effect_coefficients) of the effects (independent of zeta_n)."""
+    def _effect_columns(self, kin, loads: Loads | None):
+        """Regressor columns (T, A, n_effect_coefficients) of the effects (independent of zeta_n);
+        ``loads``: the model torques they read (``loads``)."""
         q, qd, qdd = kin
         cols = [np.zeros((q.shape[0], q.shape[1], 0))]
         for e in self.effects:
             c = np.zeros((q.shape[0], q.shape[1], len(e.linear)))
-            c[:, e.index, :] = e.columns(q, qd, qdd, base=base[:, e.index])
+            c[:, e.index, :] = e.columns(q, qd, qdd, loads)
             cols.append(c)
         return np.concatenate(cols, axis=2)
 
@@ -266,16 +282,29 @@ class PhysicalModel:
         kin, lengths = self.kinematics(trials)
         return self.reduce(self.inputs(trials) - self.torque(*kin), lengths)
 
-    def fit(self, trials: Sequence) -> PhysicalModel:
+    def reduced_rows(self, lengths: Sequence[int]) -> np.ndarray:
+        """The sample (over all trials) each row of ``reduce``'s output comes from."""
+        starts = np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(int)
+        return np.concatenate([s + np.arange(0, n, max(1, self.decimate)) for s, n in zip(starts, lengths, strict=True)])
+
+    def fit(self, trials: Sequence, mask: np.ndarray | None = None) -> PhysicalModel:
         """Least-squares fit on measured trials (each with ``ref`` (or None), ``pos``, ``u`` and sample
         rate ``fs``): the free linear parameters, the effects' coefficients and, where the machine
-        has them and ``fit_nonlinear``, its nonlinear parameters zeta_n (module docstring)."""
+        has them and ``fit_nonlinear``, its nonlinear parameters zeta_n (module docstring).
+        ``mask`` (samples of all trials, n_axes), bool: the samples of each axis the fit uses (default
+        all), e.g. the diagnosis's without standstill: the others are set to zero in u and in every
+        regressor column of that axis before the low-pass (the equation u = X theta holds there as
+        0 = 0, so nothing of them spreads into the samples used), and their rows are left out after it."""
         kin, lengths = self.kinematics(trials)
         u = self.inputs(trials)
+        if mask is not None:
+            mask = np.asarray(mask, dtype=bool)
+            if mask.shape != u.shape:
+                raise ValueError(f"mask must have shape {u.shape} (samples, axes), got {mask.shape}")
         if self.system.fully_linear:
-            theta, resid = self._fit_linear(kin, lengths, u)
+            theta, resid = self._fit_linear(kin, lengths, u, mask)
         else:
-            theta, resid = self._fit_variable_projection(kin, lengths, u)
+            theta, resid = self._fit_variable_projection(kin, lengths, u, mask)
         n_free = theta.size - sum(len(e.linear) for e in self.effects)
         effects, i = [], n_free
         for e in self.effects:
@@ -286,13 +315,23 @@ class PhysicalModel:
                           "n_samples": int(sum(lengths)), "n_used": int(resid.size // len(self.system.axes))}
         return self
 
-    def _fit_linear(self, kin, lengths, u):
+    def masked_reduce(self, A: np.ndarray, lengths: Sequence[int], mask: np.ndarray | None) -> np.ndarray:
+        """``reduce`` of A (T, n_axes, ...) with the samples ``mask`` (T, n_axes) leaves out set to
+        zero before the low-pass and their rows to zero after it (``fit``); a mask (T,) of one axis
+        for its columns A (T, k); no mask: ``reduce``."""
+        if mask is None:
+            return self.reduce(A, lengths)
+        m = mask.reshape(mask.shape + (1,) * (np.ndim(A) - mask.ndim))
+        return self.reduce(A * m, lengths) * m[self.reduced_rows(lengths)]
+
+    def _fit_linear(self, kin, lengths, u, mask=None):
         """A machine linear in all its parameters: one minimum-norm least-squares solve of the free
-        parameters and the effects' coefficients, the fixed parameters' torque moved to u's side."""
+        parameters and the effects' coefficients, the fixed parameters' torque moved to u's side;
+        ``mask``: the samples of each axis that count (``fit``)."""
         free, fixed, theta_free = self.free_design(kin, self.params)  # a fit starts from the given values
-        base = free @ theta_free + fixed if any(e.needs_base_torque for e in self.effects) else fixed
-        X = self.reduce(np.concatenate([free, self._effect_columns(kin, base)], axis=2), lengths)
-        y = self.reduce(u - fixed, lengths).reshape(-1)
+        loads = self.loads(kin, self.params.to_vector(), rigid=free @ theta_free + fixed)
+        X = self.masked_reduce(np.concatenate([free, self._effect_columns(kin, loads)], axis=2), lengths, mask)
+        y = self.masked_reduce(u - fixed, lengths, mask).reshape(-1)
         theta0 = np.concatenate([theta_free, *[e.coefficients() for e in self.effects]])
         theta, resid = solve_min_norm(X, y, theta0, rcond=self.rcond)
         vector = self.params.to_vector()
@@ -300,26 +339,30 @@ class PhysicalModel:
         vector[: self.system.n_linear][mask] = theta[: int(mask.sum())]
         self.params_ = self.system.params_from_vector(vector)
         self.fit_info_ = {"n_free": int(mask.sum()), "rank": column_rank(X[:, :, : int(mask.sum())], self.rcond)}
-        # the reduced design and input as fitted: unchanged by the fit where no effect scales the model's
-        # torque, so the diagnosis reuses them (``diagnose.search.prepare``) instead of filtering them again
-        self.reduced_ = None if base is not fixed else (X, y.reshape(X.shape[:2]))
+        # the reduced design and input as fitted: unchanged by the fit where no effect reads the model's
+        # torques, so the diagnosis reuses them (``diagnose.search.prepare``) instead of filtering them again
+        self.reduced_ = None if loads is not None else (X, y.reshape(X.shape[:2]))
         return theta, resid
 
-    def _fit_variable_projection(self, kin, lengths, u):
+    def _fit_variable_projection(self, kin, lengths, u, mask=None):
         """A machine with nonlinear parameters zeta_n (the IX): variable projection over zeta_n, the
-        linear parameters and the effects' coefficients eliminated by least squares at each step."""
-        u_red = self.reduce(u, lengths).reshape(-1)
+        linear parameters and the effects' coefficients eliminated by least squares at each step;
+        ``mask`` as in ``_fit_linear``."""
+        u_red = self.masked_reduce(u, lengths, mask).reshape(-1)
+        before = 1.0 if mask is None else mask[..., None]  # masked before the low-pass (linear: the design stays
+        after = 1.0 if mask is None else mask[self.reduced_rows(lengths)][..., None]  # quadratic in zeta_n) and after
         n = self.system.n_linear
         p0 = self.params.to_vector()
         theta0 = np.concatenate([p0[:n], *[e.coefficients() for e in self.effects]])
         zeta_n = p0[n:].copy()
-        base = self.system.inverse_dynamics(p0, *kin)  # rigid torque for ripple columns, refined per pass
-        n_pass = 2 if any(e.needs_base_torque for e in self.effects) else 1
+        loads = self.loads(kin, p0)  # the model torques effects read (ripple), refined per pass
+        n_pass = 2 if loads is not None else 1
         evaluate = (_QuadraticDesign if self.system.quadratic_in_nonlinear else _Design)
         for _ in range(n_pass):
-            rigid = evaluate(lambda zn: self.system.regressor(zn, *kin), zeta_n.size, lambda A: self.reduce(A, lengths))
-            fixed = self.reduce(self._effect_columns(kin, base), lengths)
-            design = lambda zn, r=rigid, f=fixed: np.concatenate([r(zn), f], axis=2)  # noqa: E731
+            rigid = evaluate(lambda zn: self.system.regressor(zn, *kin) * before, zeta_n.size,
+                             lambda A: self.reduce(A, lengths))
+            fixed = self.masked_reduce(self._effect_columns(kin, loads), lengths, mask)
+            design = lambda zn, r=rigid, f=fixed: np.concatenate([r(zn) * after, f], axis=2)  # noqa: E731
             if self.fit_nonlinear:
                 sol = least_squares(
                     lambda zn, d=design: solve_min_norm(d(zn), u_red, theta0, rcond=self.rcond)[1],
@@ -328,7 +371,7 @@ class PhysicalModel:
                 zeta_n = sol.x
             theta, resid = solve_min_norm(design(zeta_n), u_red, theta0, rcond=self.rcond)
             p = np.concatenate([theta[:n], zeta_n])
-            base = self.system.inverse_dynamics(p, *kin)
+            loads = self.loads(kin, p)
         self.params_ = self.system.params_from_vector(p)
         self.fit_info_ = {"n_free": n, "rank": column_rank(rigid(zeta_n), self.rcond)}
         return theta, resid

@@ -30,7 +30,7 @@ EXAMPLES = {"emps": ("lcgym.systems.examples.emps", "EMPS")}
 """Name -> (module, attribute) of machines shipped as worked examples of real data (no plant: the
 diagnosis and the physical model run on them, the benchmark does not)."""
 
-URDF_EXAMPLES = {"two_link": "two_link.urdf"}
+URDF_EXAMPLES = {"two_link": "two_link.urdf", "cobot6": "cobot6.urdf"}
 """Name -> file in ``lcgym/systems/examples/`` of the URDFs shipped with lcgym (package data): by
 name, ``--system two_link`` works from an installed wheel as well as from the source tree."""
 

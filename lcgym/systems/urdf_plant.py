@@ -20,7 +20,9 @@ does, per sample k (Ts = 1 / fs):
 The effects' formulas are the library's own (``register_jitable`` functions of ``physics.effects``,
 compiled with numba here); effects whose torque depends on q and qd alone act through them:
 viscous, Coulomb, Stribeck and asymmetric friction, offsets, cable springs and drapes, gear
-harmonics and tabulated forces over velocity or position. A rotor inertia J (``rotor_inertia``)
+harmonics and tabulated forces over velocity or position. A load-dependent friction
+(``load_friction``) reads the plant's own gravity torque g(q) at each RK4 stage (pinocchio's
+``computeGeneralizedGravity``). A rotor inertia J (``rotor_inertia``)
 is added to pinocchio's ``armature`` of its joint, which ``aba`` adds to the diagonal of M(q).
 Effects with internal state or that need qdd or the input otherwise (stiction, drivetrain
 flexibility, cable inertia, torque ripple) are refused.
@@ -63,7 +65,7 @@ INERTIA_SAMPLES = 64  # random configurations for the axis inertias (gains, step
 DEFAULT_MAX_ERROR = {"revolute": 30 * math.pi / 180, "prismatic": 0.1}  # rad, m
 
 SUPPORTED = (fx.ViscousFriction, fx.CoulombFriction, fx.StribeckFriction, fx.AsymmetricFriction, fx.Offset,
-             fx.CableSpring, fx.CableDrape, fx.GearHarmonic, fx.TabulatedForce, fx.RotorInertia)
+             fx.CableSpring, fx.CableDrape, fx.GearHarmonic, fx.TabulatedForce, fx.RotorInertia, fx.LoadFriction)
 REFUSED = {
     fx.Stiction: "has internal state (LuGre bristles)",
     fx.DrivetrainFlexibility: "adds states (a motor inertia behind a spring)",
@@ -75,9 +77,9 @@ REFUSED = {
 (
     VISC, FC, FC_EPS, ST_DF, ST_VS, ST_EPS, SP_K, SP_Q0, SP_W, SP_SIDE, DR_S, DR_C,
     GH_S1, GH_C1, GH_S1V, GH_C1V, GH_S2, GH_C2, GH_PER, GH_VREF, TB_N, TB_LO, TB_HI, TB_POS,
-    AF_POS, AF_NEG, AF_DFV, AF_EPS, OFFSET, ROTOR,
-) = range(30)
-N_SLOTS = 30
+    AF_POS, AF_NEG, AF_DFV, AF_EPS, OFFSET, ROTOR, LF_FC, LF_MU, LF_EPS,
+) = range(33)
+N_SLOTS = 33
 # controller and mapping slots, one row per axis
 KP, KD, KI, ALPHA, UMAX, RES, MAXERR, IQ, CONT = range(9)
 N_CTRL = 9
@@ -266,6 +268,15 @@ class FeedbackGains:
         return out
 
 
+def gravity_bound(robot: URDFRobot, model=None, seed: int = 0) -> np.ndarray:
+    """The largest |g(q)| per row of pinocchio's velocity order [N m or N] over the seeded random
+    configurations of ``inertia_range`` (a load-dependent friction's level, for the step size)."""
+    model = model or robot.model
+    data = model.createData()
+    q = robot.sample_kinematics(INERTIA_SAMPLES, np.random.default_rng(seed))[0]
+    return np.max([np.abs(pin.computeGeneralizedGravity(model, data, cfg)) for cfg in robot.configuration(q)], axis=0)
+
+
 def inertia_range(robot: URDFRobot, model=None, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """(smallest, largest) inertia of each axis (axis order) [kg m^2 or kg] over
     ``INERTIA_SAMPLES`` seeded random configurations within the joint limits: 1 / max (M^-1)_ii
@@ -345,11 +356,14 @@ def _pack(e: fx.Effect, row: np.ndarray, table: np.ndarray) -> None:
         if e.J < 0:
             raise ValueError(f"{e.key}: a rotor inertia must be >= 0, got {e.J}")
         row[ROTOR] = e.J  # goes into the model's armature (URDFPlant), not into effect_torque
+    elif isinstance(e, fx.LoadFriction):
+        row[[LF_FC, LF_MU, LF_EPS]] = e.Fc, e.mu, e.eps  # needs g(q): URDFPlant._load_friction, not effect_torque
 
 
-def effect_slopes(E: np.ndarray, tables: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def effect_slopes(E: np.ndarray, tables: np.ndarray, load: np.ndarray | float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Per slot row, the largest |d tau / d qd| [N m s/rad] and |d tau / d q| [N m/rad] of the
-    packed effects (a gear harmonic's taken at speeds up to 2 v_ref): what sets the step size."""
+    packed effects (a gear harmonic's taken at speeds up to 2 v_ref): what sets the step size.
+    ``load`` [N m or N]: per row, the largest gravity torque (a load-dependent friction's level)."""
 
     def over(x, slot, gate):  # x / E[:, slot] where the effect is on, 0 elsewhere
         return np.where(gate, x / np.where(gate, E[:, slot], 1.0), 0.0)
@@ -360,6 +374,8 @@ def effect_slopes(E: np.ndarray, tables: np.ndarray) -> tuple[np.ndarray, np.nda
     dv += over(0.5 * (np.abs(E[:, AF_POS]) + np.abs(E[:, AF_NEG])), AF_EPS, asym) + np.abs(E[:, AF_DFV])
     # the Stribeck term: dF / eps from the sign, at most 0.86 dF / vs from the bump
     dv += over(np.abs(E[:, ST_DF]), ST_EPS, stribeck) + over(0.86 * np.abs(E[:, ST_DF]), ST_VS, stribeck)
+    # the load-dependent friction: (Fc + mu |g|) / eps, with |g| at most ``load`` (the caller's bound of the gravity torque)
+    dv += over(np.abs(E[:, LF_FC]) + np.abs(E[:, LF_MU]) * load, LF_EPS, E[:, LF_EPS] != 0)
     dq = np.abs(E[:, SP_K]) + np.hypot(E[:, DR_S], E[:, DR_C])
     first = np.abs(E[:, GH_S1]) + np.abs(E[:, GH_C1]) + 2 * (np.abs(E[:, GH_S1V]) + np.abs(E[:, GH_C1V]))
     second = 2 * (np.abs(E[:, GH_S2]) + np.abs(E[:, GH_C2]))
@@ -413,6 +429,7 @@ class URDFPlant:
         self.effects = tuple(effects)
         self._E, self._tables, self.bound_effects = pack_effects(self.effects, system, self.robot)
         self._E[self.robot.v_index, VISC] += viscous
+        self._load_rows = np.flatnonzero(self._E[:, LF_EPS] != 0)  # rows (pinocchio order) with a load-dependent friction
         if np.any(self._E[:, ROTOR] != 0):  # rotor inertias: on a copy, the system's model stays the URDF's
             self.model = self.model.copy()
             self.model.armature = self.model.armature + self._E[:, ROTOR]
@@ -461,7 +478,8 @@ class URDFPlant:
             if int(substeps) != substeps or substeps < 1:
                 raise ValueError(f"substeps must be an integer >= 1, got {substeps}")
             return int(substeps)
-        dv, dq = effect_slopes(self._E, self._tables)
+        load = gravity_bound(self.robot, self.model, seed=self.seed) if self._load_rows.size else 0.0
+        dv, dq = effect_slopes(self._E, self._tables, load)
         minv = 1.0 / inertia_range(self.robot, self.model, seed=self.seed)[0][np.argsort(self.robot.v_index)]
         rate = float(np.max(dv * minv + np.sqrt(dq * minv)))
         n = max(MIN_SUBSTEPS, math.ceil(rate / self.fs / STEP_RATE))
@@ -569,6 +587,9 @@ class URDFPlant:
         """One sample interval: ``substeps`` RK4 steps of size h with S[U] held."""
         model, data, aba, E, tables, C = self.model, self.data, pin.aba, self._E, self._tables, self._C
         qpin, vs, tau = self._views
+        if self._load_rows.size:  # the slower path: a load-dependent friction reads g(q) at every stage
+            self._interval_with_load(S, h)
+            return
         for _ in range(self.substeps):
             rk4_stage(0, vs, S, E, tables, C, h)
             a = aba(model, data, qpin, vs, tau)
@@ -578,6 +599,28 @@ class URDFPlant:
             a = aba(model, data, qpin, vs, tau)
             rk4_stage(3, a, S, E, tables, C, h)
             rk4_finish(aba(model, data, qpin, vs, tau), S, h)
+
+    def _interval_with_load(self, S: np.ndarray, h: float) -> None:
+        """``_interval`` with the load-dependent friction of ``_load_rows`` subtracted from each stage's
+        net torque: (Fc + mu |g(q)|) tanh(v / eps), g the plant's gravity torque at the stage."""
+        model, data, E, tables, C = self.model, self.data, self._E, self._tables, self._C
+        qpin, vs, tau = self._views
+        rows = self._load_rows
+        Fc, mu, eps = E[rows, LF_FC], E[rows, LF_MU], E[rows, LF_EPS]
+
+        def stage(k, a):
+            rk4_stage(k, a, S, E, tables, C, h)
+            g = pin.computeGeneralizedGravity(model, data, qpin)
+            s, scaled = fx.load_friction_basis(vs[rows], g[rows], eps)
+            tau[rows] -= Fc * s + mu * scaled
+            return pin.aba(model, data, qpin, vs, tau)
+
+        for _ in range(self.substeps):
+            a = stage(0, vs)
+            a = stage(1, a)
+            a = stage(2, a)
+            a = stage(3, a)
+            rk4_finish(a, S, h)
 
     def _diverged(self, name: str, k: int, S: np.ndarray, ref: np.ndarray, status: int):
         back, n = self.robot.v_index, self.n_axes

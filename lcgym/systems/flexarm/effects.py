@@ -34,7 +34,7 @@ class Payload(Effect):
     linear: ClassVar[tuple[str, ...]] = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz")
     positive: ClassVar[tuple[str, ...]] = ("m",)
 
-    def _columns(self, q, qd, qdd, base):
+    def _columns(self, q, qd, qdd, loads):
         from .motor import link_columns
 
         return tuple(link_columns(5, q, qd, qdd)[:, self._i(), :].T)

@@ -49,7 +49,7 @@ class PositionDependentFriction(Effect):
     linear: ClassVar[tuple[str, ...]] = ("c_cos", "c_cos_roll", "c_sin")
     nonlinear: ClassVar[tuple[str, ...]] = ("eps",)
 
-    def _columns(self, q, qd, qdd, base):
+    def _columns(self, q, qd, qdd, loads):
         sgn = smooth_sign(self._v(qd), self.eps)
         basis = normal_force_basis(np.sin(q[..., 0]), np.cos(q[..., 0]), np.cos(q[..., 1]))
         return tuple(b * sgn for b in basis)
