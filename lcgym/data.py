@@ -224,27 +224,35 @@ def read_trials(path: str | Path, axes=None, min_samples: int = 3, resample: flo
             tm.update(trial_meta[gi])
         tm["source"] = where
         extra = {c: v[rows] for c, v in extras.items()}
-        trial = Trial(t=t, axes=table.axes, ff=ff, extra=extra, meta=tm, **sig)
-        if resample is None:
-            trials.append(trial)
-            continue
-        parts = regularize(trial, None if resample == "auto" else float(resample), max_gap, trial_where, file_rows)
+        trials.append((Trial(t=t, axes=table.axes, ff=ff, extra=extra, meta=tm, **sig), trial_where, file_rows))
+    if resample is None:
+        return [tr for tr, _, _ in trials]
+    rate = log_rate([tr for tr, _, _ in trials]) if resample == "auto" else float(resample)
+    out = []
+    for trial, trial_where, file_rows in trials:
+        parts = regularize(trial, rate, max_gap, trial_where, file_rows)
         kept = [p for p in parts if p.n_samples >= need]
         if not kept:
             raise MeasurementFileError(f"{trial_where}: column 't': no part between the log's gaps holds {need} samples")
         for p in kept:
             if len(kept) < len(parts):
                 p.meta["resampled"]["short_segments_left_out"] = len(parts) - len(kept)
-        trials.extend(kept)
-    return trials
+        out.extend(kept)
+    return out
+
+
+def log_rate(trials: Sequence[Trial]) -> float:
+    """A log's own rate [Hz]: one over the median step of all its trials' time stamps, rounded to 3
+    significant digits (the controller's nominal rate, not the jittered mean)."""
+    step = float(np.median(np.concatenate([np.diff(tr.t) for tr in trials])))
+    return float(f"{1.0 / step:.3g}")
 
 
 def regularize(trial: Trial, fs: float | None = None, max_gap: float = 0.0, where: str = "trial",
                rows: np.ndarray | None = None) -> list[Trial]:
     """``trial`` on uniform time grids, as real controllers' logs need (jittered stamps, dropouts).
 
-    The rate is ``fs`` [Hz], or the log's own: its median step, the rate rounded to 3 significant
-    digits (the controller's nominal rate, not the jittered mean). A step of more than
+    The rate is ``fs`` [Hz], or the log's own (``log_rate``). A step of more than
     ``GAP_STEPS`` median steps is a gap (samples lost): up to ``max(MAX_GAP_STEPS steps, max_gap
     [s])`` it is bridged by the interpolation, longer ones split the trial into segments there, each
     put on its own grid (every signal and extra column interpolated linearly in time). A uniform
@@ -258,7 +266,7 @@ def regularize(trial: Trial, fs: float | None = None, max_gap: float = 0.0, wher
         raise MeasurementFileError(f"{where}: column 't': only {t.size} samples")
     dt = np.diff(t)
     step = float(np.median(dt))
-    rate = float(f"{1.0 / step:.3g}") if fs is None else float(fs)
+    rate = log_rate([trial]) if fs is None else float(fs)
     if not (np.isfinite(rate) and rate > 0):
         raise ValueError(f"{where}: the resampling rate must be > 0 Hz, got {rate}")
     uniform = bool(np.all(np.abs(dt - 1.0 / rate) <= UNIFORM_TOLERANCE / rate))

@@ -160,7 +160,7 @@ def _run(machine, hidden, seed: int, n: int, duration: float, **plant) -> list[T
 
 def _every(trials: list[Trial], k: int) -> list[Trial]:
     """Every k-th sample: a log at 1/k of the plant's rate."""
-    return [logs.jittered(tr, (k / tr.fs, k / tr.fs), np.random.default_rng(0)) if k > 1 else tr for tr in trials]
+    return [logs.jittered(tr, tr.fs / k) for tr in trials]
 
 
 def make_dropouts(seed: int, hidden: tuple):
@@ -189,13 +189,14 @@ def make_standstill(seed: int, hidden: tuple):
 
 
 def make_jittered(seed: int, hidden: tuple):
-    """The cobot logged at 100 Hz with steps of 2-16 ms, no reference, the input with 1 % noise of
-    its RMS (motor currents times drive gains): three runs of 20 s."""
+    """The cobot logged at 100 Hz, each stamp off its grid by up to 4 ms (steps of 2-18 ms), no
+    reference, the input with 1 % noise of its RMS (motor currents times drive gains): three runs
+    of 20 s."""
     cobot = _cobot()
     rng = np.random.default_rng(seed)
     out = []
     for r in _run(cobot, hidden, seed, 3, 20.0):
-        tr = logs.without_reference(logs.jittered(r, (0.002, 0.016), rng))
+        tr = logs.without_reference(logs.jittered(r, 100.0, 0.004, rng))
         tr.u = tr.u + 0.01 * np.sqrt(np.mean(tr.u**2, axis=0)) * rng.standard_normal(tr.u.shape)
         out.append(tr)
     return cobot, out
@@ -249,18 +250,19 @@ LOG_CASES: dict[str, LogCase] = {case.name: case for case in (
             tuple(("friction", f"panda_joint{i}") for i in range(4, 8)), make_dropouts),
     LogCase("three runs of 5-6 s (6 joints, 250 Hz)",
             _cobot_friction() + tuple(fx.RotorInertia(j, J=J) for j, J in zip(COBOT[:3], (0.6, 0.6, 0.3), strict=True)),
-            _friction_truth() + tuple(("inertia", j) for j in COBOT[:3]), make_short),
+            _friction_truth() + tuple(("inertia", j) for j in COBOT[1:3]), make_short,
+            "the first joint's rotor turns about a fixed vertical axis with the shoulder: the rigid body holds it"),
     LogCase("standstill held at both ends (6 joints)", _cobot_friction(), _friction_truth(), make_standstill),
     LogCase("100 Hz, jittered stamps, no reference (6 joints)", _cobot_friction(), _friction_truth(), make_jittered),
     LogCase("friction growing with sqrt(speed) (elbow)",
-            (fx.TabulatedForce.from_function("elbow_joint", "velocity", concave, -3.2, 3.2, 1025),),
+            (fx.TabulatedForce.from_function("elbow_joint", "velocity", concave, -3.2, 3.2, 1024),),
             (("friction", "elbow_joint"),), make_plain(_cobot)),
     LogCase("Coulomb level growing with the gravity load (shoulder, elbow)",
             (fx.LoadFriction("shoulder_lift_joint", Fc=1.0, mu=0.06, eps=0.005),
              fx.LoadFriction("elbow_joint", Fc=0.5, mu=0.06, eps=0.005)),
             (("friction", "shoulder_lift_joint"), ("friction", "elbow_joint")), make_plain(_cobot)),
     LogCase("one-sided spring growing quadratically (two-link shoulder)",
-            (fx.TabulatedForce.from_function("shoulder", "position", balancer, -2.6, 2.6, 1025),),
+            (fx.TabulatedForce.from_function("shoulder", "position", balancer, -2.6, 2.6, 1024),),
             (("spring", "shoulder"),), make_plain(lambda: systems.get("two_link", joints=("shoulder", "elbow")))),
     LogCase("unsettled start, moves cut off (3 joints)", (fx.CoulombFriction("elbow_joint", Fc=4.0, eps=0.005),),
             (("friction", "elbow_joint"),), make_unsettled),

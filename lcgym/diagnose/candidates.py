@@ -10,6 +10,7 @@ sets them and to the effects whose formula applies to the axis kind (``Effect.ap
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -31,23 +32,41 @@ def candidates_for(system) -> list[Candidate]:
     return [c for c in pool.values() if any(c.effect.applies_to(a) for a in system.axes)]
 
 
+@dataclass(frozen=True)
+class State:
+    """What a ``register_effect`` function with ``whole_state=True`` reads: the kinematics of every
+    axis ``q`` [rad or m], ``qd`` [per s], ``qdd`` [per s^2] (T, n_axes), ``axis`` the index of the
+    axis the effect acts on, and the fitted rigid-body model's torques [input unit] (T, n_axes):
+    ``torque`` (M(q) qdd + h(q, qd) + D qd) and ``gravity`` (the same at rest, g(q))."""
+
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    axis: int
+    torque: np.ndarray
+    gravity: np.ndarray
+
+
 def register_effect(effect, family: str = "user", grid: dict | None = None, period: str | None = None,
-                    name: str | None = None, n_coefficients: int = 1) -> Candidate:
+                    name: str | None = None, n_coefficients: int = 1, whole_state: bool = False) -> Candidate:
     """Add a candidate effect to the diagnosis (it is ranked with the built-in ones).
 
     ``effect`` is an ``Effect`` subclass (see ``physics.effects``: ``linear`` names its
     coefficients, ``nonlinear`` the parameters ``grid`` searches, ``_columns`` its regressor), or
-    a plain function ``f(q, qd, qdd, **nonlinear) -> (T, n_coefficients)`` of the axis's own
-    angle [rad], velocity [rad/s] and acceleration [rad/s^2] returning basis functions [input
-    unit per coefficient]; a function needs ``name``. ``grid`` gives values to try for nonlinear
-    parameters; ``period`` names one that is a period over the axis position. It is also registered in the effect
-    vocabulary, so that ``--add NAME@AXIS`` and ``PhysicalModel.with_effect`` accept it on every machine.
+    a plain function returning basis functions (T, n_coefficients) [input unit per coefficient];
+    a function needs ``name``. The function is ``f(q, qd, qdd, **nonlinear)`` of the axis's own
+    angle [rad], velocity [rad/s] and acceleration [rad/s^2], or, with ``whole_state``,
+    ``f(state, **nonlinear)`` of a ``State``: every axis's kinematics and the rigid-body model's
+    torque and gravity torque (a friction growing with the joint's load, a coupling between
+    axes). ``grid`` gives values to try for nonlinear parameters; ``period`` names one that is a
+    period over the axis position. It is also registered in the effect vocabulary, so that
+    ``--add NAME@AXIS`` and ``PhysicalModel.with_effect`` accept it on every machine.
     """
     grid = dict(grid or {})
     if not isinstance(effect, type):
         if not callable(effect) or not name:
             raise TypeError("register_effect: give an Effect subclass, or a function and its name")
-        effect = _function_effect(effect, name, n_coefficients, tuple(grid))
+        effect = _function_effect(effect, name, n_coefficients, tuple(grid), whole_state)
     if not issubclass(effect, fx.Effect) or not effect.name:
         raise TypeError(f"register_effect: {effect!r} is not an Effect subclass with a name")
     if effect.plant_only:
@@ -61,13 +80,19 @@ def register_effect(effect, family: str = "user", grid: dict | None = None, peri
     return cand
 
 
-def _function_effect(function, name: str, n_coefficients: int, nonlinear: tuple[str, ...]) -> type[fx.Effect]:
-    """An Effect subclass whose columns are ``function`` of the axis's own kinematics."""
+def _function_effect(function, name: str, n_coefficients: int, nonlinear: tuple[str, ...],
+                     whole_state: bool = False) -> type[fx.Effect]:
+    """An Effect subclass whose columns are ``function`` of the axis's own kinematics (or of the
+    whole ``State``)."""
 
     def _columns(self, q, qd, qdd, loads):
         i = self._i()
         kw = {p: getattr(self, p) for p in nonlinear}
-        cols = np.asarray(function(q[..., i], qd[..., i], qdd[..., i], **kw), dtype=float)
+        if whole_state:
+            cols = function(State(q, qd, qdd, i, loads.torque, loads.gravity), **kw)
+        else:
+            cols = function(q[..., i], qd[..., i], qdd[..., i], **kw)
+        cols = np.asarray(cols, dtype=float)
         cols = cols.reshape(q.shape[0], -1)
         if cols.shape[1] != n_coefficients:
             raise ValueError(f"{name}: the function returned {cols.shape[1]} columns, expected {n_coefficients}")
@@ -75,5 +100,6 @@ def _function_effect(function, name: str, n_coefficients: int, nonlinear: tuple[
 
     linear = tuple(f"c{k}" for k in range(n_coefficients))
     fields = [(p, float, dataclasses.field(default=0.0)) for p in linear + nonlinear]
-    namespace = {"name": name, "linear": linear, "nonlinear": nonlinear, "_columns": _columns}
+    namespace = {"name": name, "linear": linear, "nonlinear": nonlinear, "_columns": _columns,
+                 "reads": ("torque", "gravity") if whole_state else ()}
     return dataclasses.make_dataclass(f"UserEffect_{name}", fields, bases=(fx.Effect,), frozen=True, namespace=namespace)

@@ -181,13 +181,21 @@ def verdict(removed: float, left: float, own: float, min_explained: float, min_r
     return "passes"
 
 
-def _solve(G, b, rtol=1e-10):
-    """Minimum-norm solution of G theta = b (G symmetric PSD), columns scaled to unit diagonal."""
-    s = np.sqrt(np.diag(G))
+def _pinv(G, rtol=1e-10):
+    """Pseudo-inverse of G (symmetric PSD) taken with its columns scaled to unit diagonal: G+ b is
+    the minimum-norm solution of G theta = b in scaled units (eigenvalues below ``rtol`` of the
+    largest count as zero: directions the data lack)."""
+    s = np.sqrt(np.clip(np.diag(G), 0.0, None))  # a Schur complement's diagonal can round below zero
     s[s == 0] = 1.0
     w, V = np.linalg.eigh(G / np.outer(s, s))
     keep = w > rtol * max(w.max(), 1e-300)
-    return (V[:, keep] @ ((V[:, keep].T @ (b / s)) / w[keep])) / s
+    Vs = V[:, keep] / s[:, None]
+    return (Vs / w[keep]) @ Vs.T
+
+
+def _solve(G, b, rtol=1e-10):
+    """Minimum-norm solution of G theta = b (G symmetric PSD), columns scaled to unit diagonal."""
+    return _pinv(G, rtol) @ b
 
 
 class Scorer:
@@ -206,8 +214,11 @@ class Scorer:
             D, y = design[tr], u[tr]
             G = np.einsum("rap,raq->pq", D, D)
             b = np.einsum("rap,ra->p", D, y)
-            theta = self.theta0 + _solve(G, b - G @ self.theta0)
-            self.parts.append({"tr": tr, "te": te, "G": G, "b": b, "uu": float((y * y).sum()),
+            pinv = _pinv(G)
+            r = b - G @ self.theta0  # the normal equations' residual at the full-data fit
+            theta = self.theta0 + pinv @ r
+            self.parts.append({"tr": tr, "te": te, "G": G, "b": b, "uu": float((y * y).sum()), "pinv": pinv, "r": r,
+                               "theta": theta,
                                "D_axis": [np.ascontiguousarray(D[:, a, :]) for a in range(D.shape[1])],
                                "test_axis": [np.ascontiguousarray(design[te, a, :]) for a in range(D.shape[1])],
                                "u_tr": [np.ascontiguousarray(y[:, a]) for a in range(D.shape[1])],
@@ -221,20 +232,24 @@ class Scorer:
 
     def evaluate(self, cols: np.ndarray, axis: int, f: int) -> tuple[float, float, np.ndarray]:
         """(training SSE of all axes, held-out SSE of ``axis``, the columns' fitted coefficients (k,)) of
-        fold f with ``cols`` (R, k) added on ``axis``."""
+        fold f with ``cols`` (R, k) added on ``axis``.
+
+        The fold's fit of the design plus the columns, by block elimination: the columns' part
+        orthogonal to the design's span (Gram ``F - C' G+ C``) takes their coefficients, the design's
+        own minimum-norm correction (``pinv``, kept per fold) the rest; the same solution as the
+        minimum-norm solve of the augmented normal equations, at a fraction of its cost."""
         P = self.parts[f]
         E = cols[P["tr"]]
         C = P["D_axis"][axis].T @ E
-        p = P["G"].shape[0]
-        G = np.empty((p + E.shape[1], p + E.shape[1]))
-        G[:p, :p], G[:p, p:], G[p:, :p], G[p:, p:] = P["G"], C, C.T, E.T @ E
-        b = np.concatenate([P["b"], E.T @ P["u_tr"][axis]])
-        theta0 = np.concatenate([self.theta0, np.zeros(E.shape[1])])
-        theta = theta0 + _solve(G, b - G @ theta0)
-        train = P["uu"] - 2 * theta @ b + theta @ G @ theta
+        b_e = E.T @ P["u_tr"][axis]
+        pinv_C = P["pinv"] @ C
+        coef = _solve(E.T @ E - C.T @ pinv_C, b_e - C.T @ self.theta0 - pinv_C.T @ P["r"])
+        theta = P["theta"] - pinv_C @ coef
+        train = (P["uu"] - 2 * (theta @ P["b"] + coef @ b_e) + theta @ P["G"] @ theta + 2 * theta @ C @ coef
+                 + coef @ (E.T @ E) @ coef)
         te = P["te"]
-        pred = P["test_axis"][axis] @ theta[:p] + cols[te] @ theta[p:]
-        return float(train), float(((P["u_te"][axis] - pred) ** 2).sum()), theta[p:]
+        pred = P["test_axis"][axis] @ theta + cols[te] @ coef
+        return float(train), float(((P["u_te"][axis] - pred) ** 2).sum()), coef
 
     def with_columns(self, cols: np.ndarray, axis: int) -> Scorer:
         """A scorer whose design has ``cols`` (R, k) added on ``axis`` (a selected effect)."""
@@ -262,11 +277,16 @@ def period_peaks(r: np.ndarray, q: np.ndarray, weight: np.ndarray | None, n_peak
     freqs = np.arange(1.0 / max(3 * shortest, travel / 3), 1.0 / shortest, df)
     x = r * (weight if weight is not None else 1.0)
     x = x - x.mean()
-    power = np.zeros(freqs.size)
-    acc = np.zeros(freqs.size, dtype=complex)
-    for start in range(0, q.size, 4096):
-        qs = q[start : start + 4096]
-        acc += x[start : start + 4096] @ np.exp(-2j * np.pi * np.outer(qs, freqs))
+    # the transform block by block of 32 frequencies: the exponentials of one block are those of the
+    # block before times exp(-2 pi i q 32 df) (a product costs a fraction of an exponential)
+    block = 32
+    phase = np.exp(-2j * np.pi * np.outer(q, freqs[0] + df * np.arange(block)))
+    step = np.exp(-2j * np.pi * q * df * block)[:, None]
+    acc = np.empty(freqs.size, dtype=complex)
+    for start in range(0, freqs.size, block):
+        n = min(block, freqs.size - start)
+        acc[start : start + n] = x @ phase[:, :n]
+        phase *= step
     power = np.abs(acc) ** 2
     peaks = [k for k in range(1, freqs.size - 1) if power[k] >= power[k - 1] and power[k] > power[k + 1]]
     peaks = sorted(peaks, key=lambda k: -power[k])[:n_peaks]
@@ -295,8 +315,10 @@ class Score:
 class ColumnCache:
     """Reduced columns of (candidate, axis, parameters), computed once per diagnosis."""
 
-    def __init__(self, prep: Prepared, axes: Sequence[str]):
+    def __init__(self, prep: Prepared, axes: Sequence[str], shared: ColumnCache | None = None):
         self.prep, self.axes, self.store = prep, tuple(axes), {}
+        if shared is not None and shared.prep.mask is prep.mask:  # the same samples: what reads no torque is the same
+            self.store = {k: v for k, v in shared.store.items() if not k[3]}
 
     def use(self, prep: Prepared) -> None:
         """Switch to a refitted model's data: columns that read its torques are recomputed."""
@@ -349,18 +371,26 @@ def score_candidate(scorer: Scorer, cand: Candidate, axis: int, prep: Prepared, 
         periods = list(dict.fromkeys(peaks(0) + peaks(1))) if f is None else peaks(f)
         return [{**g, cand.period: float(p)} for g in grid for p in periods]
 
+    memo: dict = {}
+
+    def evaluate(setting: dict, f: int):
+        key = (tuple(sorted(setting.items())), f)
+        if key not in memo:
+            memo[key] = scorer.evaluate(cache(cand, axis, setting), axis, f)
+        return memo[key]
+
     held_out, physical = 0.0, True
     for f in (0, 1):
         options = settings(f)
         if not options:
             return None
-        results = [scorer.evaluate(cache(cand, axis, s), axis, f) for s in options]
+        results = [evaluate(s, f) for s in options]
         signed = [r for r in results if cand.effect.physical(r[2])]
         chosen = min(signed or results, key=lambda r: r[0])  # chosen by the training fit alone
         held_out += chosen[1]
         physical &= bool(signed)
     options = settings(None)
-    fits = [[scorer.evaluate(cache(cand, axis, s), axis, f) for f in (0, 1)] for s in options]
+    fits = [[evaluate(s, f) for f in (0, 1)] for s in options]
     signed = [k for k, r in enumerate(fits) if all(cand.effect.physical(x[2]) for x in r)] or range(len(options))
     best = options[min(signed, key=lambda k: fits[k][0][0] + fits[k][1][0])]
     return Score(cand, axis, held_out, best, cache(cand, axis, best), physical)
@@ -500,14 +530,14 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
         own[others] -= np.clip(current - new_scorer.test_sse, 0.0, None)[others]
         model, prep, scorer = new_model, new_prep, new_scorer
         cache.use(prep)
-        # with the new pick in, is another form of an earlier pick better now? The new pick itself is
-        # revisited only towards a form of no set shape that passed at this step (its shape refined)
+        # with the new pick in, is another form of an earlier pick on its axis better now? The new pick
+        # itself is revisited only towards a form of no set shape that passed at this step (its shape refined)
         richer = {x[0].candidate.name for x in passing if x[0].axis == pick[0].axis and x[0].candidate.shape_free}
         for k, (s, share, before) in enumerate(selected):
             latest = k == len(selected) - 1
-            if latest and not richer:
+            if (latest and not richer) or s.axis != pick[0].axis:  # a pick on another axis changes little here
                 continue
-            other = _other_form(s, model, scorer, context, only=richer if latest else None)
+            other = _other_form(s, model, scorer, context, cache, only=richer if latest else None)
             if other is not None:
                 record.revised.append(f"{s.candidate.name}@{axes[s.axis]} -> {other[0].candidate.name}@{axes[s.axis]}")
                 selected[k] = (other[0], share, before)
@@ -553,21 +583,22 @@ def _forms(cand: Candidate, candidates: Sequence[Candidate]) -> list[str]:
     return [c.name for c in candidates if c.name != cand.name and (c.name in cand.extends or cand.name in c.extends)]
 
 
-def _other_form(s: Score, model: PhysicalModel, scorer: Scorer, ctx: _Context,
+def _other_form(s: Score, model: PhysicalModel, scorer: Scorer, ctx: _Context, shared: ColumnCache,
                 only: set[str] | None = None) -> tuple[Score, PhysicalModel, Prepared] | None:
     """Revisit a pick that has another form (asymmetric friction and the Coulomb friction it extends)
     once later picks are in: each form is scored against the model without the pick, and a richer
     one is kept only where its extra parameters pass the significance rule against what the
     simpler one leaves (a direction-dependent level can stand in for part of a one-sided spring
     until the spring is in; a spring picked first can hide a friction's asymmetry). ``only``: the
-    forms to try (default all). Returns (the other form's Score, the model with it instead,
+    forms to try (default all); ``shared``: the selection's column cache (columns that read no
+    model torque are the same here). Returns (the other form's Score, the model with it instead,
     prepared), or None to keep ``s``."""
     a, axes = s.axis, ctx.axes
     others = [c for c in ctx.candidates if c.name in _forms(s.candidate, ctx.candidates) and (only is None or c.name in only)]
     if not others:
         return None
     without = prepare(ctx.trials, _without(model, f"{s.candidate.name}@{axes[a]}"), ctx.layout)
-    base, cache = Scorer.of(without), ColumnCache(without, axes)
+    base, cache = Scorer.of(without), ColumnCache(without, axes, shared)
     best = None
     for other in others:
         alt = score_candidate(base, other, a, without, cache, ctx.scales[a])

@@ -32,11 +32,11 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from .. import systems
-from ..data import regularize
+from ..data import UNIFORM_TOLERANCE, log_rate, regularize
 from ..metrics import norms as metric_norms
 from ..physics.effects import Effect, parse_key
 from ..physics.kinematics import lowpass_zero_phase, reference_kinematics
-from ..physics.model import PhysicalModel
+from ..physics.model import PhysicalModel, reduction_memo
 from .candidates import Candidate, candidates_for
 from .layout import edge_outliers, layout, used_samples
 from .regions import region_masks, region_table
@@ -64,12 +64,14 @@ def _check_trials(trials, system: systems.System, what: str = "trial") -> list:
     Python; files are read that way), checked against the machine."""
     if not trials:
         raise ValueError("diagnose: no trials given")
+    rate = log_rate(trials)
     out = []
     for k, tr in enumerate(trials):
         if tuple(tr.axes) != system.axis_names:
             raise ValueError(f"diagnose: {what} {k} has axes {', '.join(tr.axes)}; machine {system.name} has "
                              f"{', '.join(system.axis_names)}")
-        out.extend(regularize(tr, max_gap=bridged_gap(), where=f"{what} {k}"))
+        uniform = np.allclose(np.diff(tr.t), 1.0 / tr.fs, rtol=UNIFORM_TOLERANCE, atol=0.0)
+        out.extend([tr] if uniform else regularize(tr, rate, max_gap=bridged_gap(), where=f"{what} {k}"))
     for k, tr in enumerate(out):
         if abs(tr.fs - out[0].fs) > 1e-6 * out[0].fs:
             raise ValueError(f"diagnose: {what} {k} is sampled at {tr.fs:g} Hz, {what} 0 at {out[0].fs:g} Hz")
@@ -143,7 +145,7 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
         raise ValueError("diagnose: no axis moves more than its minimum travel (1 deg, 1 mm) in the data")
     max_steps = 2 * len(moving) if max_steps is None else max_steps
 
-    with system.caching() if system.caching is not None else nullcontext():
+    with system.caching() if system.caching is not None else nullcontext(), reduction_memo():
         bar = tqdm(total=2, desc="diagnose", disable=not progress, leave=False)
         bar.set_postfix_str("fit nominal model")
         prep = prepare(trials, model, lay)

@@ -55,7 +55,10 @@ torque of the given parameters, then of the first pass's fit (two passes).
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+from collections import OrderedDict
 from collections.abc import Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -315,6 +318,12 @@ class PhysicalModel:
                           "n_samples": int(sum(lengths)), "n_used": int(resid.size // len(self.system.axes))}
         return self
 
+    def kept_reduce(self, A: np.ndarray, lengths: Sequence[int], mask: np.ndarray | None) -> np.ndarray:
+        """``masked_reduce``, kept for the same arrays while a ``reduction_memo`` block runs (the
+        designs and inputs a diagnosis's refits share)."""
+        return _MEMO.get(lambda: self.masked_reduce(A, lengths, mask), A, mask,
+                         (tuple(lengths), self.fs, self.filter_hz, self.decimate))
+
     def masked_reduce(self, A: np.ndarray, lengths: Sequence[int], mask: np.ndarray | None) -> np.ndarray:
         """``reduce`` of A (T, n_axes, ...) with the samples ``mask`` (T, n_axes) leaves out set to
         zero before the low-pass and their rows to zero after it (``fit``); a mask (T,) of one axis
@@ -330,15 +339,19 @@ class PhysicalModel:
         ``mask``: the samples of each axis that count (``fit``)."""
         free, fixed, theta_free = self.free_design(kin, self.params)  # a fit starts from the given values
         loads = self.loads(kin, self.params.to_vector(), rigid=free @ theta_free + fixed)
-        X = self.masked_reduce(np.concatenate([free, self._effect_columns(kin, loads)], axis=2), lengths, mask)
-        y = self.masked_reduce(u - fixed, lengths, mask).reshape(-1)
+        X = np.concatenate([self.kept_reduce(free, lengths, mask),  # a diagnosis's refits share this one
+                            self.masked_reduce(self._effect_columns(kin, loads), lengths, mask)], axis=2)
+        y = self.kept_reduce(u - fixed, lengths, mask).reshape(-1)
         theta0 = np.concatenate([theta_free, *[e.coefficients() for e in self.effects]])
         theta, resid = solve_min_norm(X, y, theta0, rcond=self.rcond)
         vector = self.params.to_vector()
         mask = self.free_mask()
         vector[: self.system.n_linear][mask] = theta[: int(mask.sum())]
         self.params_ = self.system.params_from_vector(vector)
-        self.fit_info_ = {"n_free": int(mask.sum()), "rank": column_rank(X[:, :, : int(mask.sum())], self.rcond)}
+        free_columns = X[:, :, : int(mask.sum())]
+        self.fit_info_ = {"n_free": int(mask.sum()),
+                          "rank": _MEMO.get(lambda: np.array(column_rank(free_columns, self.rcond)), free_columns, None,
+                                            ("rank", self.rcond)).item()}
         # the reduced design and input as fitted: unchanged by the fit where no effect reads the model's
         # torques, so the diagnosis reuses them (``diagnose.search.prepare``) instead of filtering them again
         self.reduced_ = None if loads is not None else (X, y.reshape(X.shape[:2]))
@@ -348,7 +361,7 @@ class PhysicalModel:
         """A machine with nonlinear parameters zeta_n (the IX): variable projection over zeta_n, the
         linear parameters and the effects' coefficients eliminated by least squares at each step;
         ``mask`` as in ``_fit_linear``."""
-        u_red = self.masked_reduce(u, lengths, mask).reshape(-1)
+        u_red = self.kept_reduce(u, lengths, mask).reshape(-1)
         before = 1.0 if mask is None else mask[..., None]  # masked before the low-pass (linear: the design stays
         after = 1.0 if mask is None else mask[self.reduced_rows(lengths)][..., None]  # quadratic in zeta_n) and after
         n = self.system.n_linear
@@ -375,6 +388,59 @@ class PhysicalModel:
         self.params_ = self.system.params_from_vector(p)
         self.fit_info_ = {"n_free": n, "rank": column_rank(rigid(zeta_n), self.rcond)}
         return theta, resid
+
+
+class _ReductionMemo:
+    """Results of a function of arrays, kept while a ``reduction_memo`` block runs: a diagnosis refits
+    one model with one effect more or less tens of times on the same data, and filtering its rigid
+    regressor (tens of columns per axis, every sample) is most of a fit. A read-only array (a
+    machine's cached regressor, a result of this memo) is known by its identity, the entry holding
+    it so that the identity cannot pass to another array; a writable one by its bytes."""
+
+    def __init__(self, size: int = 16):
+        self.size = size
+        self.store: OrderedDict | None = None
+
+    @contextmanager
+    def active(self):
+        outer = self.store
+        self.store = OrderedDict() if outer is None else outer
+        try:
+            yield
+        finally:
+            self.store = outer
+
+    @staticmethod
+    def _key(a):
+        if a is None:
+            return None
+        if not a.flags.writeable:
+            return ("id", id(a), a.shape)
+        h = hashlib.blake2b(np.ascontiguousarray(a).view(np.uint8), digest_size=16)
+        return ("bytes", h.digest(), a.shape, a.dtype.str)
+
+    def get(self, compute, a: np.ndarray, mask: np.ndarray | None, extra: tuple) -> np.ndarray:
+        if self.store is None:
+            return compute()
+        key = (self._key(a), self._key(mask), extra)
+        if key in self.store:
+            self.store.move_to_end(key)
+            return self.store[key][0]
+        out = compute()
+        out.flags.writeable = False
+        self.store[key] = (out, a, mask)  # the inputs held: their identities stay theirs
+        while len(self.store) > self.size:
+            self.store.popitem(last=False)
+        return out
+
+
+_MEMO = _ReductionMemo()
+
+
+def reduction_memo():
+    """A context in which ``PhysicalModel.kept_reduce`` keeps its results for the same arrays
+    (a diagnosis's refits on one set of trials)."""
+    return _MEMO.active()
 
 
 def diagnosis_decimation(fs: float, filter_hz: float) -> int:

@@ -5,8 +5,8 @@ Every function takes a ``data.Trial`` of a plant run (uniformly sampled, usually
 returns a new one; the simulated signals themselves are not changed except where a function says so.
 
 - ``drop`` removes samples: logging dropouts (the time column then jumps over them);
-- ``jittered`` reads the run at a logger's own, irregular instants: steps drawn between two
-  bounds, each reading the latest simulated sample (a logger polls the controller's values);
+- ``jittered`` reads the run at a logger's own rate, each instant off its grid by up to a jitter,
+  reading the latest simulated sample (a logger polls the controller's values);
 - ``without_reference`` removes the reference (a log of positions and inputs only);
 - ``held_at_rest`` adds standstill before and after the motion, the axes held by their drives
   while friction carries an unknown share of the load: the input differs from the holding torque
@@ -43,16 +43,16 @@ def drop(trial: Trial, gaps: Sequence[tuple[float, float]]) -> Trial:
     return _rows(trial, np.flatnonzero(~lost))
 
 
-def jittered(trial: Trial, steps: tuple[float, float], rng: np.random.Generator) -> Trial:
-    """``trial`` read at irregular instants: each step [s] uniform in ``steps`` (lo, hi), each reading
-    the latest sample of the run at or before its instant, stamped with the instant itself."""
-    lo, hi = steps
-    if not 0 < lo <= hi:
-        raise ValueError(f"steps must be 0 < lo <= hi, got {steps}")
-    n = int((trial.t[-1] - trial.t[0]) / lo) + 2
-    t = trial.t[0] + np.concatenate([[0.0], np.cumsum(rng.uniform(lo, hi, n))])
-    t = t[t <= trial.t[-1]]
-    keep = np.searchsorted(trial.t, t + 1e-12, side="right") - 1
+def jittered(trial: Trial, fs: float, jitter: float = 0.0, rng: np.random.Generator | None = None) -> Trial:
+    """``trial`` read at ``fs`` [Hz], each instant k / fs off its grid by a uniform amount within
+    +-``jitter`` [s] (less than half a step), reading the latest sample of the run at or before it
+    and stamped with the instant itself; ``jitter`` 0: every (trial.fs / fs)-th sample, exactly."""
+    if not (fs > 0 and 0 <= jitter < 0.5 / fs):
+        raise ValueError(f"need fs > 0 and 0 <= jitter < half a step, got {fs} Hz, {jitter} s")
+    t = trial.t[0] + np.arange(int(np.floor((trial.t[-1] - trial.t[0]) * fs + 1e-9)) + 1) / fs
+    if jitter:
+        t = np.clip(t + rng.uniform(-jitter, jitter, t.size), trial.t[0], trial.t[-1])
+    keep = np.searchsorted(trial.t, t + 1e-9, side="right") - 1
     return _rows(trial, keep, t)
 
 
