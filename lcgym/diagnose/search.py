@@ -77,7 +77,8 @@ from .layout import Layout
 
 DEG = math.pi / 180.0
 LATE_FACTOR = 0.5  # a pick must also remove this fraction of min_explained of its axis's original error ...
-REVEALED = 1 / 3  # ... unless it removes at least this share of what is left: an effect a larger one hid
+REVEALED = 1 / 4  # ... unless it removes at least this share of what is left: an effect a larger one hid
+FOLD_SHARE = 1 / 3  # and in each fold at least this fraction of min_explained of that fold's held-out error
 
 
 @dataclass
@@ -163,17 +164,21 @@ def prepare(trials: Sequence, model: PhysicalModel, layout: Layout) -> Prepared:
                     np.concatenate(fold), np.concatenate(guard), rows, np.concatenate(trial))
 
 
-def verdict(removed: float, left: float, own: float, min_explained: float, min_rms: float, n_rows: int,
+def verdict(removed, left, own: float, min_explained: float, min_rms: float, n_rows: int,
             physical: bool = True) -> str:
-    """Why a candidate that removes ``removed`` of an axis's held-out SSE ``left`` (the axis's
-    original error ``own``) does or does not pass the significance rule of the module docstring:
-    "passes", or the first rule it fails."""
+    """Why a candidate that removes ``removed`` of an axis's held-out SSE ``left`` (each per fold,
+    (2,); the axis's original error ``own``) does or does not pass the significance rule of the
+    module docstring: "passes", or the first rule it fails."""
+    removed_f, left_f = np.asarray(removed, dtype=float), np.asarray(left, dtype=float)
+    removed, left = float(removed_f.sum()), float(left_f.sum())
     share = removed / left if left > 0 else 0.0
     of_original = removed / own if own > 0 else 0.0
     if not physical:
         return "unphysical sign"
     if share < min_explained:
         return "removes too little of what is left"
+    if np.any(removed_f < FOLD_SHARE * min_explained * left_f):
+        return "not in both folds"
     if of_original < LATE_FACTOR * min_explained and share < REVEALED:
         return "too little of the original error"
     if math.sqrt(max(removed, 0.0) / n_rows) < min_rms:
@@ -229,6 +234,10 @@ class Scorer:
     def test_sse(self) -> np.ndarray:
         """Held-out SSE per axis of the design alone, summed over the folds."""
         return self.parts[0]["test_sse"] + self.parts[1]["test_sse"]
+
+    def fold_sse(self, axis: int) -> np.ndarray:
+        """Held-out SSE of ``axis`` per fold (2,) of the design alone."""
+        return np.array([self.parts[0]["test_sse"][axis], self.parts[1]["test_sse"][axis]])
 
     def evaluate(self, cols: np.ndarray, axis: int, f: int) -> tuple[float, float, np.ndarray]:
         """(training SSE of all axes, held-out SSE of ``axis``, the columns' fitted coefficients (k,)) of
@@ -310,15 +319,22 @@ class Score:
     params: dict
     cols: np.ndarray = field(repr=False)
     physical: bool = True
+    folds: np.ndarray = field(default_factory=lambda: np.zeros(2), repr=False)  # held-out SSE per fold
 
 
 class ColumnCache:
     """Reduced columns of (candidate, axis, parameters), computed once per diagnosis."""
 
-    def __init__(self, prep: Prepared, axes: Sequence[str], shared: ColumnCache | None = None):
+    def __init__(self, prep: Prepared, axes: Sequence[str], shared: ColumnCache | None = None,
+                 scales: Sequence[dict] | None = None):
         self.prep, self.axes, self.store = prep, tuple(axes), {}
+        self.scales = scales if scales is not None else (shared.scales if shared is not None else None)
         if shared is not None and shared.prep.mask is prep.mask:  # the same samples: what reads no torque is the same
             self.store = {k: v for k, v in shared.store.items() if not k[3]}
+
+    def scale(self, axis: int) -> dict:
+        """The axis's grid scales (``score_candidate``)."""
+        return self.scales[axis]
 
     def use(self, prep: Prepared) -> None:
         """Switch to a refitted model's data: columns that read its torques are recomputed."""
@@ -379,7 +395,7 @@ def score_candidate(scorer: Scorer, cand: Candidate, axis: int, prep: Prepared, 
             memo[key] = scorer.evaluate(cache(cand, axis, setting), axis, f)
         return memo[key]
 
-    held_out, physical = 0.0, True
+    folds, physical = np.zeros(2), True
     for f in (0, 1):
         options = settings(f)
         if not options:
@@ -387,13 +403,13 @@ def score_candidate(scorer: Scorer, cand: Candidate, axis: int, prep: Prepared, 
         results = [evaluate(s, f) for s in options]
         signed = [r for r in results if cand.effect.physical(r[2])]
         chosen = min(signed or results, key=lambda r: r[0])  # chosen by the training fit alone
-        held_out += chosen[1]
+        folds[f] = chosen[1]
         physical &= bool(signed)
     options = settings(None)
     fits = [[evaluate(s, f) for f in (0, 1)] for s in options]
     signed = [k for k, r in enumerate(fits) if all(cand.effect.physical(x[2]) for x in r)] or range(len(options))
     best = options[min(signed, key=lambda k: fits[k][0][0] + fits[k][1][0])]
-    return Score(cand, axis, held_out, best, cache(cand, axis, best), physical)
+    return Score(cand, axis, float(folds.sum()), best, cache(cand, axis, best), physical, folds)
 
 
 @dataclass
@@ -440,7 +456,10 @@ class Ranking:
         return math.sqrt(max(self.baseline[s.axis] - s.held_out_sse, 0.0) / self.n_rows[s.axis])
 
     def passes_alone(self, s: Score) -> bool:
-        return s.physical and self.explained(s) >= self.min_explained and self.removed_rms(s) >= self.min_rms[s.axis]
+        """Whether ``s`` passed the significance rule against the model alone (the first step; a
+        richer form that added too little to a simpler one passed alone too)."""
+        why = {(x.candidate.name, x.axis): v for x, _, v in self.steps[0].scores}.get((s.candidate.name, s.axis), "")
+        return why == "passes" or why.startswith("adds too little")
 
 
 def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes: Sequence[str], layout: Layout,
@@ -462,7 +481,7 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
     min_rms = np.broadcast_to(np.asarray(min_rms, dtype=float), (len(axes),))
     if scales is None:
         scales = [{"speed": 20 * DEG, "position": 100 * DEG}] * len(axes)
-    cache = ColumnCache(prep, axes)
+    cache = ColumnCache(prep, axes, scales=scales)
     scorer = Scorer.of(prep)
     baseline = scorer.test_sse.copy()
     own = baseline.copy()  # each axis's original error without what picks on other axes removed from it
@@ -495,12 +514,12 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
         by_key = {(s.candidate.name, s.axis): s for s in scores}
         for s in scores:
             a = s.axis
-            why = verdict(current[a] - s.held_out_sse, current[a], own[a], min_explained, min_rms[a], n_rows[a], s.physical)
+            left = scorer.fold_sse(a)
+            why = verdict(left - s.folds, left, own[a], min_explained, min_rms[a], n_rows[a], s.physical)
             inner = [by_key[(e, a)] for e in s.candidate.extends if (e, a) in by_key and by_key[(e, a)].physical]
             if why == "passes" and inner:  # its extra parameters must pass against the best simpler form
                 best = min(inner, key=lambda x: x.held_out_sse)
-                if verdict(best.held_out_sse - s.held_out_sse, best.held_out_sse, own[a], min_explained, min_rms[a],
-                           n_rows[a]) != "passes":
+                if verdict(best.folds - s.folds, best.folds, own[a], min_explained, min_rms[a], n_rows[a]) != "passes":
                     why = f"adds too little to {best.candidate.name}"
             rows.append((s, float(current[a] - s.held_out_sse), why))
         record = Step(left=current.copy(), original=own.copy(), scores=rows)
@@ -531,8 +550,9 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
         model, prep, scorer = new_model, new_prep, new_scorer
         cache.use(prep)
         # with the new pick in, is another form of an earlier pick on its axis better now? The new pick
-        # itself is revisited only towards a form of no set shape that passed at this step (its shape refined)
-        richer = {x[0].candidate.name for x in passing if x[0].axis == pick[0].axis and x[0].candidate.shape_free}
+        # itself is revisited towards its forms of no set shape (its shape refined, now that its
+        # nonlinear parameters are too)
+        richer = {c.name for c in candidates if c.shape_free and pick[0].candidate.name in c.extends}
         for k, (s, share, before) in enumerate(selected):
             latest = k == len(selected) - 1
             if (latest and not richer) or s.axis != pick[0].axis:  # a pick on another axis changes little here
@@ -605,8 +625,8 @@ def _other_form(s: Score, model: PhysicalModel, scorer: Scorer, ctx: _Context, s
         if alt is None or not alt.physical:
             continue
         richer, simpler = (alt, None) if s.candidate.name in other.extends else (None, alt)
-        richer_sse = scorer.test_sse[a] if richer is None else alt.held_out_sse
-        simpler_sse = scorer.test_sse[a] if simpler is None else alt.held_out_sse
+        richer_sse = scorer.fold_sse(a) if richer is None else alt.folds
+        simpler_sse = scorer.fold_sse(a) if simpler is None else alt.folds
         richer_needed = verdict(simpler_sse - richer_sse, simpler_sse, ctx.own[a], ctx.min_explained, ctx.min_rms[a],
                                 ctx.n_rows[a]) == "passes"
         if (richer is not None and richer_needed) or (simpler is not None and not richer_needed):
@@ -635,6 +655,17 @@ def refine(scorer: Scorer, score: Score, cache: ColumnCache, iterations: int = 6
         return dict(score.params)
     logged = [n != "q0" for n in names]  # every continuous parameter but an onset position is > 0
     x0 = np.array([math.log(score.params[n]) if lg else score.params[n] for n, lg in zip(names, logged, strict=True)])
+    grid = cand.settings(cache.prep.kin[0], cache.prep.kin[1], axis, cache.scale(axis))
+    bounds = []  # within the grid's span (widened by 2x, or half the span on either side), a period within 5 %
+    for n, lg, x in zip(names, logged, x0, strict=True):
+        values = [g[n] for g in grid if n in g]
+        if n == cand.period or not values:
+            bounds.append((x - 0.05, x + 0.05) if lg else (x - 0.05 * abs(x), x + 0.05 * abs(x)))
+        elif lg:
+            bounds.append((math.log(min(values) / 2), math.log(max(values) * 2)))
+        else:
+            half = 0.5 * (max(values) - min(values))
+            bounds.append((min(values) - half, max(values) + half))
 
     def params(x) -> dict:
         return {**score.params, **{n: float(math.exp(v) if lg else v) for n, v, lg in zip(names, x, logged, strict=True)}}
@@ -646,8 +677,8 @@ def refine(scorer: Scorer, score: Score, cache: ColumnCache, iterations: int = 6
     from scipy.optimize import minimize
 
     start = cost(x0)
-    result = minimize(cost, x0, method="Nelder-Mead", options={"maxiter": iterations * len(names), "xatol": 1e-3,
-                                                                 "fatol": 1e-9 * max(start, 1e-300)})
+    result = minimize(cost, x0, method="Nelder-Mead", bounds=bounds,
+                      options={"maxiter": iterations * len(names), "xatol": 1e-3, "fatol": 1e-9 * max(start, 1e-300)})
     if result.fun >= start:
         return dict(score.params)
     refined = params(result.x)

@@ -159,7 +159,8 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
         residual = prep.residual
         q, qd, qdd = (k[prep.rows] for k in prep.kin)
         floor = _noise_floor(system, prep, min_rms)
-        scales = axis_scales(system, prep.kin[0], prep.kin[1])
+        scales = [{**sc, "rest": float(v)} for sc, v in zip(axis_scales(system, prep.kin[0], prep.kin[1]),
+                                                              lay.rest_speed, strict=True)]
         regions = region_table(residual, region_masks(q, qd, qdd, prep.trial, fs_rows, system.axes), axes, prep.used)
         bar.update()
         bar.set_postfix_str("candidates")

@@ -56,7 +56,9 @@ class Candidate:
     simpler one leaves (``diagnose.search``). ``shape_free``: a curve of no set shape (a spline):
     where one of the simpler forms it extends passes too, that one is named first and then revised
     to this one (its shape refined). ``fixed``: nonlinear parameters the search takes from the grid
-    and does not refine (a spline's knot range)."""
+    and does not refine (a spline's knot range). ``above_rest``: speeds of a shape that acts at low
+    speed (a Stribeck velocity), tried only from twice the axis's rest speed up (``scale["rest"]``:
+    the samples below it are left out of the fit)."""
 
     effect: type[fx.Effect]
     family: str
@@ -65,6 +67,7 @@ class Candidate:
     extends: tuple[str, ...] = ()
     shape_free: bool = False
     fixed: tuple[str, ...] = ()
+    above_rest: tuple[str, ...] = ()
 
     def __post_init__(self):
         if isinstance(self.extends, str):
@@ -87,6 +90,8 @@ class Candidate:
                 vals = values.values(scale)
             else:
                 vals = values(q, qd, index) if callable(values) else values
+            if name in self.above_rest and scale.get("rest"):
+                vals = [v for v in vals if v >= 2 * scale["rest"]] or [max(vals)]
             combos = [{**c, name: float(v)} for c in combos for v in vals]
         return combos
 
@@ -116,7 +121,8 @@ LIBRARY: tuple[Candidate, ...] = (
     Candidate(fx.CoulombFriction, "friction", {"eps": Scaled((0.0025, 0.01, 0.025, 0.05, 0.1))}),
     # Stribeck velocities stop at 40 % of the speed scale: a wider bump is Coulomb friction
     Candidate(fx.StribeckFriction, "friction", {"vs": Scaled(tuple(np.geomspace(0.005, 0.4, 20))),
-                                                "eps": Scaled((0.0025, 0.01))}),
+                                                "eps": Scaled((0.0025, 0.01))},
+              extends=("coulomb_friction",), above_rest=("vs",)),
     Candidate(fx.AsymmetricFriction, "friction", {"eps": Scaled((0.0025, 0.01, 0.025, 0.05, 0.1))},
               extends=("coulomb_friction",)),
     Candidate(fx.LoadFriction, "friction", {"eps": Scaled((0.0025, 0.01, 0.025, 0.05, 0.1))},
