@@ -250,8 +250,9 @@ LOG_CASES: dict[str, LogCase] = {case.name: case for case in (
             tuple(("friction", f"panda_joint{i}") for i in range(4, 8)), make_dropouts),
     LogCase("three runs of 5-6 s (6 joints, 250 Hz)",
             _cobot_friction() + tuple(fx.RotorInertia(j, J=J) for j, J in zip(COBOT[:3], (0.6, 0.6, 0.3), strict=True)),
-            _friction_truth() + tuple(("inertia", j) for j in COBOT[1:3]), make_short,
-            "the first joint's rotor turns about a fixed vertical axis with the shoulder: the rigid body holds it"),
+            _friction_truth() + (("inertia", "elbow_joint"),), make_short,
+            "rotors on the first three joints; the first two are no missing effect: their J qdd lies in the span of the "
+            "rigid body (the links' inertias about the same axes), which takes them up"),
     LogCase("standstill held at both ends (6 joints)", _cobot_friction(), _friction_truth(), make_standstill),
     LogCase("100 Hz, jittered stamps, no reference (6 joints)", _cobot_friction(), _friction_truth(), make_jittered),
     LogCase("friction growing with sqrt(speed) (elbow)",

@@ -70,7 +70,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..physics.effects import Loads
+from ..physics.effects import SMOOTHING, Loads
 from ..physics.model import PhysicalModel
 from .candidates import Candidate
 from .layout import Layout
@@ -107,6 +107,7 @@ class Prepared:
     guard: np.ndarray
     rows: np.ndarray
     trial: np.ndarray
+    penalties: list = field(default_factory=list)  # the design's roughness penalties (``PhysicalModel.penalties``)
 
     def reduce(self, columns: np.ndarray, axis: int) -> np.ndarray:
         """Columns (T, k) of ``axis`` reduced as the design is (``PhysicalModel.masked_reduce``)."""
@@ -139,6 +140,7 @@ def prepare(trials: Sequence, model: PhysicalModel, layout: Layout) -> Prepared:
     kin, lengths = model.kinematics(trials)
     free, fixed, theta = model.free_design(kin)
     rigid_torque = free @ theta + fixed
+    nonlinear = None
     torque = model.torque(*kin) - fixed  # the held part (e.g. CAD inertia) is moved to the input side
     rows = model.reduced_rows(lengths)
     used = layout.used[rows]
@@ -160,8 +162,9 @@ def prepare(trials: Sequence, model: PhysicalModel, layout: Layout) -> Prepared:
         trial.append(np.full(t.size, k))
         fold.append((block + k) % 2)
         guard.append((np.abs(t - nearest * length) < layout.settle) & (n_blocks > 1))
+    offset = free.shape[2] + (0 if nonlinear is None else nonlinear.shape[2])
     return Prepared(model, kin, lengths, torque, Loads(torque=rigid_torque), u, design, layout.used, used,
-                    np.concatenate(fold), np.concatenate(guard), rows, np.concatenate(trial))
+                    np.concatenate(fold), np.concatenate(guard), rows, np.concatenate(trial), model.penalties(offset))
 
 
 def verdict(removed, left, own: float, min_explained: float, min_rms: float, n_rows: int,
@@ -206,18 +209,20 @@ def _solve(G, b, rtol=1e-10):
 class Scorer:
     """Two-fold least squares of the reduced design plus one candidate's columns on one axis."""
 
-    def __init__(self, design: np.ndarray, u: np.ndarray, fold: np.ndarray, guard: np.ndarray | None = None):
-        self.design, self.u, self.fold = design, u, fold
+    def __init__(self, design: np.ndarray, u: np.ndarray, fold: np.ndarray, guard: np.ndarray | None = None,
+                 penalties=()):
+        self.design, self.u, self.fold, self.penalties = design, u, fold, list(penalties)
         self.guard = np.zeros(fold.shape, dtype=bool) if guard is None else guard
         self.memo: dict = {}  # what candidates of this scorer share (spectral peaks)
         # every fold's fit is a minimum-norm correction to the fit on all data (as PhysicalModel.fit
         # corrects the nominal values): directions one fold cannot identify keep the full-data values
-        self.theta0 = _solve(np.einsum("rap,raq->pq", design, design), np.einsum("rap,ra->p", design, u))
+        self.theta0 = _solve(_penalized(np.einsum("rap,raq->pq", design, design), self.penalties),
+                             np.einsum("rap,ra->p", design, u))
         self.parts = []
         for f in (0, 1):
             tr, te = np.flatnonzero((fold != f) & ~self.guard), np.flatnonzero(fold == f)
             D, y = design[tr], u[tr]
-            G = np.einsum("rap,raq->pq", D, D)
+            G = _penalized(np.einsum("rap,raq->pq", D, D), self.penalties)
             b = np.einsum("rap,ra->p", D, y)
             pinv = _pinv(G)
             r = b - G @ self.theta0  # the normal equations' residual at the full-data fit
@@ -239,9 +244,11 @@ class Scorer:
         """Held-out SSE of ``axis`` per fold (2,) of the design alone."""
         return np.array([self.parts[0]["test_sse"][axis], self.parts[1]["test_sse"][axis]])
 
-    def evaluate(self, cols: np.ndarray, axis: int, f: int) -> tuple[float, float, np.ndarray]:
+    def evaluate(self, cols: np.ndarray, axis: int, f: int, roughness: np.ndarray | None = None
+                 ) -> tuple[float, float, np.ndarray]:
         """(training SSE of all axes, held-out SSE of ``axis``, the columns' fitted coefficients (k,)) of
-        fold f with ``cols`` (R, k) added on ``axis``.
+        fold f with ``cols`` (R, k) added on ``axis`` (``roughness``: their penalty, ``Effect.roughness``;
+        the training SSE then includes it).
 
         The fold's fit of the design plus the columns, by block elimination: the columns' part
         orthogonal to the design's span (Gram ``F - C' G+ C``) takes their coefficients, the design's
@@ -251,11 +258,14 @@ class Scorer:
         E = cols[P["tr"]]
         C = P["D_axis"][axis].T @ E
         b_e = E.T @ P["u_tr"][axis]
+        F = E.T @ E
+        if roughness is not None:
+            F = _penalized(F, [(np.arange(F.shape[0]), roughness)])
         pinv_C = P["pinv"] @ C
-        coef = _solve(E.T @ E - C.T @ pinv_C, b_e - C.T @ self.theta0 - pinv_C.T @ P["r"])
+        coef = _solve(F - C.T @ pinv_C, b_e - C.T @ self.theta0 - pinv_C.T @ P["r"])
         theta = P["theta"] - pinv_C @ coef
         train = (P["uu"] - 2 * (theta @ P["b"] + coef @ b_e) + theta @ P["G"] @ theta + 2 * theta @ C @ coef
-                 + coef @ (E.T @ E) @ coef)
+                 + coef @ F @ coef)
         te = P["te"]
         pred = P["test_axis"][axis] @ theta + cols[te] @ coef
         return float(train), float(((P["u_te"][axis] - pred) ** 2).sum()), coef
@@ -264,11 +274,23 @@ class Scorer:
         """A scorer whose design has ``cols`` (R, k) added on ``axis`` (a selected effect)."""
         extra = np.zeros((cols.shape[0], self.design.shape[1], cols.shape[1]))
         extra[:, axis, :] = cols
-        return Scorer(np.concatenate([self.design, extra], axis=2), self.u, self.fold, self.guard)
+        return Scorer(np.concatenate([self.design, extra], axis=2), self.u, self.fold, self.guard, self.penalties)
 
     @classmethod
     def of(cls, prep: Prepared) -> Scorer:
-        return cls(prep.design, prep.u, prep.fold, prep.guard)
+        return cls(prep.design, prep.u, prep.fold, prep.guard, prep.penalties)
+
+
+def _penalized(G: np.ndarray, penalties) -> np.ndarray:
+    """The Gram matrix G with the roughness penalties [(column indices, D)] of some of its columns
+    added (``physics.model.penalty_rows``: weighted by SMOOTHING times their mean square)."""
+    if not penalties:
+        return G
+    G = G.copy()
+    for idx, D in penalties:
+        lam = SMOOTHING * float(np.trace(G[np.ix_(idx, idx)])) / len(idx)
+        G[np.ix_(idx, idx)] += lam * (D.T @ D)
+    return G
 
 
 def period_peaks(r: np.ndarray, q: np.ndarray, weight: np.ndarray | None, n_peaks: int = 3,
@@ -389,10 +411,12 @@ def score_candidate(scorer: Scorer, cand: Candidate, axis: int, prep: Prepared, 
 
     memo: dict = {}
 
+    rough = cand.effect.roughness()
+
     def evaluate(setting: dict, f: int):
         key = (tuple(sorted(setting.items())), f)
         if key not in memo:
-            memo[key] = scorer.evaluate(cache(cand, axis, setting), axis, f)
+            memo[key] = scorer.evaluate(cache(cand, axis, setting), axis, f, rough)
         return memo[key]
 
     folds, physical = np.zeros(2), True
@@ -670,9 +694,11 @@ def refine(scorer: Scorer, score: Score, cache: ColumnCache, iterations: int = 6
     def params(x) -> dict:
         return {**score.params, **{n: float(math.exp(v) if lg else v) for n, v, lg in zip(names, x, logged, strict=True)}}
 
+    rough = cand.effect.roughness()
+
     def cost(x) -> float:
         cols = cache(cand, axis, params(x), keep=False)
-        return sum(scorer.evaluate(cols, axis, f)[0] for f in (0, 1))
+        return sum(scorer.evaluate(cols, axis, f, rough)[0] for f in (0, 1))
 
     from scipy.optimize import minimize
 
@@ -683,7 +709,7 @@ def refine(scorer: Scorer, score: Score, cache: ColumnCache, iterations: int = 6
         return dict(score.params)
     refined = params(result.x)
     cols = cache(cand, axis, refined, keep=False)
-    fits = [scorer.evaluate(cols, axis, f) for f in (0, 1)]
+    fits = [scorer.evaluate(cols, axis, f, rough) for f in (0, 1)]
     if score.physical and not all(cand.effect.physical(r[2]) for r in fits):
         return dict(score.params)
     held_out = sum(r[1] for r in fits)

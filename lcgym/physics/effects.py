@@ -125,6 +125,17 @@ def load_friction_basis(v, load, eps):
     return s, np.abs(load) * s
 
 
+def spline_basis(x, lo: float, hi: float, n: int) -> np.ndarray:
+    """Cubic B-spline basis (..., n) of x on [lo, hi] (n - 3 equal intervals, clamped ends), x held
+    at the ends beyond them; the basis functions sum to 1, and any cubic polynomial is in their span."""
+    from scipy.interpolate import BSpline
+
+    k = 3
+    knots = np.concatenate([[lo] * k, np.linspace(lo, hi, n - k + 1), [hi] * k])
+    x = np.clip(np.asarray(x, dtype=float), lo, hi)
+    return BSpline.design_matrix(x.ravel(), knots, k).toarray().reshape(x.shape + (n,))
+
+
 def hat_basis(x, knots) -> np.ndarray:
     """Piecewise-linear "hat" functions (..., K) of x on the K sorted ``knots``: column j is 1 at
     knots[j] and 0 at the others, linear in between, held constant beyond the ends; their
@@ -237,6 +248,14 @@ class Effect:
         out = np.zeros(np.shape(q), dtype=float)
         out[..., self._i()] = self.columns(q, qd, qdd, loads) @ self.coefficients()
         return out
+
+    @classmethod
+    def roughness(cls) -> np.ndarray | None:
+        """For a curve of no set shape, a difference operator D (m, len(linear)) on its coefficients
+        whose square ||D c||^2 measures how much the curve bends: the fits add it, weighted by
+        ``SMOOTHING`` (a penalized spline), so that where the data barely reach, the curve goes on
+        as it came instead of following a few samples. None: a parametric effect, fitted as it is."""
+        return None
 
     @classmethod
     def physical(cls, coefficients: np.ndarray) -> bool:
@@ -357,6 +376,18 @@ class LoadFriction(Effect):
 
 
 FRICTION_KNOTS = (0.0, 0.05, 0.15, 0.35, 0.65, 1.0)  # of v_top: dense near standstill, where curves bend
+SMOOTHING = 1e-3  # weight of a curve's roughness penalty, relative to the mean square of its columns
+
+
+def second_differences(x) -> np.ndarray:
+    """The operator (n - 2, n) of second divided differences of values at the sorted points x,
+    scaled by the squared mean spacing: the change of slope between neighbouring intervals."""
+    x = np.asarray(x, dtype=float)
+    n, h = x.size, np.diff(x)
+    D = np.zeros((n - 2, n))
+    for j in range(n - 2):
+        D[j, j], D[j, j + 1], D[j, j + 2] = 1 / h[j], -(1 / h[j] + 1 / h[j + 1]), 1 / h[j + 1]
+    return D * float(np.mean(h))
 
 
 @dataclass(frozen=True)
@@ -392,6 +423,12 @@ class FrictionCurve(Effect):
     positive: ClassVar[tuple[str, ...]] = ("p0", "n0")
     nonlinear: ClassVar[tuple[str, ...]] = ("eps", "v_top")
 
+    @classmethod
+    def roughness(cls) -> np.ndarray:
+        """Second differences of each direction's levels over the knots (``Effect.roughness``)."""
+        D = second_differences(FRICTION_KNOTS)
+        return np.block([[D, np.zeros_like(D)], [np.zeros_like(D), D]])
+
     def _columns(self, q, qd, qdd, loads):
         v = self._v(qd)
         hats = hat_basis(np.abs(v), np.asarray(FRICTION_KNOTS) * self.v_top)
@@ -404,14 +441,14 @@ POSITION_KNOTS = 9
 
 @dataclass(frozen=True)
 class PositionMap(Effect):
-    """A force of no set shape over the axis position: piecewise linear through its values at
-    ``POSITION_KNOTS`` evenly spaced positions from lo to hi, held beyond them,
+    """A force of no set shape over the axis position: a cubic spline over [lo, hi] in
+    ``POSITION_KNOTS`` B-spline coefficients (6 equal intervals), held beyond the ends,
 
-        sum_j c_j hat_j(q)
+        sum_j c_j B_j(q)
 
     c0 .. c8 [input unit] linear; lo, hi [rad or m] nonlinear (the range the data cover). It holds
-    springs of any profile (one-sided, progressive), a drape, an offset and its drift; the
-    diagnosis names it only where no effect of the library explains as much.
+    springs of any profile (one-sided, progressive: within an interval a cubic), a drape, an offset
+    and its drift; the diagnosis names it only where no effect of the library explains as much.
     """
 
     c0: float = 0.0
@@ -434,8 +471,15 @@ class PositionMap(Effect):
         if not self.hi > self.lo:
             raise ValueError(f"{self.key}: need lo < hi, got [{self.lo}, {self.hi}]")
 
+    @classmethod
+    def roughness(cls) -> np.ndarray:
+        """First differences of the B-spline coefficients (``Effect.roughness``: a P-spline): the
+        curve held level where the data do not reach, and the slope a gravity term of the rigid body
+        explains left to it (the two overlap over the data's range)."""
+        return np.diff(np.eye(POSITION_KNOTS), axis=0)
+
     def _columns(self, q, qd, qdd, loads):
-        return tuple(np.moveaxis(hat_basis(self._q(q), np.linspace(self.lo, self.hi, POSITION_KNOTS)), -1, 0))
+        return tuple(np.moveaxis(spline_basis(self._q(q), self.lo, self.hi, POSITION_KNOTS), -1, 0))
 
 
 @dataclass(frozen=True)

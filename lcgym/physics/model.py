@@ -65,7 +65,7 @@ from typing import Any, ClassVar
 import numpy as np
 from scipy.optimize import least_squares
 
-from .effects import Effect, Loads
+from .effects import SMOOTHING, Effect, Loads
 from .kinematics import lowpass_zero_phase, reference_kinematics, reference_positions
 
 POSITIONS = ("reference", "measured", "position")
@@ -207,6 +207,17 @@ class PhysicalModel:
             cols.append((self.system.inverse_dynamics(hi, *kin) - self.system.inverse_dynamics(lo, *kin)) / (2 * h))
         return np.stack(cols, axis=-1)
 
+    def penalties(self, offset: int) -> list:
+        """The roughness penalties (``penalty_rows``) of the effects whose columns follow ``offset``
+        columns of the design."""
+        out, start = [], offset
+        for e in self.effects:
+            D = e.roughness()
+            if D is not None:
+                out.append((np.arange(start, start + len(e.linear)), D))
+            start += len(e.linear)
+        return out
+
     def _effect_columns(self, kin, loads: Loads | None):
         """Regressor columns (T, A, n_effect_coefficients) of the effects (independent of zeta_n);
         ``loads``: the model torques they read (``loads``)."""
@@ -343,7 +354,7 @@ class PhysicalModel:
                             self.masked_reduce(self._effect_columns(kin, loads), lengths, mask)], axis=2)
         y = self.kept_reduce(u - fixed, lengths, mask).reshape(-1)
         theta0 = np.concatenate([theta_free, *[e.coefficients() for e in self.effects]])
-        theta, resid = solve_min_norm(X, y, theta0, rcond=self.rcond)
+        theta, resid = solve_min_norm(X, y, theta0, rcond=self.rcond, penalties=self.penalties(free.shape[2]))
         vector = self.params.to_vector()
         mask = self.free_mask()
         vector[: self.system.n_linear][mask] = theta[: int(mask.sum())]
@@ -370,6 +381,7 @@ class PhysicalModel:
         zeta_n = p0[n:].copy()
         loads = self.loads(kin, p0)  # the model torques effects read (ripple), refined per pass
         n_pass = 2 if loads is not None else 1
+        penalties = self.penalties(n)
         evaluate = (_QuadraticDesign if self.system.quadratic_in_nonlinear else _Design)
         for _ in range(n_pass):
             rigid = evaluate(lambda zn: self.system.regressor(zn, *kin) * before, zeta_n.size,
@@ -378,11 +390,11 @@ class PhysicalModel:
             design = lambda zn, r=rigid, f=fixed: np.concatenate([r(zn) * after, f], axis=2)  # noqa: E731
             if self.fit_nonlinear:
                 sol = least_squares(
-                    lambda zn, d=design: solve_min_norm(d(zn), u_red, theta0, rcond=self.rcond)[1],
+                    lambda zn, d=design: solve_min_norm(d(zn), u_red, theta0, rcond=self.rcond, penalties=penalties)[1],
                     zeta_n, x_scale=0.01, diff_step=1e-3, max_nfev=100,
                 )
                 zeta_n = sol.x
-            theta, resid = solve_min_norm(design(zeta_n), u_red, theta0, rcond=self.rcond)
+            theta, resid = solve_min_norm(design(zeta_n), u_red, theta0, rcond=self.rcond, penalties=penalties)
             p = np.concatenate([theta[:n], zeta_n])
             loads = self.loads(kin, p)
         self.params_ = self.system.params_from_vector(p)
@@ -466,17 +478,36 @@ def column_rank(A: np.ndarray, rcond: float = 1e-9, zero: float = 1e-10) -> int:
     return int((s > rcond * s[0]).sum())
 
 
-def solve_min_norm(A, u, theta0, rcond: float = 1e-9):
+def penalty_rows(A: np.ndarray, penalties) -> np.ndarray:
+    """Rows to append to a design A (rows, p) for the roughness penalties (``Effect.roughness``):
+    ``penalties`` [(column indices, D)], each weighted by ``SMOOTHING`` times the mean square of
+    its columns, with target zero."""
+    rows = []
+    for idx, D in penalties:
+        lam = SMOOTHING * float((A[:, idx] ** 2).sum()) / len(idx)
+        block = np.zeros((D.shape[0], A.shape[1]))
+        block[:, idx] = np.sqrt(lam) * D
+        rows.append(block)
+    return np.concatenate(rows) if rows else np.zeros((0, A.shape[1]))
+
+
+def solve_min_norm(A, u, theta0, rcond: float = 1e-9, penalties=()):
     """Minimum-norm correction to theta0 (column-scaled) of the least-squares problem A theta = u;
-    singular values below ``rcond`` times the largest count as zero (directions the data lacks)."""
+    singular values below ``rcond`` times the largest count as zero (directions the data lacks);
+    ``penalties``: roughness penalties of some columns (``penalty_rows``). Returns theta and the
+    residual of the data rows."""
     A = A.reshape(-1, theta0.size)
+    n = A.shape[0]
+    if penalties:
+        A = np.concatenate([A, penalty_rows(A, penalties)])
+        u = np.concatenate([np.ravel(u), np.zeros(A.shape[0] - n)])
     y = u - A @ theta0
     scale = np.linalg.norm(A, axis=0)
     used = scale > 1e-12 * scale.max(initial=0.0)  # a column of round-off only is no direction
     scale[~used] = 1.0
     delta, *_ = np.linalg.lstsq(np.where(used, A / scale, 0.0), y, rcond=rcond)
     theta = theta0 + delta / scale
-    return theta, u - A @ theta
+    return theta, (u - A @ theta)[:n]
 
 
 class _Design:
