@@ -3,10 +3,13 @@
 Not every sample of a real log says something about the model:
 
 - **Standstill.** Where an axis rests, the friction holds anything between its static levels (the
-  drives holding an arm, a brake): u there follows no static model. An axis's samples whose speed
-  is below its rest speed are left out of that axis's fit and score (the other axes keep them):
-  set to zero in its u and its regressor columns before the low-pass, so that nothing of them
-  spreads into the samples around (``PhysicalModel.masked_reduce``), their rows dropped after. The rest speed
+  drives holding an arm, a brake): u there follows no static model. Where an axis's speed stays
+  below its rest speed for at least ``settle`` s (shorter: the axis reverses, and the friction's
+  switch is what identifies it), those samples are left out of that axis's fit and score (the
+  other axes keep them): set to zero in its u and its regressor columns before the low-pass, so
+  that nothing of them spreads into the samples around (``PhysicalModel.masked_reduce``), their
+  rows dropped after. A log without a reference has u low-passed with its position before the fit
+  (``PhysicalModel.inputs``): there a rest is widened by that low-pass's reach. The rest speed
   comes from the data: ``REST_NOISE`` times the speed noise the position's noise makes through the
   kinematics' low-pass and differentiation (the noise estimated from the log, at least the
   encoder step's quantization), and at least ``REST_SHARE`` of the axis's top speed (99th
@@ -31,7 +34,7 @@ the least; below that ``DataTooShort`` says what is there and what is needed.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -41,7 +44,9 @@ from ..physics.kinematics import lowpass_zero_phase
 
 REST_NOISE = 3.0  # rest speed: this many times the speed noise ...
 REST_SHARE = 0.01  # ... and at least this share of the axis's top speed
+REST_SETTLES = 1.0  # a rest lasts at least this many settle times (shorter: a reversal)
 TARGET_BLOCKS = 8
+COVERAGE_FACTORS = (0.7, 0.8, 0.9, 1.12, 1.25, 1.4)  # block lengths tried beside the target (``block_lengths``)
 MAX_BLOCK = 4.0  # s
 MIN_BLOCK_SETTLES = 5
 MIN_BLOCKS_PER_FOLD = 3
@@ -74,10 +79,13 @@ def settle_time(filter_hz: float) -> float:
     return 1.0 / float(filter_hz)
 
 
-def block_lengths(durations: Sequence[float], settle: float, block_seconds: float | None = None) -> tuple[float, ...]:
+def block_lengths(durations: Sequence[float], settle: float, block_seconds: float | None = None,
+                  coverage: Callable[[tuple[float, ...]], float] | None = None) -> tuple[float, ...]:
     """Per trial, the length [s] of its equal held-out blocks (module docstring); ``block_seconds``
-    fixes the target length instead. Raises ``DataTooShort`` when a fold would get fewer than
-    ``MIN_BLOCKS_PER_FOLD`` blocks."""
+    fixes the target length instead. ``coverage``: a score of a choice of lengths (``fold_coverage``):
+    of the lengths within 0.7-1.4 times the target, the one that scores best is taken (a motion that
+    repeats with about two blocks' period would otherwise put all of one direction in one fold).
+    Raises ``DataTooShort`` when a fold would get fewer than ``MIN_BLOCKS_PER_FOLD`` blocks."""
     shortest = MIN_BLOCK_SETTLES * settle
     total = float(sum(durations))
     if block_seconds is None:
@@ -86,6 +94,23 @@ def block_lengths(durations: Sequence[float], settle: float, block_seconds: floa
         if not block_seconds > 0:
             raise ValueError(f"block_seconds must be > 0, got {block_seconds}")
         target = float(block_seconds)
+    first = _blocks(durations, target, shortest, block_seconds)
+    if coverage is None or block_seconds is not None:
+        return first
+    options = [first]
+    for factor in COVERAGE_FACTORS:
+        length = min(MAX_BLOCK, max(shortest, factor * target))
+        try:
+            options.append(_blocks(durations, length, shortest, block_seconds))
+        except DataTooShort:
+            continue
+    scores = [coverage(b) for b in options]
+    return options[int(np.argmax(scores))]  # the first best: the target's own where it is as good
+
+
+def _blocks(durations: Sequence[float], target: float, shortest: float, block_seconds: float | None) -> tuple[float, ...]:
+    """``block_lengths`` at one target length [s]."""
+    total = float(sum(durations))
     blocks, per_fold = [], [0, 0]
     for k, d in enumerate(durations):
         n = max(1, int(math.floor(d / target + 1e-9)))
@@ -100,6 +125,45 @@ def block_lengths(durations: Sequence[float], settle: float, block_seconds: floa
             f"of data at the least (blocks alternate between the folds within each trial; got {per_fold[0]} and "
             f"{per_fold[1]})")
     return tuple(blocks)
+
+
+def fold_assignment(lengths: Sequence[int], fs: float, blocks: Sequence[float]) -> np.ndarray:
+    """The fold (0 or 1) of every sample (N,) for the blocks of ``block_lengths``: blocks alternate
+    within each trial, the first block of trial k in fold k mod 2."""
+    out = []
+    for k, n in enumerate(lengths):
+        t = np.arange(n) / fs
+        n_blocks = max(1, int(round(n / fs / blocks[k])))
+        out.append((np.minimum(np.floor(t / blocks[k] + 1e-9).astype(int), n_blocks - 1) + k) % 2)
+    return np.concatenate(out)
+
+
+def fold_coverage(q: np.ndarray, qd: np.ndarray, used: np.ndarray, lengths: Sequence[int], fs: float,
+                  moving: np.ndarray) -> Callable[[tuple[float, ...]], float]:
+    """A score of a choice of block lengths: how evenly the two folds share each way each moving
+    axis turns in each quarter of its range (the used samples of bins holding at least 1 % of
+    them): the smallest fold's share over those bins, 0 (a fold never sees one) to 0.5."""
+    bins = []
+    for i in np.flatnonzero(moving):
+        m = used[:, i]
+        if not m.any():
+            continue
+        quarter = np.digitize(q[:, i], np.quantile(q[m, i], [0.25, 0.5, 0.75]))
+        bins.append(np.where(m, quarter * 2 + (qd[:, i] > 0), -1))
+
+    def score(blocks: tuple[float, ...]) -> float:
+        fold = fold_assignment(lengths, fs, blocks)
+        worst = 0.5
+        for b in bins:
+            keep = b >= 0
+            counts = np.bincount(b[keep] * 2 + fold[keep], minlength=16).reshape(8, 2)
+            total = counts.sum(axis=1)
+            big = total >= 0.01 * keep.sum()
+            if big.any():
+                worst = min(worst, float((counts[big].min(axis=1) / total[big]).min()))
+        return worst
+
+    return score
 
 
 def rest_speeds(positions: Sequence[np.ndarray], speed: np.ndarray, fs: float, filter_hz: float) -> np.ndarray:
@@ -137,18 +201,52 @@ def speed_noise_gain(fs: float, filter_hz: float, n: int = 20_000) -> float:
     return float(np.std(v[n // 10 : -n // 10]))
 
 
+def rests(slow: np.ndarray, lengths: Sequence[int], shortest: int) -> np.ndarray:
+    """The runs of ``slow`` (N, A) samples, within each trial and axis, of at least ``shortest``
+    samples: an axis at rest, not one passing through zero speed as it reverses."""
+    out = np.zeros_like(slow)
+    start = 0
+    for n in lengths:
+        for i in range(slow.shape[1]):
+            s = slow[start : start + n, i].astype(np.int8)
+            edges = np.flatnonzero(np.diff(np.concatenate([[0], s, [0]])))
+            for a, b in zip(edges[::2], edges[1::2], strict=True):
+                if b - a >= shortest:
+                    out[start + a : start + b, i] = True
+        start += n
+    return out
+
+
+def dilate(mask: np.ndarray, lengths: Sequence[int], width: int) -> np.ndarray:
+    """``mask`` (N, A) grown by ``width`` samples on each side of every True run, within each trial."""
+    if width <= 0:
+        return mask
+    out = np.empty_like(mask)
+    start = 0
+    kernel = np.ones(2 * width + 1)
+    for n in lengths:
+        for i in range(mask.shape[1]):
+            out[start : start + n, i] = np.convolve(mask[start : start + n, i].astype(float), kernel, mode="same") > 0
+        start += n
+    return out
+
+
 def used_samples(trials: Sequence, kin: tuple[np.ndarray, np.ndarray, np.ndarray], lengths: Sequence[int], fs: float,
-                 filter_hz: float, velocity_filter_hz: float, trim: Sequence[tuple[int, int]] | None = None
-                 ) -> tuple[np.ndarray, np.ndarray, dict]:
+                 filter_hz: float, velocity_filter_hz: float, trim: Sequence[tuple[int, int]] | None = None,
+                 spread: float = 0.0) -> tuple[np.ndarray, np.ndarray, dict]:
     """(used (N, A), rest speed (A,), counts) of ``trials`` whose fit kinematics are ``kin`` (each
     (N, A)): standstill and trial edges left out (module docstring). ``filter_hz``: the fit's
     low-pass corner, ``velocity_filter_hz``: the one the velocity went through; ``trim``: per
-    trial, samples to leave out at its start and at its end beyond the fixed margin (``edge_outliers``)."""
+    trial, samples to leave out at its start and at its end beyond the fixed margin
+    (``edge_outliers``); ``spread`` [s]: how far a low-pass that u went through before the fit
+    (the measured position's, ``PhysicalModel.inputs``) spreads a rest into the motion around it:
+    that much more is left out on either side of each rest."""
     settle = settle_time(filter_hz)
     margin = int(math.ceil(settle * fs))
     speed = np.abs(kin[1])
     rest = rest_speeds([tr.pos for tr in trials], speed, fs, velocity_filter_hz)
-    resting = speed < rest
+    resting = dilate(rests(speed < rest, lengths, int(math.ceil(REST_SETTLES * settle * fs))), lengths,
+                     int(math.ceil(spread * fs)))
     edges = np.zeros(speed.shape[0], dtype=bool)
     start, extra = 0, 0
     for k, n in enumerate(lengths):
@@ -164,11 +262,15 @@ def used_samples(trials: Sequence, kin: tuple[np.ndarray, np.ndarray, np.ndarray
 
 def layout(trials: Sequence, kin: tuple[np.ndarray, np.ndarray, np.ndarray], lengths: Sequence[int], fs: float,
            filter_hz: float, velocity_filter_hz: float, block_seconds: float | None = None,
-           trim: Sequence[tuple[int, int]] | None = None) -> Layout:
-    """The ``Layout`` of ``trials`` (``used_samples``, and the held-out blocks: ``block_lengths``)."""
-    used, rest, counts = used_samples(trials, kin, lengths, fs, filter_hz, velocity_filter_hz, trim)
+           trim: Sequence[tuple[int, int]] | None = None, spread: float = 0.0,
+           moving: Sequence[int] | None = None) -> Layout:
+    """The ``Layout`` of ``trials`` (``used_samples``, and the held-out blocks: ``block_lengths``,
+    chosen for the folds' coverage of the ``moving`` axes, indices; default all)."""
+    used, rest, counts = used_samples(trials, kin, lengths, fs, filter_hz, velocity_filter_hz, trim, spread)
     settle = settle_time(filter_hz)
-    return Layout(used, block_lengths([n / fs for n in lengths], settle, block_seconds), settle, rest, counts)
+    moving = np.isin(np.arange(used.shape[1]), np.arange(used.shape[1]) if moving is None else list(moving))
+    coverage = fold_coverage(kin[0], kin[1], used, lengths, fs, moving)
+    return Layout(used, block_lengths([n / fs for n in lengths], settle, block_seconds, coverage), settle, rest, counts)
 
 
 def edge_outliers(residual: np.ndarray, used: np.ndarray, trial: np.ndarray, time: np.ndarray,

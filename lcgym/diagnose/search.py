@@ -73,7 +73,7 @@ import numpy as np
 from ..physics.effects import SMOOTHING, Loads
 from ..physics.model import PhysicalModel
 from .candidates import Candidate
-from .layout import Layout
+from .layout import Layout, fold_assignment
 
 DEG = math.pi / 180.0
 LATE_FACTOR = 0.5  # a pick must also remove this fraction of min_explained of its axis's original error ...
@@ -152,19 +152,18 @@ def prepare(trials: Sequence, model: PhysicalModel, layout: Layout) -> Prepared:
         parts = [free] + ([] if nonlinear is None else [nonlinear]) + [effect_cols]
         design = model.masked_reduce(np.concatenate(parts, axis=2), lengths, layout.used)
         u = model.masked_reduce(model.inputs(trials) - fixed, lengths, layout.used)
-    trial, fold, guard = [], [], []
+    trial, guard = [], []
     for k, n in enumerate(lengths):
         t = np.arange(0, n, max(1, model.decimate)) / model.fs
         length = layout.blocks[k]
         n_blocks = max(1, int(round(n / model.fs / length)))
-        block = np.minimum(np.floor(t / length + 1e-9).astype(int), n_blocks - 1)
         nearest = np.clip(np.round(t / length), 1, max(1, n_blocks - 1))  # the closest boundary between two blocks
         trial.append(np.full(t.size, k))
-        fold.append((block + k) % 2)
         guard.append((np.abs(t - nearest * length) < layout.settle) & (n_blocks > 1))
+    fold = fold_assignment(lengths, model.fs, layout.blocks)[rows]
     offset = free.shape[2] + (0 if nonlinear is None else nonlinear.shape[2])
     return Prepared(model, kin, lengths, torque, Loads(torque=rigid_torque), u, design, layout.used, used,
-                    np.concatenate(fold), np.concatenate(guard), rows, np.concatenate(trial), model.penalties(offset))
+                    fold, np.concatenate(guard), rows, np.concatenate(trial), model.penalties(offset))
 
 
 def verdict(removed, left, own: float, min_explained: float, min_rms: float, n_rows: int,

@@ -138,11 +138,13 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
         raise ValueError("--replay needs data simulated by lcgym: the file's sidecar has no 'plant' record")
     if replay and system.bench is None:
         raise ValueError(f"--replay needs a built-in machine with a plant; {system.name} has none")
-    kin, lengths = model.kinematics(trials)
-    lay = layout(trials, kin, lengths, fs, model.filter_hz, _velocity_filter_hz(model, trials), block_seconds)
     moving = moving_axes(trials, system)
     if not moving:
         raise ValueError("diagnose: no axis moves more than its minimum travel (1 deg, 1 mm) in the data")
+    kin, lengths = model.kinematics(trials)
+    corners = (model.filter_hz, _velocity_filter_hz(model, trials))
+    spread = 1.0 / model.kinematics_filter_hz if any(model.uses_position(tr) for tr in trials) else 0.0
+    lay = layout(trials, kin, lengths, fs, *corners, block_seconds, spread=spread, moving=moving)
     max_steps = 2 * len(moving) if max_steps is None else max_steps
 
     with system.caching() if system.caching is not None else nullcontext(), reduction_memo():
@@ -153,7 +155,7 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
         time = (prep.rows - np.concatenate([[0], np.cumsum(lengths)[:-1]])[prep.trial]) / fs
         trim = edge_outliers(prep.residual, prep.used, prep.trial, time, [n / fs for n in lengths], fs, lay.settle)
         if trim is not None:  # the residual is dominated by trial edges: leave them out, fit again
-            lay = layout(trials, kin, lengths, fs, model.filter_hz, _velocity_filter_hz(model, trials), block_seconds, trim)
+            lay = layout(trials, kin, lengths, fs, *corners, block_seconds, trim, spread, moving)
             prep = prepare(trials, model, lay)
         bar.update()
         residual = prep.residual
@@ -350,11 +352,13 @@ def validation(trials: Sequence, report: Diagnosis, axes, units) -> dict:
     added = [e.key for e in after_model.effects if e.key not in {f.key for f in report.model.effects}]
     model = report.model
     kin, lengths = model.kinematics(trials)
-    used = used_samples(trials, kin, lengths, model.fs, model.filter_hz, _velocity_filter_hz(model, trials))[0]
-    used = used[model.reduced_rows(lengths)]  # standstill and trial edges left out, as in the data fitted
+    spread = 1.0 / model.kinematics_filter_hz if any(model.uses_position(tr) for tr in trials) else 0.0
+    mask = used_samples(trials, kin, lengths, model.fs, model.filter_hz, _velocity_filter_hz(model, trials),
+                        spread=spread)[0]  # standstill and trial edges left out, as in the data fitted
+    used = mask[model.reduced_rows(lengths)]
     return {"trials": len(trials), "n_samples": int(sum(tr.n_samples for tr in trials)), "added": added,
-            "residual": norms(model.residual(trials), axes, units, used),
-            "residual_after": norms(after_model.residual(trials), axes, units, used)}
+            "residual": norms(model.residual(trials, mask), axes, units, used),
+            "residual_after": norms(after_model.residual(trials, mask), axes, units, used)}
 
 
 def _step_row(k: int, step, axes, n_rows: np.ndarray) -> dict:

@@ -289,12 +289,13 @@ class PhysicalModel:
             return float(self.position_filter_hz)
         return 2.0 * self.filter_hz if self.filter_hz else self.error_filter_hz
 
-    def residual(self, trials: Sequence) -> np.ndarray:
+    def residual(self, trials: Sequence, mask: np.ndarray | None = None) -> np.ndarray:
         """Reduced residual (R, n_axes) [input unit] of this fitted model on ``trials`` (any, e.g.
         data it was not fitted on): the input as the fit uses it minus the model's torque, both
-        through ``reduce`` (low-pass and decimation), the kinematics taken as in the fit."""
+        through ``reduce`` (low-pass and decimation), the kinematics taken as in the fit; ``mask``
+        as in ``fit`` (the rows it leaves out are zero)."""
         kin, lengths = self.kinematics(trials)
-        return self.reduce(self.inputs(trials) - self.torque(*kin), lengths)
+        return self.masked_reduce(self.inputs(trials) - self.torque(*kin), lengths, mask)
 
     def reduced_rows(self, lengths: Sequence[int]) -> np.ndarray:
         """The sample (over all trials) each row of ``reduce``'s output comes from."""
