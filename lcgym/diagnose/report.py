@@ -235,7 +235,8 @@ class Diagnosis:
         return out
 
     def plot(self, folder: str | Path) -> list[Path]:
-        """residual_time.png, residual_map.png and (with ``after``) before_after.png in ``folder``."""
+        """residual_time.png, residual_map.png, (with ``after``) before_after.png and, where effects
+        were selected or added, effects.png (their fitted curves) in ``folder``."""
         import matplotlib
 
         matplotlib.use("Agg")
@@ -271,6 +272,8 @@ class Diagnosis:
             figs.append((self._time_panels(plt, [("residual", "before"), ("residual_after", after)], velocity=False,
                                            title="Residual before and after adding the effects"),
                          folder / "before_after.png"))
+        if s.get("effects"):
+            figs.append((self._effect_panels(plt, s["effects"]), folder / "effects.png"))
         paths = []
         try:
             for fig, path in figs:
@@ -281,6 +284,27 @@ class Diagnosis:
                 plt.close(fig)
         return paths
 
+
+    def _effect_panels(self, plt, curves: list[dict]):
+        """One panel per added effect: its fitted torque over the variable it acts on (velocity for
+        a friction, acceleration for an inertia, else position), at the samples fitted: the learned
+        curve of an effect of no set shape, the fitted form of the others."""
+        n = len(curves)
+        fig, axs = plt.subplots(1, n, figsize=(5.0 * n, 4.0), squeeze=False)
+        for ax, c in zip(axs[0], curves, strict=True):
+            axis = c["effect"].partition("@")[2]
+            f, unit = self.displays.get(axis, (180 / math.pi, "deg"))
+            per = {"position": "", "velocity": "/s", "acceleration": "/s^2"}[c["variable"]]
+            x, y = f * c["x"][c["used"]], c["torque"][c["used"]]
+            order = np.argsort(x)
+            ax.plot(x[order], y[order], ".", ms=2, alpha=0.5)
+            ax.set_xlabel(f"{axis} {c['variable']} [{unit}{per}]")
+            ax.set_ylabel(f"torque [{self.residual[axis]['unit']}]")
+            ax.set_title(f"{c['effect']} [{c['family']}]", fontsize=10)
+            ax.grid(alpha=0.3)
+        fig.suptitle("The effects added, as fitted: torque over the variable each acts on")
+        fig.tight_layout()
+        return fig
 
     def _time_panels(self, plt, series: list[tuple[str, str]], velocity: bool, title: str):
         """One panel per axis: the named residual series over time, optionally with the scaled

@@ -223,12 +223,33 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
                                                    map(float, after.model.fitted_params.to_vector()), strict=True))}
             report.after_model = after.model
             report.series["residual_after"] = after.residual
+        families = {c.name: c.family for c in cands}
+        families.update({c["effect"]: c["family"] for c in rows if c.get("named_as")})
+        shown = report.after_model if report.after_model is not None else ranking.model
+        report.series["effects"] = effect_curves(shown, prep, families)
         if validate is not None:
             report.validation = validation(validate, report, axes, units)
         if replay:
             after_model = report.after_model if report.after_model is not None else report.suggested_model
             report.replay = replay_tracking(trials, report.model, after_model, system)
     return report
+
+
+def effect_curves(model: PhysicalModel, prep, families: dict) -> list[dict]:
+    """Per effect of ``model`` beyond those of the nominal model ``prep.model``: its fitted torque
+    at the reduced rows over the variable it acts on (``Diagnosis.plot``'s effects.png)."""
+    start = {e.key for e in prep.model.effects}
+    kin = tuple(k[prep.rows] for k in prep.kin)
+    loads = model.loads(kin)
+    out = []
+    for e in model.fitted_effects:
+        if e.key in start:
+            continue
+        family = families.get(e.name, "user")
+        which = {"friction": 1, "inertia": 2}.get(family, 0)
+        out.append({"effect": e.key, "family": family, "variable": ("position", "velocity", "acceleration")[which],
+                    "x": kin[which][:, e.index], "torque": e.torque(*kin, loads)[:, e.index], "used": prep.used[:, e.index]})
+    return out
 
 
 def _velocity_filter_hz(model: PhysicalModel, trials) -> float:
