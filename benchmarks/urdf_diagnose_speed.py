@@ -1,76 +1,139 @@
-"""Speed of ``lcgym diagnose`` on a 7-DOF URDF robot: the Franka Panda with its two gripper joints
-locked, 100,000 samples (issue budget: 60 s on the project's 2-core machine).
+"""Speed of ``lcgym diagnose`` on real-sized robot logs (issue budget: 60 s each on the project's
+2-core machines), and where the time goes.
 
-Simulates the Panda (``tests/data/panda/panda.urdf``, the seven arm joints as axes) with
-``URDFPlant`` under PD feedback on seeded random point-to-point moves, with a hidden Coulomb friction
-on joints 2 and 4 that the URDF lacks, cut to 100,000 samples and written to a measurement file;
-then times the command as a user runs it (``lcgym diagnose FILE --system panda.urdf --json ...``,
-in this process: reading the file and the URDF included) and, as a reference measured in the same
-run, one least-squares fit of the nominal model on the same trials. Prints both times, their
-ratio, the budget's share, and what the diagnosis selected.
+Two logs, simulated with ``URDFPlant`` and shaped like the real ones the diagnosis was tried on
+(``lcgym.systems.logs``), Coulomb friction hidden on every joint:
 
-Run:  .venv/bin/python benchmarks/urdf_diagnose_speed.py [--samples 100000]
+- ``cobot``: lcgym's six-joint arm logged at 100 Hz with jittered stamps (each up to 4 ms off its
+  grid) and no reference, 17,000 samples (about 170 s in 8 runs);
+- ``panda``: the Franka Panda's seven joints (``tests/data/panda``) at 1 kHz, 20,000 samples in
+  one run with four logging dropouts of 8.5-8.8 ms, no reference.
+
+Each log is written to a CSV file and diagnosed as a user runs it (``lcgym diagnose FILE --system
+URDF --json ...``, in this process: reading the file, resampling and the URDF included), ``--runs``
+times. As a reference measured in the same run, one least-squares fit of the nominal model on the
+same trials. Prints the medians, their ratio, the budget's share, the effects selected, and a
+profile of one diagnosis by stage (cumulative seconds of the functions that make the stages).
+
+Run:  .venv/bin/python benchmarks/urdf_diagnose_speed.py [--runs 3] [--logs cobot,panda]
 """
 
 from __future__ import annotations
 
 import argparse
+import cProfile
 import json
+import math
+import pstats
+import statistics
 import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+
 from lcgym import systems
 from lcgym.cli import main as cli
-from lcgym.data import Trial, read_trials, write_trials
+from lcgym.data import read_trials, write_trials
 from lcgym.physics import effects as fx
+from lcgym.systems import logs
 from lcgym.systems.urdf_plant import URDFPlant, random_references
 
 BUDGET_S = 60.0
 PANDA = Path(__file__).resolve().parents[1] / "tests" / "data" / "panda" / "panda.urdf"
-JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
+STAGES = {  # stage -> the function whose cumulative time it is (file suffix, function name)
+    "read the log, put it on a grid": ("data.py", "read_trials"),
+    "nominal fit and reductions (prepare)": ("search.py", "prepare"),
+    "score candidates": ("search.py", "score_candidate"),
+    "  reduce their columns": ("search.py", "__call__"),
+    "  least squares per fold": ("search.py", "evaluate"),
+    "  spectral peaks (periodic ones)": ("search.py", "period_peaks"),
+    "refine picks (Nelder-Mead)": ("search.py", "refine"),
+    "revisit picks' other forms": ("search.py", "_other_form"),
+    "regions, report": ("workflow.py", "effect_curves"),
+}
 
 
-def make_file(path: Path, samples: int) -> Path:
-    panda = systems.get(str(PANDA), joints=JOINTS)
-    hidden = (fx.CoulombFriction("panda_joint2", Fc=1.5, eps=0.01), fx.CoulombFriction("panda_joint4", Fc=1.0, eps=0.01))
-    plant = URDFPlant(panda, effects=hidden, seed=0)
-    refs = random_references(panda, n=-(-samples // 20_000) + 1, duration=20.0, seed=0)
+def cobot_log(folder: Path, samples: int = 17_000) -> Path:
+    cobot = systems.get("cobot6")
+    # the wrists' smoothing as in studies/diagnose_robustness.py (their links alone would make the plant stiff)
+    hidden = tuple(fx.CoulombFriction(j, Fc=f, eps=e) for j, f, e in
+                   zip(cobot.axis_names, (6, 6, 4, 1.5, 1.5, 1), (0.005, 0.005, 0.005, 0.01, 0.01, 0.08), strict=True))
+    runs = URDFPlant(cobot, effects=hidden, seed=0, encoder_resolution=2 * math.pi / 2**18).run(
+        random_references(cobot, n=8, duration=21.0, seed=0))
+    rng = np.random.default_rng(0)
     trials, left = [], samples
-    for r in plant.run(refs):
-        n = min(left, r.n_samples)
-        if n < 20_000:
+    for r in runs:
+        tr = logs.without_reference(logs.jittered(r, 100.0, 0.004, rng))
+        tr = logs.cut(tr, 0.0, tr.t[min(left, tr.n_samples) - 1] + 1e-9) if left < tr.n_samples else tr
+        trials.append(tr)
+        left -= tr.n_samples
+        if left <= 0:
             break
-        trials.append(Trial(t=r.t[:n], ref=r.ref[:n], pos=r.pos[:n], u=r.u[:n], axes=r.axes, meta=r.meta))
-        left -= n
-    return write_trials(path, trials, meta={"system": panda.name})
+    return write_trials(folder / "cobot.csv", trials)
+
+
+def panda_log(folder: Path, samples: int = 20_000) -> Path:
+    panda = systems.get(str(PANDA), joints=tuple(f"panda_joint{i}" for i in range(1, 8)))
+    hidden = tuple(fx.CoulombFriction(f"panda_joint{i}", Fc=f, eps=0.005)
+                   for i, f in zip(range(1, 8), (3.0, 3.0, 2.0, 2.0, 1.2, 1.0, 0.8), strict=True))
+    run = URDFPlant(panda, effects=hidden, seed=0).run(random_references(panda, n=1, duration=samples / 1000 + 1.0,
+                                                                         seed=0))[0]
+    run = logs.cut(run, 0.0, samples / 1000)
+    rng = np.random.default_rng(0)
+    gaps = [(t, rng.uniform(0.0085, 0.0088)) for t in sorted(rng.uniform(2.0, samples / 1000 - 2.0, 4))]
+    return write_trials(folder / "panda.csv", [logs.without_reference(logs.drop(run, gaps))])
+
+
+def profile(args: list[str]) -> list[tuple[str, float]]:
+    """Cumulative seconds of each stage of one diagnosis (``STAGES``)."""
+    prof = cProfile.Profile()
+    prof.enable()
+    cli(args)
+    prof.disable()
+    stats = pstats.Stats(prof).stats
+    total = sum(v[2] for k, v in stats.items() if k[2] == "cmd_diagnose")
+    out = [("the whole diagnosis (lcgym diagnose)", total)]
+    for stage, (file, name) in STAGES.items():
+        out.append((stage, sum(v[3] for k, v in stats.items() if k[0].endswith(file) and k[2] == name)))
+    return out
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--samples", type=int, default=100_000)
+    parser.add_argument("--runs", type=int, default=3)
+    parser.add_argument("--logs", default="cobot,panda")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
-        t0 = time.perf_counter()
-        data = make_file(Path(tmp) / "panda.csv", args.samples)
-        t_sim = time.perf_counter() - t0
-        panda = systems.get(str(PANDA), joints=JOINTS)
-        trials = read_trials(data, axes=panda)
-        n = sum(t.n_samples for t in trials)
-        t0 = time.perf_counter()
-        panda.diagnosis_model(trials[0].fs).fit(trials)
-        t_fit = time.perf_counter() - t0
-        report = Path(tmp) / "report.json"
-        t0 = time.perf_counter()
-        rc = cli(["diagnose", str(data), "--system", str(PANDA), "--json", str(report)])
-        t_diag = time.perf_counter() - t0
-        found = [f"{c['effect']}@{c['axis']}" for c in json.loads(report.read_text())["candidates"] if c["selected"]]
-    assert rc == 0
-    print(f"\n{panda.description}")
-    print(f"{n} samples in {len(trials)} trials (simulated in {t_sim:.1f} s)")
-    print(f"lcgym diagnose:          {t_diag:6.1f} s   ({t_diag / BUDGET_S:.2f} of the {BUDGET_S:.0f} s budget)")
-    print(f"nominal model fit alone: {t_fit:6.1f} s   (diagnose = {t_diag / t_fit:.1f}x one fit)")
-    print(f"selected: {', '.join(found) or 'nothing'} (hidden: coulomb_friction@panda_joint2, coulomb_friction@panda_joint4)")
+        folder = Path(tmp)
+        for name in args.logs.split(","):
+            if name == "cobot":
+                data, urdf = cobot_log(folder), "cobot6"
+            else:
+                data, urdf = panda_log(folder), str(PANDA)
+            machine = systems.get(urdf, joints=None if name == "cobot" else tuple(f"panda_joint{i}" for i in range(1, 8)))
+            trials = read_trials(data, axes=machine, resample="auto")
+            n = sum(t.n_samples for t in trials)
+            t0 = time.perf_counter()
+            machine.diagnosis_model(trials[0].fs).fit(trials)
+            t_fit = time.perf_counter() - t0
+            report = folder / "report.json"
+            command = ["diagnose", str(data), "--system", urdf, "--json", str(report)]
+            seconds = []
+            for _ in range(args.runs):
+                t0 = time.perf_counter()
+                assert cli(command) == 0
+                seconds.append(time.perf_counter() - t0)
+            found = [f"{c['effect']}@{c['axis']}" for c in json.loads(report.read_text())["candidates"] if c["selected"]]
+            med = statistics.median(seconds)
+            print(f"\n{name}: {n} samples at {trials[0].fs:g} Hz in {len(trials)} trial(s), {machine.n_axes} axes")
+            print(f"  lcgym diagnose: median {med:6.1f} s over {args.runs} runs ({', '.join(f'{s:.1f}' for s in seconds)}; "
+                  f"{med / BUDGET_S:.2f} of the {BUDGET_S:.0f} s budget)")
+            print(f"  one nominal fit: {t_fit:6.2f} s (diagnose = {med / t_fit:.0f}x one fit)")
+            print(f"  selected: {', '.join(found) or 'nothing'}")
+            print("  where the time goes (one more run, profiled; the profiler's overhead included):")
+            for stage, s in profile(command):
+                print(f"    {stage:40s} {s:6.1f} s")
 
 
 if __name__ == "__main__":

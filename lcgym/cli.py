@@ -201,7 +201,7 @@ def build_parser() -> argparse.ArgumentParser:
                            "a file without ref_ columns uses the measured position) or from the measured position")
     diag.add_argument("--resample", type=_rate, metavar="HZ",
                       help="the rate of the uniform grid a log with non-uniform time stamps is put on (linear "
-                           "interpolation; default the log's own: its median step)")
+                           "interpolation; default the log's own: its mean step between gaps)")
     diag.add_argument("--validate", type=Path, metavar="OTHER",
                       help="another measurement file of the machine: residuals there, not fitted, before and after")
     imp = sub.add_parser("import", help="convert a public benchmark's files into a measurement file")

@@ -147,7 +147,7 @@ def prepare(trials: Sequence, model: PhysicalModel, layout: Layout) -> Prepared:
     if getattr(model, "reduced_", None) is not None:  # a linear fit's own reduced design: the same columns
         design, u = model.reduced_
     else:
-        effect_cols = model._effect_columns(kin, model.loads(kin))
+        effect_cols = model._effect_columns(kin, model.load_torques(kin))
         nonlinear = model.nonlinear_design(kin)  # zeta_n refitted to first order with each candidate
         parts = [free] + ([] if nonlinear is None else [nonlinear]) + [effect_cols]
         design = model.masked_reduce(np.concatenate(parts, axis=2), lengths, layout.used)

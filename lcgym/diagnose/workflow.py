@@ -240,7 +240,7 @@ def effect_curves(model: PhysicalModel, prep, families: dict) -> list[dict]:
     at the reduced rows over the variable it acts on (``Diagnosis.plot``'s effects.png)."""
     start = {e.key for e in prep.model.effects}
     kin = tuple(k[prep.rows] for k in prep.kin)
-    loads = model.loads(kin)
+    loads = model.load_torques(kin)
     out = []
     for e in model.fitted_effects:
         if e.key in start:
@@ -321,9 +321,9 @@ def _resampled_note(trials) -> str | None:
     done = [d for d in done if d.get("segment", 0) == 0]  # one note per trial of the log, not per segment
     if not done:
         return None
-    step = float(np.median([d["log_step"] for d in done]))
+    step = float(np.mean([d["log_step"] for d in done]))
     text = (f"{len(done)} trial(s) with non-uniform time stamps resampled to {done[0]['fs']:g} Hz by linear "
-            f"interpolation (the log's median step {1e3 * step:.4g} ms)")
+            f"interpolation (the log's mean step {1e3 * step:.4g} ms)")
     bridged = sum(d.get("gaps_bridged", 0) for d in done)
     if bridged:
         text += f"; {bridged} gap(s) bridged (the largest {1e3 * max(d['largest_bridged'] for d in done):.4g} ms)"

@@ -136,12 +136,12 @@ class PhysicalModel:
         p = self.fitted_params.to_vector()
         base = self.system.inverse_dynamics(p, q, qd, qdd)
         tau = base.copy()
-        loads = self.loads((q, qd, qdd), p, rigid=base)
+        loads = self.load_torques((q, qd, qdd), p, rigid=base)
         for e in self.fitted_effects:
             tau += e.torque(q, qd, qdd, loads)
         return tau
 
-    def loads(self, kin, p=None, rigid=None) -> Loads | None:
+    def load_torques(self, kin, p=None, rigid=None) -> Loads | None:
         """The model torques its effects read (``Effect.reads``) for kinematics ``kin`` at the
         parameter vector ``p`` (default the fitted one); ``rigid``: the rigid-body torque there,
         where the caller has it. None when no effect reads any."""
@@ -350,7 +350,7 @@ class PhysicalModel:
         parameters and the effects' coefficients, the fixed parameters' torque moved to u's side;
         ``mask``: the samples of each axis that count (``fit``)."""
         free, fixed, theta_free = self.free_design(kin, self.params)  # a fit starts from the given values
-        loads = self.loads(kin, self.params.to_vector(), rigid=free @ theta_free + fixed)
+        loads = self.load_torques(kin, self.params.to_vector(), rigid=free @ theta_free + fixed)
         X = np.concatenate([self.kept_reduce(free, lengths, mask),  # a diagnosis's refits share this one
                             self.masked_reduce(self._effect_columns(kin, loads), lengths, mask)], axis=2)
         y = self.kept_reduce(u - fixed, lengths, mask).reshape(-1)
@@ -380,7 +380,7 @@ class PhysicalModel:
         p0 = self.params.to_vector()
         theta0 = np.concatenate([p0[:n], *[e.coefficients() for e in self.effects]])
         zeta_n = p0[n:].copy()
-        loads = self.loads(kin, p0)  # the model torques effects read (ripple), refined per pass
+        loads = self.load_torques(kin, p0)  # the model torques effects read (ripple), refined per pass
         n_pass = 2 if loads is not None else 1
         penalties = self.penalties(n)
         evaluate = (_QuadraticDesign if self.system.quadratic_in_nonlinear else _Design)
@@ -397,7 +397,7 @@ class PhysicalModel:
                 zeta_n = sol.x
             theta, resid = solve_min_norm(design(zeta_n), u_red, theta0, rcond=self.rcond, penalties=penalties)
             p = np.concatenate([theta[:n], zeta_n])
-            loads = self.loads(kin, p)
+            loads = self.load_torques(kin, p)
         self.params_ = self.system.params_from_vector(p)
         self.fit_info_ = {"n_free": n, "rank": column_rank(rigid(zeta_n), self.rcond)}
         return theta, resid

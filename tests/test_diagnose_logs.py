@@ -1,0 +1,224 @@
+"""The diagnosis on logs as real controllers write them (issue 35).
+
+Every case of the logs part of ``studies/diagnose_robustness.py`` (URDF arms simulated with
+pinocchio, made to look like real logs: dropouts, three runs of 5-6 s, standstill at both ends,
+jittered 100 Hz stamps without a reference, an unsettled start; hidden effects outside the
+library's formulas, a load-dependent friction, none) runs here with one seed: the true effects are
+named, family and axis, and nothing else is. The study's table (three seeds, residual cuts) is on
+``docs/diagnosis.md``. Then the parts one by one: gaps and jitter (``data.regularize``), rests and
+reversals, the folds' coverage, the penalized position map, the load-dependent friction in the
+plant and in the model from one formula, ``register_effect`` on the whole state, the edges, and the
+report's columns and refusals.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import re
+import sys
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from lcgym import systems
+from lcgym.data import Trial, log_rate, regularize
+from lcgym.diagnose import diagnose, register_effect
+from lcgym.diagnose.candidates import CANDIDATES
+from lcgym.diagnose.layout import DataTooShort, block_lengths, edge_outliers, fold_coverage, rests
+from lcgym.physics import effects as fx
+from lcgym.physics.model import solve_min_norm
+from lcgym.systems.urdf_plant import URDFPlant, random_references
+
+STUDY = Path(__file__).resolve().parents[1] / "studies" / "diagnose_robustness.py"
+
+
+@cache
+def study():
+    """The study module (its case catalogue: ``LOG_CASES``, ``named``)."""
+    spec = importlib.util.spec_from_file_location("diagnose_robustness", STUDY)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module
+
+
+@cache
+def case_report(name: str):
+    case = study().LOG_CASES[name]
+    machine, trials = case.make(0, case.hidden)
+    return machine, trials, diagnose(trials, machine)
+
+
+@pytest.mark.parametrize("name", list(study().LOG_CASES))
+def test_each_log_case_names_the_truth_and_nothing_else(name):
+    case = study().LOG_CASES[name]
+    _, _, report = case_report(name)
+    ok, selected = study().named(report, case.truth)
+    assert ok, f"truth {case.truth}, selected {selected}\n{report.text()}"
+
+
+def test_the_quadratic_spring_is_named_a_spring_and_adding_it_cuts_the_residual():
+    name = "one-sided spring growing quadratically (two-link shoulder)"
+    machine, trials, report = case_report(name)
+    assert report.candidates[0]["family"] == "spring" and report.candidates[0]["axis"] == "shoulder"
+    after = diagnose(trials, machine, add=report.missing).after["residual"]["shoulder"]["RMS"]
+    assert after <= 0.1 * report.residual["shoulder"]["RMS"]  # 0.04x measured (the truth allows 0.01x)
+
+
+def test_the_reports_of_real_log_shapes_say_what_was_done():
+    _, _, dropped = case_report("logging dropouts (7 joints, 1 kHz, no reference)")
+    largest = re.search(r"4 gap\(s\) bridged \(the largest ([0-9.]+) ms\)", dropped.resampled)
+    assert largest and 8.5 <= float(largest[1]) <= 10.0  # 8.5-8.8 ms lost from a 1 ms grid: 9-10 ms steps
+    _, _, jittered = case_report("100 Hz, jittered stamps, no reference (6 joints)")
+    assert "resampled to 100 Hz" in jittered.resampled
+    _, _, held = case_report("standstill held at both ends (6 joints)")
+    assert all(n > 0 for n in held.samples["standstill"].values())  # every joint rests at both ends
+    assert "standstill left out of its axis's fit and score" in held.text()
+
+
+# ------------------------------------------------------------------ gaps and jitter
+def _ramp(t) -> Trial:
+    t = np.asarray(t, dtype=float)
+    x = np.sin(t)[:, None]
+    return Trial(t=t, ref=x, pos=x, u=np.cos(t)[:, None], axes=("a",))
+
+
+def test_regularize_keeps_a_uniform_trial_and_puts_jittered_stamps_on_the_log_rate():
+    uniform = _ramp(np.arange(1000) * 0.01)
+    assert regularize(uniform)[0] is uniform
+    rng = np.random.default_rng(0)
+    jittered = _ramp(np.arange(1000) * 0.01 + rng.uniform(-0.004, 0.004, 1000))
+    assert log_rate([jittered]) == 100.0  # the nominal rate, not the jittered mean
+    (out,) = regularize(jittered)
+    assert out.fs == pytest.approx(100.0) and out.meta["resampled"]["splits"] == 0
+    np.testing.assert_allclose(out.u[:, 0], np.cos(out.t), atol=2e-4)  # linear interpolation of a smooth signal
+
+
+@pytest.mark.parametrize("lost, parts", [(8, 1), (30, 2)])
+def test_a_gap_up_to_the_bridge_is_interpolated_and_a_longer_one_splits(lost, parts):
+    t = np.delete(np.arange(4000) * 0.001, np.arange(2000, 2000 + lost))
+    out = regularize(_ramp(t), max_gap=0.0125)
+    assert len(out) == parts
+    note = out[0].meta["resampled"]
+    assert note["gaps_bridged"] == (parts == 1) and note["splits"] == (parts == 2)
+    assert note["largest_gap"] == pytest.approx((lost + 1) * 0.001)
+
+
+# ------------------------------------------------------------------ rests, folds, edges
+def test_a_dwell_is_a_rest_and_a_reversal_is_not():
+    fs = 1000
+    t = np.arange(3 * fs) / fs
+    v = np.where(t < 1.0, np.cos(np.pi * t), 0.0)  # reverses at 0.5 s (1 ms under 0.01), rests from 1 s
+    slow = (np.abs(v) < 0.01)[:, None]
+    rest = rests(slow, [t.size], shortest=200)[:, 0]
+    assert not rest[(t > 0.45) & (t < 0.55)].any() and rest[t > 1.01].all()
+
+
+def test_blocks_are_chosen_so_that_each_fold_sees_both_directions():
+    """A back-and-forth motion whose period is two target blocks would put every forward move in
+    one fold and every backward one in the other: the coverage score picks another length."""
+    fs, n = 100.0, 4000
+    t = np.arange(n) / fs
+    q = -np.cos(2 * np.pi * t / 8.0)[:, None]  # 40 s: the target block is 4 s (40 / 8, at most 4), a half period
+    qd = np.gradient(q, 1 / fs, axis=0)
+    coverage = fold_coverage(q, qd, np.ones((n, 1), bool), [n], fs, np.array([True]))
+    target = block_lengths([n / fs], 0.2, None)
+    chosen = block_lengths([n / fs], 0.2, None, coverage)
+    assert coverage(target) < 0.1 and coverage(chosen) > 0.3 and chosen != target
+
+
+@pytest.mark.bad_input
+def test_too_little_data_is_refused_with_the_minimum():
+    with pytest.raises(DataTooShort, match=r"3 blocks of at least 1 s in each of its two folds, 6 s of data"):
+        block_lengths([2.5, 2.5], 0.2)
+    assert len(block_lengths([5.0, 5.0, 5.0], 0.2)) == 3  # three runs of 5 s are enough
+    assert len(block_lengths([12.0], 0.2)) == 1  # and so is one run of 12 s
+
+
+def test_spikes_at_trial_edges_are_found_and_a_clean_residual_is_left_alone():
+    rng = np.random.default_rng(1)
+    rows, fs_rows = 2000, 100.0
+    time = np.arange(rows) / fs_rows
+    residual = rng.standard_normal((rows, 1))
+    used, trial = np.ones((rows, 1), bool), np.zeros(rows, int)
+    assert edge_outliers(residual, used, trial, time, [20.0], 1000.0, 0.2) is None
+    residual[:30] += 40.0  # an unsettled start: 0.3 s far off
+    start, end = edge_outliers(residual, used, trial, time, [20.0], 1000.0, 0.2)[0]
+    assert end == 0 and start == pytest.approx(1000 * (0.29 + 0.2) - 200, abs=2)
+
+
+# ------------------------------------------------------------------ shapes outside the vocabulary
+def test_a_penalized_curve_goes_on_level_where_the_data_do_not_reach():
+    """Spline coefficients of which the data see only some: without the penalty the unseen ones
+    follow a few stray samples; with it (first differences) they continue the last level seen."""
+    x = np.linspace(-1.0, 0.2, 400)  # the map spans [-1, 1]: its upper coefficients barely seen
+    B = fx.spline_basis(x, -1.0, 1.0, fx.POSITION_KNOTS) + 1e-6 * np.random.default_rng(0).standard_normal((400, 9))
+    y = 2.0 + 0.5 * x
+    theta, _ = solve_min_norm(B, y, np.zeros(9), penalties=[(np.arange(9), fx.PositionMap.roughness())])
+    assert np.all(np.abs(theta) < 5.0)
+    beyond = fx.spline_basis(np.array([0.6, 1.0]), -1.0, 1.0, fx.POSITION_KNOTS) @ theta
+    assert np.all(np.abs(beyond - 2.1) < 0.3)
+
+
+def test_the_friction_curve_holds_coulomb_and_viscous_friction_and_its_sign_rule():
+    e = fx.FrictionCurve("a", *(1.0 + 0.5 * np.array(fx.FRICTION_KNOTS)), *(1.0 + 0.5 * np.array(fx.FRICTION_KNOTS)),
+                         eps=1e-4, v_top=2.0).bound(["a"])
+    v = np.linspace(-2.0, 2.0, 81)[:, None]
+    np.testing.assert_allclose(e.torque(0 * v, v, 0 * v)[:, 0], np.sign(v[:, 0]) * (1.0 + 0.25 * np.abs(v[:, 0])), atol=1e-9)
+    assert fx.FrictionCurve.physical(np.r_[1.0, np.zeros(5), 1.0, np.zeros(5)])
+    assert not fx.FrictionCurve.physical(np.r_[-1.0, np.zeros(5), 1.0, np.zeros(5)])
+
+
+@cache
+def _load_runs():
+    cobot = systems.get("cobot6")
+    hidden = (fx.LoadFriction("shoulder_lift_joint", Fc=1.0, mu=0.06, eps=0.01),)
+    runs = URDFPlant(cobot, effects=hidden, encoder_resolution=2 * math.pi / 2**18, seed=2).run(
+        random_references(cobot, n=2, duration=20.0, seed=2))
+    return cobot, runs
+
+
+def test_the_plant_and_the_model_share_the_load_dependent_friction():
+    """The plant reads its own gravity torque at every RK4 stage, the model its rigid body's: a fit
+    with the true smoothing gives back the plant's levels (kinematics from the measured position:
+    the tracking-error correction low-passed at 5 Hz leaves a lag that the shoulder's 40 N m of
+    gravity turns into a friction-like term, 0.3 N m off the Coulomb level, 0.66 instead of 1)."""
+    cobot, runs = _load_runs()
+    model = cobot.physical_model(fs=1000.0, positions="position").with_effect("load_friction@shoulder_lift_joint",
+                                                                              eps=0.01)
+    (e,) = model.fit(runs).fitted_effects
+    assert e.Fc == pytest.approx(1.0, rel=0.1) and e.mu == pytest.approx(0.06, rel=0.05)
+
+
+def test_a_user_effect_reads_the_whole_state_and_the_rigid_body_gravity():
+    cobot, runs = _load_runs()
+
+    def grip(state, eps):  # a user's load-dependent friction: reads the gravity torque of its axis
+        return np.abs(state.gravity[:, state.axis]) * np.tanh(state.qd[:, state.axis] / eps)
+
+    try:
+        register_effect(grip, name="grip_friction", family="friction", grid={"eps": (0.01, 0.05)}, whole_state=True)
+        report = diagnose(runs, cobot, add=["grip_friction@shoulder_lift_joint"])
+        rows = {f"{c['effect']}@{c['axis']}": c for c in report.candidates}
+        assert rows["grip_friction@shoulder_lift_joint"]["explained"] > 0.5, report.text()
+        assert report.after["residual"]["shoulder_lift_joint"]["RMS"] < 0.6 * report.residual["shoulder_lift_joint"]["RMS"]
+    finally:
+        CANDIDATES.pop("grip_friction", None)
+        fx.EFFECTS.pop("grip_friction", None)
+
+
+# ------------------------------------------------------------------ the report
+def test_the_report_columns_stay_aligned_with_long_joint_names_and_refusals_are_in_one_place():
+    _, _, report = case_report("100 Hz, jittered stamps, no reference (6 joints)")
+    text = report.text()
+    block = text[text.index("residual [N m]"):text.index("where the model fails")].splitlines()[1:-1]
+    assert block[0].split() == ["axis", "MA", "RMS", "Inf", "floor"]
+    assert len({len(line) for line in block}) == 1  # every row as long as the header: columns line up
+    assert any(line.startswith("  shoulder_lift_joint ") for line in block)  # the floor per named axis
+    refused = report.refused()
+    assert all(c["verdict"] != "passes" and c["share_of_left"] >= report.min_explained for c in refused)
+    if refused:
+        assert "refused (removed at least 10%" in text
