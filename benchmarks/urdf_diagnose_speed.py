@@ -21,7 +21,9 @@ Run:  .venv/bin/python benchmarks/urdf_diagnose_speed.py [--runs 3] [--logs cobo
 from __future__ import annotations
 
 import argparse
+import contextlib
 import cProfile
+import io
 import json
 import math
 import pstats
@@ -35,6 +37,7 @@ import numpy as np
 from lcgym import systems
 from lcgym.cli import main as cli
 from lcgym.data import read_trials, write_trials
+from lcgym.diagnose.workflow import bridged_gap
 from lcgym.physics import effects as fx
 from lcgym.systems import logs
 from lcgym.systems.urdf_plant import URDFPlant, random_references
@@ -43,14 +46,14 @@ BUDGET_S = 60.0
 PANDA = Path(__file__).resolve().parents[1] / "tests" / "data" / "panda" / "panda.urdf"
 STAGES = {  # stage -> the function whose cumulative time it is (file suffix, function name)
     "read the log, put it on a grid": ("data.py", "read_trials"),
-    "nominal fit and reductions (prepare)": ("search.py", "prepare"),
-    "score candidates": ("search.py", "score_candidate"),
-    "  reduce their columns": ("search.py", "__call__"),
-    "  least squares per fold": ("search.py", "evaluate"),
-    "  spectral peaks (periodic ones)": ("search.py", "period_peaks"),
-    "refine picks (Nelder-Mead)": ("search.py", "refine"),
-    "revisit picks' other forms": ("search.py", "_other_form"),
-    "regions, report": ("workflow.py", "effect_curves"),
+    "nominal fit, masks, reductions (prepare)": ("search.py", "prepare"),
+    "the search (rank)": ("search.py", "rank"),
+    "  score candidates, every step": ("search.py", "score_candidate"),
+    "  refine picks (Nelder-Mead)": ("search.py", "refine"),
+    "  revisit picks' other forms": ("search.py", "_other_form"),
+    "  of these three: reduce columns": ("search.py", "__call__"),
+    "  of these three: least squares per fold": ("search.py", "evaluate"),
+    "  of these three: spectral peaks": ("search.py", "period_peaks"),
 }
 
 
@@ -88,11 +91,12 @@ def panda_log(folder: Path, samples: int = 20_000) -> Path:
 def profile(args: list[str]) -> list[tuple[str, float]]:
     """Cumulative seconds of each stage of one diagnosis (``STAGES``)."""
     prof = cProfile.Profile()
-    prof.enable()
-    cli(args)
-    prof.disable()
+    with contextlib.redirect_stdout(io.StringIO()):
+        prof.enable()
+        cli(args)
+        prof.disable()
     stats = pstats.Stats(prof).stats
-    total = sum(v[2] for k, v in stats.items() if k[2] == "cmd_diagnose")
+    total = sum(v[3] for k, v in stats.items() if k[2] == "cmd_diagnose")
     out = [("the whole diagnosis (lcgym diagnose)", total)]
     for stage, (file, name) in STAGES.items():
         out.append((stage, sum(v[3] for k, v in stats.items() if k[0].endswith(file) and k[2] == name)))
@@ -112,7 +116,7 @@ def main() -> None:
             else:
                 data, urdf = panda_log(folder), str(PANDA)
             machine = systems.get(urdf, joints=None if name == "cobot" else tuple(f"panda_joint{i}" for i in range(1, 8)))
-            trials = read_trials(data, axes=machine, resample="auto")
+            trials = read_trials(data, axes=machine, resample="auto", max_gap=bridged_gap())  # as the CLI reads it
             n = sum(t.n_samples for t in trials)
             t0 = time.perf_counter()
             machine.diagnosis_model(trials[0].fs).fit(trials)
@@ -122,7 +126,8 @@ def main() -> None:
             seconds = []
             for _ in range(args.runs):
                 t0 = time.perf_counter()
-                assert cli(command) == 0
+                with contextlib.redirect_stdout(io.StringIO()):  # the report: its JSON is read below
+                    assert cli(command) == 0
                 seconds.append(time.perf_counter() - t0)
             found = [f"{c['effect']}@{c['axis']}" for c in json.loads(report.read_text())["candidates"] if c["selected"]]
             med = statistics.median(seconds)

@@ -302,7 +302,7 @@ def log_row(case: LogCase, seeds) -> tuple:
             _, clean = case.make(seed, ())
             twin = diagnose(clean, machine)
             floors += [twin.residual[a]["RMS"] / rep.residual[a]["RMS"] for a in axes]
-    span = lambda x: f"{min(x):.2f}-{max(x):.2f}x" if x else "-"  # noqa: E731
+    span = lambda x: f"{min(x):.2g}-{max(x):.2g}x" if x else "-"  # noqa: E731  (2 digits: a floor may be 0.003x)
     return case.name, f"{hits} of {len(seeds)}", picks, span(cuts), span(floors), f"{seconds:.0f} s"
 
 

@@ -203,7 +203,8 @@ def test_cli_diagnose_writes_the_spec_json_and_plots(tmp_path, capsys):
     assert rep["after"]["added"] == ["coulomb_friction@roll"]
     assert rep["after"]["residual"]["roll"]["RMS"] < rep["residual"]["roll"]["RMS"]
     assert rep["replay"]["after"]["roll"] < rep["replay"]["before"]["roll"]
-    assert {p.name for p in (tmp_path / "plots").iterdir()} == {"residual_time.png", "residual_map.png", "before_after.png", "effects.png"}
+    plots = {"residual_time.png", "residual_map.png", "before_after.png", "effects.png"}
+    assert {p.name for p in (tmp_path / "plots").iterdir()} == plots
     assert "coulomb_friction@roll" in text and "replay" in text
 
 
