@@ -1,6 +1,6 @@
 """MkDocs hooks: the results page of the site, built from the shipped ``results/leaderboard.csv``.
 
-The page is ``lcgym.leaderboard.report.write_html``'s, read the way ``lcgym leaderboard`` reads a
+The page is ``lcgym.leaderboard.page.write_html``'s, read the way ``lcgym leaderboard`` reads a
 results file (``store.read_results``, then ``report.select``: the newest configuration, the newest
 run per cell). It is made when MkDocs collects the site's files (``on_files``), so that
 ``leaderboard.md``'s link to ``results/index.html`` is a link to a file of the site, which
@@ -23,7 +23,8 @@ _tmp: tempfile.TemporaryDirectory | None = None
 
 def build_results_page(folder: Path) -> Path:
     """Write the results page into ``folder`` (made if missing) and return the page's path."""
-    from lcgym.leaderboard.report import select, write_html
+    from lcgym.leaderboard.page import write_html
+    from lcgym.leaderboard.report import select
     from lcgym.leaderboard.store import read_results
 
     df, _ = select(read_results(RESULTS))

@@ -331,7 +331,8 @@ def cmd_bench(args) -> int:
 
 
 def cmd_leaderboard(args) -> int:
-    from .leaderboard.report import format_shares, format_text, select, write_html, write_markdown
+    from .leaderboard.page import write_html
+    from .leaderboard.report import format_shares, format_text, select, write_markdown
     from .leaderboard.store import read_results
 
     if not args.csv.exists():

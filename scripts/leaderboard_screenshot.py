@@ -15,7 +15,8 @@ import sys
 from pathlib import Path
 
 from lcgym.leaderboard.browser import VIEWPORT, BrowserUnavailable, screenshot
-from lcgym.leaderboard.report import select, write_html
+from lcgym.leaderboard.page import write_html
+from lcgym.leaderboard.report import select
 from lcgym.leaderboard.store import read_results
 
 

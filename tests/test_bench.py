@@ -15,7 +15,8 @@ import pandas as pd
 import pytest
 
 from lcgym.cli import main
-from lcgym.leaderboard.report import ranking, share_table, write_html, write_markdown
+from lcgym.leaderboard.page import write_html
+from lcgym.leaderboard.report import ranking, share_table, write_markdown
 from lcgym.leaderboard.runner import BenchConfig, run_benchmark
 from lcgym.leaderboard.store import COLUMNS, ResultsFileError, append_rows, read_results
 

@@ -4,7 +4,8 @@ by name.
 The imports of every module of ``lcgym`` are read from its source (``ast``: module level and inside
 functions, relative ones resolved). Each module belongs to a *unit*: its folder
 (``lcgym/systems/ix/`` is ``systems.ix``), or itself for a top-level module (``data``, ``cli``, ...).
-The graph of units must have no cycle, and every import must go down the layers
+The graph of units must have no cycle, nor the graph of modules (two modules of one folder that
+import each other), and every import must go down the layers
 
     cli -> leaderboard, diagnose, simulate -> baselines, pgnn, rbf_expert -> systems -> envs
         -> physics, references, datasets -> data, metrics, provenance
@@ -127,6 +128,64 @@ def test_no_import_cycle_between_folders():
     for node in sorted(graph):
         if state.get(node) is None:
             visit(node, [node])
+
+
+def _strongly_connected(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The import circles of ``graph``: its strongly connected components of two or more nodes
+    (Tarjan's algorithm), each sorted."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    out = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        for w in sorted(graph.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            part = stack[stack.index(v):]
+            del stack[stack.index(v):]
+            if len(part) > 1:
+                out.append(sorted(part))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def _module_graph() -> dict[str, set[str]]:
+    """Module -> the lcgym modules it imports (at module level or inside functions)."""
+    graph: dict[str, set[str]] = {}
+    for path in sorted(ROOT.rglob("*.py")):
+        src = _module_name(path)
+        graph[src] = {target for target, _ in _imports(path) if target != src}
+    return graph
+
+
+# The one circle left: the IX's package holds its System, which names its bench class (bench ->
+# plant), and the plant finds the System again inside two methods. Issue 36 (the machine handed to
+# each cell) removes it; until then it is listed here, and any other circle fails.
+KNOWN_MODULE_CIRCLES = [["lcgym.systems.ix", "lcgym.systems.ix.bench", "lcgym.systems.ix.plant"]]
+
+
+def test_no_import_circle_between_modules():
+    """Within a folder too: two modules that import each other (even inside a function, as the
+    leaderboard's page and report did) are one module in two files."""
+    circles = _strongly_connected(_module_graph())
+    assert circles == KNOWN_MODULE_CIRCLES, f"import circles between modules: {circles}"
+
+
+def test_the_circle_finder_finds_a_circle():
+    """Control for the test above: a circle through a function-level import, and one of three."""
+    assert _strongly_connected({"a": {"b"}, "b": {"a"}, "c": {"a"}}) == [["a", "b"]]
+    assert _strongly_connected({"x": {"y"}, "y": {"z"}, "z": {"x"}, "w": set()}) == [["x", "y", "z"]]
+    assert _strongly_connected({"a": {"b"}, "b": set()}) == []
 
 
 def test_imports_run_down_the_layers():

@@ -22,8 +22,8 @@ import pytest
 
 from lcgym.cli import main
 from lcgym.leaderboard.browser import VIEWPORT, BrowserUnavailable, chromium_path, open_page
-from lcgym.leaderboard.page import page_path, ratio_colour
-from lcgym.leaderboard.report import select, write_html
+from lcgym.leaderboard.page import page_path, ratio_colour, write_html
+from lcgym.leaderboard.report import select
 from lcgym.leaderboard.runner import trace_path
 from lcgym.leaderboard.store import SIGNALS, append_rows, read_results
 

@@ -242,21 +242,6 @@ def write_markdown(df: pd.DataFrame, path: str | Path, reference_set: str = "val
     return path
 
 
-def write_html(df: pd.DataFrame, path: str | Path, reference_set: str = "validation", source: str = "") -> Path:
-    """The leaderboard page (``page.render``): one self-contained HTML file (CSS, JS and figures
-    inline), opening on an overview per machine, then the details. ``path``: a file ending in
-    ``.html`` or a folder (created if its parent exists; the page is ``path/index.html``).
-    ``source``: the results CSV's path, for its traces folder; the page names its file name only.
-    Every string from the CSV is escaped. Written atomically; returns the page's path."""
-    from .page import page_path, render
-
-    target = page_path(path)
-    text = render(df, reference_set, source)
-    target.parent.mkdir(exist_ok=True)
-    atomic_write(target, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
-    return target
-
-
 def _provenance(df: pd.DataFrame, reference_set: str, source: str) -> str:
     def joined(col):
         return ", ".join(sorted(set(map(str, df[col]))))
