@@ -12,7 +12,9 @@ import each other), and every import must go down the layers
 
 (a unit may import its own layer's units where that is listed below, and any lower layer). The
 machine packages are found by name at run time (``systems.get``: ``importlib``), not imported by
-``systems``: that lookup is the registry, not an import edge.
+``systems``: that lookup is the registry, not an import edge. No method keeps a setting in a dict
+(or a ``match``) keyed by a machine's name; the ones left are listed (``KNOWN_NAME_KEYS``) until
+issue 36 moves them to their machines.
 """
 
 from __future__ import annotations
@@ -230,6 +232,45 @@ def test_the_branch_finder_finds_a_branch(tmp_path):
     p = tmp_path / "probe.py"
     p.write_text('def f(system):\n    return 1 if system == "flexarm" else 2\n\n\nx = "ix" in ("ix",)\n')
     assert len(_name_branches(p, tmp_path)) == 2
+
+
+def _name_keys(path: Path, root: Path = ROOT.parent) -> list[str]:
+    """Dicts keyed by a machine's name ({"ix": ...}, dict(ix=...)) and ``match`` arms on one
+    (case "flexarm":): a method's per-machine setting kept away from its machine."""
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        keys = []
+        if isinstance(node, ast.Dict):
+            keys = [k.value for k in node.keys if isinstance(k, ast.Constant) and isinstance(k.value, str)]
+        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "dict":
+            keys = [k.arg for k in node.keywords if k.arg]
+        elif isinstance(node, ast.match_case):
+            keys = [p.value.value for p in ast.walk(node.pattern)
+                    if isinstance(p, ast.MatchValue) and isinstance(p.value, ast.Constant)]
+        if any(k in MACHINE_NAMES for k in keys):
+            out.append(f"{path.relative_to(root)}:{node.lineno if hasattr(node, 'lineno') else node.pattern.lineno}")
+    return out
+
+
+# Settings of a method per machine, still keyed by the machine's name; issue 36 moves each to its
+# machine. Listed so that no new one comes in; the list must shrink to nothing.
+KNOWN_NAME_KEYS = {"lcgym/baselines/pgnn.py": 2,  # COLLECT, FILTER_HZ
+                   "lcgym/baselines/rl.py": 2}  # RLConfig.passes, RLConfig.num_envs
+
+
+def test_no_method_keeps_a_setting_per_machine_name():
+    found = [hit for unit in METHOD_UNITS for path in sorted(ROOT.glob(f"{unit}/**/*.py")) + sorted(ROOT.glob(f"{unit}.py"))
+             for hit in _name_keys(path)]
+    per_file = {f: sum(h.rpartition(":")[0] == f for h in found) for f in {h.rpartition(":")[0] for h in found}}
+    assert per_file == KNOWN_NAME_KEYS, f"settings keyed by a machine's name: {found}"
+
+
+def test_the_key_finder_finds_dicts_and_match_arms(tmp_path):
+    """Control for the test above."""
+    p = tmp_path / "probe.py"
+    p.write_text('A = {"ix": 1.0}\nB = dict(flexarm=2)\n\n\ndef f(name):\n    match name:\n'
+                 '        case "ix":\n            return 1\n    return {"other": 3}\n')
+    assert len(_name_keys(p, tmp_path)) == 3
 
 
 def test_every_cached_kernel_is_keyed_by_the_sources_it_calls():
