@@ -53,10 +53,9 @@ def main() -> None:
     args = parser.parse_args()
     torch.set_num_threads(1)
     overrides = {k: ast.literal_eval(v) for k, v in (s.split("=", 1) for s in args.set)}
-    defaults = RLConfig().passes
     bench = systems.make_bench(args.system)
     family = bench.family
-    passes = [float(p) for p in args.passes.split(",")] if args.passes else [defaults[family]]
+    passes = [float(p) for p in args.passes.split(",")] if args.passes else [RLConfig().setting("passes", systems.get(family))]
     cfg = BenchConfig()
     train = bench.references("train", args.seed, cfg.n_train, cfg.duration)
     val = bench.references("validation", args.seed, cfg.n_validation, cfg.duration)
@@ -67,7 +66,7 @@ def main() -> None:
     print(f"  {start.name} alone: {np.round(validation_rms(bench, val, start, bench.plant), 4)}")
     for p in passes:
         config = RLConfig(algorithm=args.algorithm, observe_error=not args.no_error,
-                          passes={**defaults, family: p}, hyperparameters=overrides, seed=args.seed,
+                          passes=p, hyperparameters=overrides, seed=args.seed,
                           cache=not args.no_cache, progress=True)
         rl = RLFeedforward(config).fit(trials)
         t0 = time.perf_counter()

@@ -13,8 +13,7 @@ import each other), and every import must go down the layers
 (a unit may import its own layer's units where that is listed below, and any lower layer). The
 machine packages are found by name at run time (``systems.get``: ``importlib``), not imported by
 ``systems``: that lookup is the registry, not an import edge. No method keeps a setting in a dict
-(or a ``match``) keyed by a machine's name; the ones left are listed (``KNOWN_NAME_KEYS``) until
-issue 36 moves them to their machines.
+(or a ``match``) keyed by a machine's name: the machine holds it (``System.hints``).
 """
 
 from __future__ import annotations
@@ -252,17 +251,12 @@ def _name_keys(path: Path, root: Path = ROOT.parent) -> list[str]:
     return out
 
 
-# Settings of a method per machine, still keyed by the machine's name; issue 36 moves each to its
-# machine. Listed so that no new one comes in; the list must shrink to nothing.
-KNOWN_NAME_KEYS = {"lcgym/baselines/pgnn.py": 2,  # COLLECT, FILTER_HZ
-                   "lcgym/baselines/rl.py": 2}  # RLConfig.passes, RLConfig.num_envs
-
-
 def test_no_method_keeps_a_setting_per_machine_name():
+    """A method's setting for one machine lives with the machine (``System.hints``), so that a new
+    machine is one folder and no method changes."""
     found = [hit for unit in METHOD_UNITS for path in sorted(ROOT.glob(f"{unit}/**/*.py")) + sorted(ROOT.glob(f"{unit}.py"))
              for hit in _name_keys(path)]
-    per_file = {f: sum(h.rpartition(":")[0] == f for h in found) for f in {h.rpartition(":")[0] for h in found}}
-    assert per_file == KNOWN_NAME_KEYS, f"settings keyed by a machine's name: {found}"
+    assert not found, f"settings keyed by a machine's name: {found}"
 
 
 def test_the_key_finder_finds_dicts_and_match_arms(tmp_path):

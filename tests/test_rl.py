@@ -71,7 +71,7 @@ def test_budget_and_cost(ix_data, tmp_path):
     rl.learn(bench.plant, val[0])  # a second reference: one more rollout, no training
     assert rl.cost_.env_steps == steps + 2 * val[0].n_samples
     samples = sum(t.ref.shape[0] for t in trials)
-    by_passes = RLFeedforward(RLConfig(passes={"ix": 2.5, "flexarm": 1.0})).fit(trials)
+    by_passes = RLFeedforward(RLConfig(passes=2.5)).fit(trials)
     assert by_passes.budget() == round(2.5 * samples)
 
 
@@ -100,7 +100,7 @@ def test_training_curve_rows_and_plot(tmp_path):
     short = reference_set("train", 0, 1, 0.5)  # episodes of about 1,600 samples
     bench = IX.bench()
     trials = bench.run(short)
-    rl = RLFeedforward(RLConfig(total_steps=8192, num_envs={"ix": 2, "flexarm": 1}, cache_dir=str(tmp_path),
+    rl = RLFeedforward(RLConfig(total_steps=8192, num_envs=2, cache_dir=str(tmp_path),
                                 hyperparameters={"n_steps": 512, "batch_size": 512, "n_epochs": 1}))
     rl.fit(trials).learn(bench.plant, short[0])
     curve = rl.curve_
@@ -158,7 +158,7 @@ def test_config_errors():
     with pytest.raises(ValueError, match="algorithm"):
         RLConfig(algorithm="dqn")
     with pytest.raises(ValueError, match="passes"):
-        RLConfig(passes={"ix": 0.0, "flexarm": 1.0})
+        RLConfig(passes=0.0)
     with pytest.raises(ValueError, match="total_steps"):
         RLConfig(total_steps=0)
     with pytest.raises(RuntimeError, match="fit"):
@@ -173,7 +173,7 @@ def test_bench_cell_counts_env_steps(monkeypatch, tmp_path):
     steps, trials = {r["env_steps"] for r in rows}, {r["plant_trials"] for r in rows}
     bench = IX.bench()
     train, val = (bench.references(s, 0, 1, 2.0)[0].n_samples for s in ("train", "validation"))
-    budget = round(RLConfig().passes["ix"] * train)
+    budget = round(RLConfig().setting("passes", IX) * train)
     batch = 8 * HYPERPARAMETERS["ppo"]["n_steps"]  # PPO trains in whole rollouts of 8 envs x n_steps
     trained_steps = -(-budget // batch) * batch
     assert steps == {trained_steps + train + val}  # training, then one rollout per evaluated reference

@@ -9,7 +9,7 @@ measured with ``studies/pgnn_protocol.py`` on IX-v1's leaderboard data):
   physical model on the shared feedback-only training trials, then records the training
   references once more with that model's feedforward on (``collect="physical"``: as many plant
   trials as training references, counted in ``plant_trials``) and trains on those. On the arm
-  (``COLLECT``) it trains on the shared trials.
+  (``COLLECT``, the machine's ``hints["benchmark"]["pgnn"]``) it trains on the shared trials.
 * **filter**: u low-passed at 5 Hz instead of the paper's 1 Hz on the IX: 1 Hz changes the
   plant's static feedforward of the benchmark's validation references by 0.082 / 0.084 V RMS, 5 Hz
   by 0.041 / 0.029 V, against 0.144 / 0.240 V between it and the physical model (IX-v1, seed 0;
@@ -37,12 +37,17 @@ from ..references import references_of
 from .physical import PhysicalFeedforward
 from .protocol import Controller, Cost
 
-COLLECT = {"ix": "physical", "flexarm": "feedback"}
-"""Per machine: what the training data are recorded with ("physical": a run of the training
-references with the physical model's feedforward on; "feedback": the shared feedback-only trials)."""
+COLLECT = "feedback"
+"""What the training data are recorded with where the machine does not say
+(``System.hints["benchmark"]["pgnn"]["collect"]``): "physical", a run of the training references
+with the physical model's feedforward on; "feedback", the shared feedback-only trials. The
+machine's ``hints["benchmark"]["pgnn"]["filter_hz"]`` sets the low-pass of u [Hz] where the
+protocol sets one (else the machine's PGNN hints)."""
 
-FILTER_HZ = {"ix": 5.0}
-"""Per machine: the low-pass of u [Hz] where the protocol sets it (else the machine's PGNN hints)."""
+
+def protocol(system: systems.System) -> dict:
+    """The benchmark protocol's settings of this method on ``system`` (``collect``, ``filter_hz``)."""
+    return dict(system.hints.get("benchmark", {}).get("pgnn", {}))
 
 MAX_ITERATIONS = 100
 """The protocol's cap on Algorithm 1's iterations (8,000 Adam steps) on ``REFERENCE_TRIALS`` training
@@ -83,7 +88,7 @@ class PGNNFeedforward(Controller):
     def fit(self, trials: Sequence) -> PGNNFeedforward:
         self.system_ = systems.of_trials(trials)
         self.trials_ = list(trials)
-        self.collect_ = self.collect or COLLECT.get(self.system_.name, "feedback")
+        self.collect_ = self.collect or protocol(self.system_).get("collect", COLLECT)
         if self.collect_ not in ("physical", "feedback"):
             raise ValueError(f"collect must be 'physical' or 'feedback', got {self.collect_!r}")
         self.cost_ = Cost()
@@ -102,13 +107,14 @@ class PGNNFeedforward(Controller):
 
     def training_config(self, n_trials: int = REFERENCE_TRIALS) -> PGNNConfig:
         """The configuration it trains with on ``n_trials`` runs: the one given (with this method's
-        ``regularize``), else the machine's defaults with the protocol's filter (``FILTER_HZ``),
+        ``regularize``), else the machine's defaults with the protocol's filter (``protocol``),
         iteration cap (``max_iterations(n_trials)``) and one torch thread."""
         if self.config is not None:
             return replace(self.config, regularize=self.regularize)
         cfg = replace(PGNNConfig.for_system(self.system_), threads=1, regularize=self.regularize,
                       max_epochs=max_iterations(n_trials))
-        return replace(cfg, filter_hz=FILTER_HZ[self.system_.name]) if self.system_.name in FILTER_HZ else cfg
+        filter_hz = protocol(self.system_).get("filter_hz")
+        return cfg if filter_hz is None else replace(cfg, filter_hz=filter_hz)
 
     def _train(self, trials: Sequence) -> None:
         self.data_ = list(trials)

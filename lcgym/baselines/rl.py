@@ -8,8 +8,9 @@ cell's training references: one action per control sample, the feedback loop ins
   Basic, tau_nl update +-2 N m, with Basic's motor reference offset), else the cell's fitted
   physical model (the IX, +-1 V). ``residual=False``: from scratch, the action is the whole
   feedforward (IX +-5 V; arm +-u_max, no offset).
-* **Budget**: ``passes`` x the training references' samples env steps (``RLConfig.passes`` per
-  system; ``total_steps`` overrides). Defaults: IX 3 passes (about 5.5e5 steps on the bench's 8
+* **Budget**: ``passes`` x the training references' samples env steps (``RLConfig.passes``, else
+  the machine's ``System.hints["benchmark"]["rl"]["passes"]``, else ``PASSES``; ``total_steps``
+  overrides). The machines' settings: IX 3 passes (about 5.5e5 steps on the bench's 8
   training references, about 1 min here), FlexArm 1 pass (about 5e4 steps, about 20 s); the
   docs page methods/rl.md gives what they and 10x more reach (``studies/rl_baseline.py``).
 * **Observation**: the env's, with the tracking error the encoders measure (``observe_error``).
@@ -55,6 +56,8 @@ from ..provenance import source_hash
 from .protocol import Controller, Cost
 
 ALGORITHMS = ("ppo", "sac", "td3")
+PASSES = 1.0  # env steps per training sample on a machine that sets none (System.hints["benchmark"]["rl"])
+NUM_ENVS = 4  # parallel envs on a machine that sets none
 
 # One documented place for the hyperparameters (stable-baselines3 keyword arguments).
 # PPO: 8 envs x 1024 steps per update (one update per 8192 samples, 16 s of IX motion), 10 epochs;
@@ -83,9 +86,9 @@ class RLConfig:
 
     algorithm: "ppo", "sac" or "td3"; residual: act on top of the physical model (else from
     scratch); observe_error: the policy sees the tracking error; passes: env steps per training
-    sample, per machine name; total_steps: a fixed budget instead; num_envs: parallel envs per
-    machine name (one compiled batch where the env has a vector entry point, both machines';
-    else ``DummyVecEnv`` copies); hyperparameters: overrides of
+    sample (None: the machine's, ``setting``); total_steps: a fixed budget instead; num_envs:
+    parallel envs (None: the machine's; one compiled batch where the env has a vector entry
+    point, both built-in machines'; else ``DummyVecEnv`` copies); hyperparameters: overrides of
     ``HYPERPARAMETERS[algorithm]``; seed: of the agent and its envs; cache: save trained models
     and reuse them (``cache_dir``, default ``default_cache_dir()``); progress: a progress bar of
     the training (env steps, last episode's RMS tracking error).
@@ -94,9 +97,9 @@ class RLConfig:
     algorithm: str = "ppo"
     residual: bool = True
     observe_error: bool = True
-    passes: dict[str, float] = field(default_factory=lambda: {"ix": 3.0, "flexarm": 1.0})
+    passes: float | None = None
     total_steps: int | None = None
-    num_envs: dict[str, int] = field(default_factory=lambda: {"ix": 8, "flexarm": 4})
+    num_envs: int | None = None
     hyperparameters: dict = field(default_factory=dict)
     seed: int = 0
     cache: bool = True
@@ -108,10 +111,18 @@ class RLConfig:
             raise ValueError(f"RLConfig.algorithm must be one of {', '.join(ALGORITHMS)}, got {self.algorithm!r}")
         if self.total_steps is not None and self.total_steps < 1:
             raise ValueError(f"RLConfig.total_steps must be >= 1, got {self.total_steps}")
-        if any(not p > 0 for p in self.passes.values()):
+        if self.passes is not None and not self.passes > 0:
             raise ValueError(f"RLConfig.passes must be > 0, got {self.passes}")
-        if any(n < 1 for n in self.num_envs.values()):
+        if self.num_envs is not None and self.num_envs < 1:
             raise ValueError(f"RLConfig.num_envs must be >= 1, got {self.num_envs}")
+
+    def setting(self, name: str, system: systems.System):
+        """``passes`` or ``num_envs`` on ``system``: this configuration's, else the machine's
+        (``System.hints["benchmark"]["rl"]``), else the module's default (``PASSES``, ``NUM_ENVS``)."""
+        own = getattr(self, name)
+        if own is not None:
+            return own
+        return system.hints.get("benchmark", {}).get("rl", {}).get(name, {"passes": PASSES, "num_envs": NUM_ENVS}[name])
 
     def agent_kwargs(self) -> dict:
         """The algorithm's keyword arguments: the defaults updated by ``hyperparameters``."""
@@ -128,7 +139,7 @@ def _vec_env(system: systems.System, references, plant, base, config: RLConfig):
     from ..envs import make_env
     from ..envs.sb3 import HideError, make_sb3_vec_env
 
-    env_id, n = system.env_id, config.num_envs[system.name]
+    env_id, n = system.env_id, config.setting("num_envs", system)
     kwargs = dict(references=references, base_feedforward=base, plant=plant)
     if gym.spec(env_id).vector_entry_point is not None:
         venv = make_sb3_vec_env(env_id, num_envs=n, **kwargs)
@@ -182,9 +193,7 @@ class RLFeedforward(Controller):
         cfg = self._config()
         if cfg.total_steps is not None:
             return int(cfg.total_steps)
-        if self.system_.name not in cfg.passes:
-            raise ValueError(f"rl: RLConfig.passes has no entry for {self.system_.name!r}: {cfg.passes}")
-        return int(round(cfg.passes[self.system_.name] * sum(r.n_samples for r in self.training_)))
+        return int(round(cfg.setting("passes", self.system_) * sum(r.n_samples for r in self.training_)))
 
     # --- learn: train once, then one rollout per reference ----------------------------------
     def learn(self, plant, reference) -> RLFeedforward:

@@ -175,7 +175,9 @@ class System:
     machine beyond ``physics.effects`` (their formulas use its geometry); candidates: the
     diagnosis's candidate effects on it beyond the library's (``physics.candidates.Candidate``);
     candidate_names: the effect names the diagnosis tries (None: every one that applies).
-    hints: per-method settings for this machine (``hints["pgnn"]``: ``PGNNConfig`` fields).
+    hints: per-method settings for this machine (``hints["pgnn"]``: ``PGNNConfig`` fields;
+    ``hints["benchmark"][method]``: the benchmark protocol's settings of a leaderboard method on it,
+    e.g. ``{"rl": {"passes": 3.0, "num_envs": 8}}``; see the method's module).
     quadratic_in_nonlinear: the regressor's entries are polynomials of degree <= 2 in zeta_n
     (the IX: a faster exact variable projection). description: one line for listings.
     joint_axes: ``() -> (n_axes, 3)``, the unit axis of each joint in the base frame at the
