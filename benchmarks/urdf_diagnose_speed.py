@@ -40,6 +40,7 @@ from lcgym.data import read_trials, write_trials
 from lcgym.diagnose.workflow import bridged_gap
 from lcgym.physics import effects as fx
 from lcgym.systems import logs
+from lcgym.systems.examples import COBOT6_FRICTION
 from lcgym.systems.urdf_plant import URDFPlant, random_references
 
 BUDGET_S = 60.0
@@ -59,9 +60,7 @@ STAGES = {  # stage -> the function whose cumulative time it is (file suffix, fu
 
 def cobot_log(folder: Path, samples: int = 17_000) -> Path:
     cobot = systems.get("cobot6")
-    # the wrists' smoothing as in studies/diagnose_robustness.py (their links alone would make the plant stiff)
-    hidden = tuple(fx.CoulombFriction(j, Fc=f, eps=e) for j, f, e in
-                   zip(cobot.axis_names, (6, 6, 4, 1.5, 1.5, 1), (0.005, 0.005, 0.005, 0.01, 0.01, 0.08), strict=True))
+    hidden = tuple(fx.CoulombFriction(j, Fc=f, eps=e) for j, (f, e) in zip(cobot.axis_names, COBOT6_FRICTION, strict=True))
     runs = URDFPlant(cobot, effects=hidden, seed=0, encoder_resolution=2 * math.pi / 2**18).run(
         random_references(cobot, n=8, duration=21.0, seed=0))
     rng = np.random.default_rng(0)

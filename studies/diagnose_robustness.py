@@ -42,6 +42,7 @@ from lcgym.data import Trial, atomic_write
 from lcgym.diagnose import diagnose
 from lcgym.physics import effects as fx
 from lcgym.systems import logs
+from lcgym.systems.examples import COBOT6_FRICTION
 from lcgym.systems.ix import IX
 from lcgym.systems.ix.plant import IXPlant
 from lcgym.systems.ix.references import reference_set
@@ -50,10 +51,7 @@ from lcgym.systems.urdf_plant import URDFPlant, random_references
 DEG = math.pi / 180.0
 PANDA = Path(__file__).resolve().parents[1] / "tests" / "data" / "panda" / "panda.urdf"
 COBOT = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint")
-COBOT_FRICTION = (6.0, 6.0, 4.0, 1.5, 1.5, 1.0)  # N m, Coulomb levels of the cobot's joints (a UR5's are 5-10, 1-2)
-# rad/s, their smoothing: the wrists' links alone (no rotor inertia in the URDF; 7e-4 kg m^2 on the
-# last) would make a 5 mrad/s step need 272 RK4 steps per ms; these keep the plant at 17
-COBOT_EPS = (0.005, 0.005, 0.005, 0.01, 0.01, 0.08)
+COBOT_FRICTION = tuple(f for f, _ in COBOT6_FRICTION)  # N m, Coulomb levels of the cobot's joints
 ENCODER = 2 * math.pi / 2**18  # rad per count: 18-bit encoders
 
 
@@ -239,7 +237,7 @@ def balancer(q):
 
 
 def _cobot_friction(joints=COBOT) -> tuple:
-    return tuple(fx.CoulombFriction(j, Fc=f, eps=e) for j, f, e in zip(joints, COBOT_FRICTION, COBOT_EPS, strict=False))
+    return tuple(fx.CoulombFriction(j, Fc=f, eps=e) for j, (f, e) in zip(joints, COBOT6_FRICTION, strict=False))
 
 
 def _friction_truth(joints=COBOT) -> tuple:
