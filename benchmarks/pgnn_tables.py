@@ -155,7 +155,7 @@ def main() -> None:
         variants["PGNN J 10 Hz+periods"] = PGNNConfig(periods=((0, GEAR_PERIOD),), **{**base, "filter_hz": 10.0})
     models = {"physical model": physical}
     for label, cfg in variants.items():
-        m = PGNN(cfg).fit(data)
+        m = PGNN(cfg, system=IX).fit(data)
         d_max, d_norm = drift(m.params_.to_vector(), m.physical_.params_.to_vector())
         print(f"{label}: fit on {m.info_['n_samples']:,} samples in {m.info_['fit_seconds']:.1f} s "
               f"({m.info_['seconds']:.1f} s in Algorithm 1, {m.info_['epochs']} epochs); "

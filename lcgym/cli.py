@@ -4,15 +4,17 @@
                 [--out results.csv] [--jobs N] [--dask ADDRESS] [--resume] [--timeout SECONDS]
     lcgym leaderboard [results.csv] [--reference-set SET] [--config HASH] [--markdown OUT.md] [--html DIR|OUT.html]
                       [--share-of METHOD [--base METHOD]]
-    lcgym simulate [--system ix|flexarm|ix-v0|...] [--controller feedback,physical] [--out run.csv] [--plot run.png]
+    lcgym simulate [--system ix|two_link|ix-v0|my_arm.toml|...] [--controller feedback,physical] [--out run.csv]
+                   [--plot run.png]
     lcgym diagnose DATA --system MACHINE [--add EFFECT@AXIS ...] [--kinematics reference|measured]
                    [--validate OTHER] [--resample HZ] [--json OUT.json] [--plots DIR] [--replay]
     lcgym effects [--system MACHINE] [--data DATA]
     lcgym import emps FILE.mat --out OUT.csv
 
-MACHINE: a built-in machine (ix, flexarm), an example one (emps; two_link, a URDF shipped with lcgym), a URDF file
-(robot.urdf: its joints named in the data are the axes, the others are locked), or module:attr naming a
-``lcgym.systems.System``.
+MACHINE: a built-in machine (ix, flexarm, two_link), an example one (emps; cobot6, a URDF shipped with lcgym), a URDF
+file (robot.urdf: its joints named in the data are the axes, the others are locked), a machine file (my_arm.toml: a URDF
+with the plant it should have: hidden effects, feedback, sensors, limits; the benchmark and ``lcgym simulate`` run on
+it) or module:attr naming a ``lcgym.systems.System``.
 """
 
 from __future__ import annotations
@@ -24,8 +26,23 @@ import tempfile
 import warnings
 from pathlib import Path
 
-SIMULATE_SYSTEMS = ("ix", "ix-v1", "ix-v0", "flexarm", "flexarm-v1", "flexarm-v0")  # lcgym simulate needs a plant
+
+def _simulate_systems() -> tuple[str, ...]:
+    """The built-in machines by name and by version (``lcgym simulate --system``; files too)."""
+    from .systems import VERSIONS
+
+    return tuple(n for m, versions in VERSIONS.items() for n in (m, *(f"{m}-{v}" for v in reversed(versions))))
 DATASETS = ("emps",)  # lcgym import: readers of lcgym.datasets
+
+
+def _bench_system(text: str) -> str:
+    from .systems import benchmark_name
+
+    try:
+        benchmark_name(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
 
 
 def _controllers(text: str) -> list[str]:
@@ -148,8 +165,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="lcgym", description="Learning feedforward control benchmark suite")
     sub = parser.add_subparsers(dest="command", required=True)
     bench = sub.add_parser("bench", help="run methods on systems over seeds; append MA/RMS/Inf to a results CSV")
-    bench.add_argument("--systems", type=_names, help="comma-separated systems with their version, ix-v0, or without "
-                       "it: the newest (default: ix-v1,flexarm-v1)")
+    bench.add_argument("--systems", type=_names, help="comma-separated machines: built-in ones with their version, "
+                       "ix-v0, or without it: the newest (default: every built-in machine's newest, ix-v1,flexarm-v1,"
+                       "two_link-v0); a machine file (my_arm.toml: a URDF with its hidden effects, feedback, sensors), a "
+                       "URDF or module:attr")
     bench.add_argument("--methods", type=_names,
                        help="comma-separated method ids or module:Class (default: every registered method)")
     bench.add_argument("--seeds", type=_seeds, help="comma-separated seeds (default 0,1,2; --quick: 0)")
@@ -172,7 +191,8 @@ def build_parser() -> argparse.ArgumentParser:
                        help="print paper 002's Table 6: each method's share of what METHOD changed against --base")
     board.add_argument("--base", metavar="METHOD", default="basic", help="the start the shares are taken from (basic)")
     sim = sub.add_parser("simulate", help="fit controllers on training runs and simulate validation references")
-    sim.add_argument("--system", choices=SIMULATE_SYSTEMS, default="ix")
+    sim.add_argument("--system", type=_bench_system, default="ix", metavar="MACHINE",
+                     help=f"a benchmark machine: {', '.join(_simulate_systems())}, or a machine file (.toml) or URDF")
     sim.add_argument("--controller", type=_controllers, default=["feedback", "physical"],
                      help="controller name or comma-separated list (feedback, physical, pgnn, pgnn-ls; basic on flexarm)")
     sim.add_argument("--seed", type=_nonnegative, default=0)

@@ -7,8 +7,9 @@ reference strings moves and dwells together per axis; position, velocity and acc
 evaluated exactly (piecewise cubic) at the sample times. Units: rad (or m) and seconds.
 
 The machines' reference sets (seeded, split train / validation / test as in the papers) are in
-``systems/ix/references.py`` and ``systems/flexarm/references.py``; ``stream`` gives each set
-its own random stream.
+``systems/ix/references.py`` and ``systems/flexarm/references.py``; any other machine's come from
+``random_moves`` (random point-to-point moves within given joint limits: URDF machines, the
+benchmark machines of machine files); ``stream`` gives each set its own random stream.
 """
 
 from __future__ import annotations
@@ -169,3 +170,33 @@ def stream(set_name: str, seed: int) -> np.random.Generator:
     return np.random.default_rng([seed, ids[set_name]])
 
 
+
+
+def point_to_point(rng: np.random.Generator, low: float, high: float, v_max: float, duration: float,
+                   accel_time: float = 0.2, jerk_time: float = 0.05) -> AxisProfile:
+    """One axis's random moves between ``low`` and ``high`` (rad or m) for at least ``duration`` s: a dwell of
+    0.5 s at a random start, then moves to random targets (at least 5 % of the range away) at a
+    random 0.4-1 of ``v_max`` [per s], the acceleration reaching that speed in ``accel_time`` s and
+    the jerk that acceleration in ``jerk_time`` s, each followed by a dwell of 0.2-1 s."""
+    p = AxisProfile(rng.uniform(low, high)).dwell(0.5)
+    while p.end_time < duration:
+        target = rng.uniform(low, high)
+        if abs(target - p.x) < 0.05 * (high - low):
+            continue
+        v = rng.uniform(0.4, 1.0) * v_max
+        a = v / accel_time
+        p.move(target, v, a, a / jerk_time).dwell(rng.uniform(0.2, 1.0))
+    return p
+
+
+def random_moves(name: str, rng: np.random.Generator, low: Sequence[float], high: Sequence[float],
+                 v_max: Sequence[float], duration: float, fs: float, axes: Sequence[str] = (), margin: float = 0.1,
+                 accel_time: float = 0.2, jerk_time: float = 0.05) -> Reference:
+    """A reference of random point-to-point moves of every axis (``point_to_point``, axis after
+    axis from ``rng``), targets ``margin`` of each axis's range (``low`` to ``high``) inside its ends,
+    sampled at ``fs`` with 0.5 s of rest at the end."""
+    profiles = []
+    for lo, hi, v in zip(low, high, v_max, strict=True):
+        inset = margin * (hi - lo)
+        profiles.append(point_to_point(rng, lo + inset, hi - inset, v, duration, accel_time, jerk_time))
+    return sample(name, profiles, fs, tail=0.5, axes=axes)

@@ -5,10 +5,13 @@ This is what ``lcgym simulate`` does, as a library function:
 
 1. Training experiment: the machine's plant runs the training references with feedback only (as a
    calibration run on a real machine would), giving measured trials.
-2. Each controller is fitted on those trials (feedback only: nothing to fit).
+2. Each controller is built for the machine (``protocol.build_method``: handed its ``System``) and
+   fitted on those trials (feedback only: nothing to fit).
 3. Each controller's feedforward (and, on the FlexArm, its reference offset) is applied on the
-   validation references; the resulting trials carry the reference, measured position, input and
-   feedforward; ``metric_table`` gives the norms the benchmark scores (``System.bench``).
+   validation references (``protocol.apply``, the benchmark's driver; a method that learns on the
+   plant learns once, before the first); the resulting trials carry the reference, measured
+   position, input and feedforward; ``metric_table`` gives the norms the benchmark scores
+   (``System.bench``).
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ from tqdm.auto import tqdm
 
 from . import systems
 from .baselines import CONTROLLERS
+from .baselines.protocol import apply, build_method
 from .data import Trial
 
 # fitted on the training trials (the PGNN also records its training data once on the plant:
@@ -74,14 +78,12 @@ def simulate(
         results = []
         for name in controllers:
             steps.set_postfix_str(f"fit {name}")
-            ctrl = SIMULATE_CONTROLLERS[name]().fit(train_trials)
-            if getattr(ctrl, "uses_plant", False):
-                ctrl.learn(bench.plant, val_refs[0])
+            ctrl = build_method(name, machine, SIMULATE_CONTROLLERS).fit(train_trials)
             steps.update()
             steps.set_postfix_str(f"run {name}")
-            ff = [ctrl.feedforward(r) for r in val_refs]
-            offsets = [getattr(ctrl, "reference_offset", lambda _: None)(r) for r in val_refs]
-            trials = bench.run(val_refs, ff, offsets)
+            signals = apply(ctrl, bench.plant, val_refs, bench.axes, learn="first")
+            ff = signals.feedforwards
+            trials = bench.run(val_refs, ff, signals.offsets)
             for t in trials:
                 t.meta.update(controller=name, seed=seed, reference_set="validation")
             results.append(SimulationResult(name, trials, ff, bench, val_refs))

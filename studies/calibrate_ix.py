@@ -75,7 +75,7 @@ def machine_rows(plant: IXPlant, seed: int = 0) -> dict[str, np.ndarray]:
     """The rows of ``PAPER`` on ``plant``, by the benchmark's protocol (see the module docstring)."""
     train = plant.run(reference_set("train", seed))
     validation = reference_set("validation", seed)
-    physical = PhysicalFeedforward().fit(train)
+    physical = PhysicalFeedforward(system="ix").fit(train)
     ffs = [physical.feedforward(r) for r in validation]
     with_model = plant.run(validation, ffs)
     feedback_only = plant.run(validation)
@@ -174,7 +174,7 @@ def plot(path: str) -> None:
     import matplotlib.pyplot as plt
 
     plant = IXPlant.of_version("v1")
-    physical = PhysicalFeedforward().fit(plant.run(reference_set("train", 0)))
+    physical = PhysicalFeedforward(system="ix").fit(plant.run(reference_set("train", 0)))
     ref = reference_set("validation", 0)[0]
     ff = physical.feedforward(ref)
     with_model, feedback_only = plant.run(ref, ff), plant.run(ref)

@@ -40,7 +40,7 @@ def evaluate(effects, seed):
     plant = IXPlant(effects=tuple(effects))
     train = plant.run(reference_set("train", seed))
     val = reference_set("validation", seed)
-    ctrl = PhysicalFeedforward().fit(train)
+    ctrl = PhysicalFeedforward(system="ix").fit(train)
     return rms_deg(plant.run(val, [ctrl.feedforward(r) for r in val]))
 
 

@@ -40,7 +40,7 @@ def main() -> None:
                "tcp": "TCP error [mm]"}
     parts = {(k, sig, p): [] for k in ("basic", "lcs") for sig in signals for p in PERIODS}
     refs = [r for s in map(int, args.seeds.split(",")) for r in arm_reference_set("validation", s, args.lines)]
-    ilc = IterativeLearningControl().fit([plant.run(refs[0])])  # the arm's ILC starts from Basic: nothing to fit
+    ilc = IterativeLearningControl(system="flexarm").fit([plant.run(refs[0])])  # the arm's ILC starts from Basic: nothing to fit
     for ref in tqdm(refs, desc="lines"):
         ilc.learn(plant, ref)
         tau_ff = BasicFeedforward().compute(ref.positions, ref.fs)["tau_ff"]

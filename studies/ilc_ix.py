@@ -46,7 +46,7 @@ def main() -> None:
         train = plant.run(reference_set("train", seed, 8, 40.0, plant.fs))
         for ref in reference_set("validation", seed, 4, 40.0, plant.fs):
             config = ILCConfig(trials=args.trials, gain=args.gain, q_hz=args.q_hz)
-            ilc = IterativeLearningControl(config).fit(train).learn(plant, ref)
+            ilc = IterativeLearningControl(config, system="ix").fit(train).learn(plant, ref)
             measured.append(np.degrees(ilc.history_[ref.name]))
             true.append(np.degrees(ilc.true_history_[ref.name]))
             names.append(ref.name)

@@ -48,7 +48,7 @@ def main() -> None:
     train_refs = reference_set("train", args.seed)
     val_refs = reference_set("validation", args.seed)
     feedback_runs = plant.run(train_refs)
-    physical = PhysicalFeedforward().fit(feedback_runs)
+    physical = PhysicalFeedforward(system="ix").fit(feedback_runs)
     data = {"feedback": feedback_runs, "physical": plant.run(train_refs, [physical.feedforward(r) for r in train_refs])}
 
     def tracking(model):
@@ -64,7 +64,7 @@ def main() -> None:
         label, collected, options = ROWS[key]
         for regularize in (True, False):
             t0 = time.perf_counter()
-            m = PGNN(PGNNConfig(threads=1, regularize=regularize, **options)).fit(data[collected])
+            m = PGNN(PGNNConfig(threads=1, regularize=regularize, **options), system="ix").fit(data[collected])
             rms, inf = tracking(m.predict)
             fc = np.sqrt(np.mean(np.concatenate([m.nn_contribution(r) for r in val_refs]) ** 2, axis=0))
             print(f"{key} {label} [{'J' if regularize else 'J_LS'}]: RMS {rms.round(4)} Inf {inf.round(3)} "

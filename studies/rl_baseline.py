@@ -55,12 +55,13 @@ def main() -> None:
     overrides = {k: ast.literal_eval(v) for k, v in (s.split("=", 1) for s in args.set)}
     bench = systems.make_bench(args.system)
     family = bench.family
-    passes = [float(p) for p in args.passes.split(",")] if args.passes else [RLConfig().setting("passes", systems.get(family))]
+    machine = systems.get(family)
+    passes = [float(p) for p in args.passes.split(",")] if args.passes else [RLConfig().setting("passes", machine)]
     cfg = BenchConfig()
     train = bench.references("train", args.seed, cfg.n_train, cfg.duration)
     val = bench.references("validation", args.seed, cfg.n_validation, cfg.duration)
     trials = bench.run(train)
-    start = (PhysicalFeedforward() if family == "ix" else BasicArmFeedforward()).fit(trials)
+    start = (PhysicalFeedforward if family == "ix" else BasicArmFeedforward)(system=machine).fit(trials)
     axes = ", ".join(bench.tables(trials, [t.ff for t in trials])[0]["axis"])
     print(f"{bench.name}, seed {args.seed}: validation RMS tracking error [deg] ({axes})")
     print(f"  {start.name} alone: {np.round(validation_rms(bench, val, start, bench.plant), 4)}")
@@ -68,7 +69,7 @@ def main() -> None:
         config = RLConfig(algorithm=args.algorithm, observe_error=not args.no_error,
                           passes=p, hyperparameters=overrides, seed=args.seed,
                           cache=not args.no_cache, progress=True)
-        rl = RLFeedforward(config).fit(trials)
+        rl = RLFeedforward(config, system=machine).fit(trials)
         t0 = time.perf_counter()
         rms = validation_rms(bench, val, rl, bench.plant)
         seconds = rl.record_["seconds"]

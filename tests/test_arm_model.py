@@ -133,7 +133,7 @@ def test_arm_trials_round_trip_through_the_measurement_format(tmp_path, feedback
         assert expected <= set(back.extra)
         for k, v in trial.extra.items():
             np.testing.assert_allclose(back.extra[k], v, **tol)
-        assert systems.of_trials([back]) is ARM and back.meta["reference"] == trial.meta["reference"]
+        assert systems.get(back.meta["system"]) is ARM and back.meta["reference"] == trial.meta["reference"]
 
 
 def test_regressor_cache_lives_only_inside_its_block():

@@ -53,7 +53,7 @@ CASES = [
     (["simulate", "--out", "{tmp}/run.txt"], "use a file name ending in .csv or .parquet or .pq"),
     (["simulate", "--plot", "{tmp}/errors.txt"], "use a file name ending in .png or .pdf or .svg"),
     (["simulate", "--seed", "-1"], "must be >= 0"),
-    (["simulate", "--system", "crane"], "invalid choice"),
+    (["simulate", "--system", "crane"], "unknown system 'crane'"),
     (["simulate", "--n-train", "0"], "must be >= 1"),
     (["simulate", "--n-validation", "two"], "must be an integer, got 'two'"),
     (["simulate", "--duration", "-1"], "--duration: must be within 1..3600 s"),

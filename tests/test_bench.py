@@ -341,3 +341,21 @@ def test_a_commit_of_digits_only_reads_back_as_written(tmp_path, monkeypatch):
         run_benchmark(BenchConfig(methods=("feedback",), **TINY), out, progress=False)
     df = read_results(out)
     assert len(df) > 0 and (df["git_commit"] == "012345678901").all()
+
+
+def test_leaderboard_takes_each_machines_newest_configuration(tmp_path):
+    """A file that collects machines benchmarked at different times ranks each machine's newest
+    configuration; an older configuration of a machine stays out (and is listed)."""
+    from lcgym.leaderboard.report import select
+
+    out = tmp_path / "r.csv"
+    run_benchmark(BenchConfig(methods=BASE, **TINY), out, progress=False)
+    run_benchmark(BenchConfig(methods=BASE, **{**TINY, "n_train": 2}), out, progress=False)
+    df = read_results(out)
+    other = df.assign(system="my_arm.toml", config_hash="0123456789ab", timestamp="2000-01-01T00:00:00+00:00")
+    both = pd.concat([df, other[other["plant_trials"] == 1]], ignore_index=True)
+    chosen, others = select(both)
+    assert set(chosen["system"]) == {*df["system"], "my_arm.toml"}
+    mine = chosen[chosen["system"] != "my_arm.toml"]
+    assert (mine["plant_trials"] == 2).all() and len(others) == 1
+    assert (chosen[chosen["system"] == "my_arm.toml"]["config_hash"] == "0123456789ab").all()

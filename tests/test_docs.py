@@ -257,5 +257,5 @@ def test_the_loose_comparison_is_loose_only_in_numbers():
     have = {_normalized(x) for x in ["  roll           0.0655   0.0165     -75%", "  1. cable_spring@roll [spring]: 64%"]}
     assert _normalized("  roll  0.1  0.2   -7%") in have
     assert _normalized("  1. coulomb_friction@roll [friction]: 64%") not in have
-    urdf = "lcgym/systems/examples/two_link.urdf"
+    urdf = "lcgym/systems/two_link/two_link.urdf"
     assert shlex.split(_script(f"x {urdf} y"))[1] == str(ROOT / urdf)

@@ -84,7 +84,7 @@ def _axis_rms(trial) -> np.ndarray:
 
 def test_ix_learns_within_ten_trials(ix_setup):
     plant, train, ref = ix_setup
-    ilc = IterativeLearningControl().fit(train)
+    ilc = IterativeLearningControl(system="ix").fit(train)
     ilc.learn(plant, ref)
     assert ilc.cost_.plant_trials == 11 and ilc.history_[ref.name].shape == (11, 2)
     physical, learned = (_axis_rms(plant.run(ref, f)) for f in (ilc.start_.feedforward(ref), ilc.feedforward(ref)))
@@ -99,7 +99,7 @@ def test_ix_thirty_trials_stay_converged(ix_setup):
     the third rises above 1.3x the best trial before it (measured over the benchmark's 12
     validation references: at most 1.05x propeller, 1.21x roll, ``studies/ilc_ix.py``)."""
     plant, train, ref = ix_setup
-    ilc = IterativeLearningControl(ILCConfig(trials=30)).fit(train)
+    ilc = IterativeLearningControl(ILCConfig(trials=30), system="ix").fit(train)
     ilc.learn(plant, ref)
     h = ilc.history_[ref.name]  # (31, 2)
     assert np.all(h[3] < 0.5 * h[0])
@@ -111,9 +111,9 @@ def test_ix_thirty_trials_stay_converged(ix_setup):
 def test_ix_divergence_is_an_error_not_garbage(ix_setup):
     plant, train, ref = ix_setup
     with pytest.raises(ILCDiverged, match="three trials in a row|safe range"):
-        IterativeLearningControl(ILCConfig(trials=30, q_hz=60.0, gain=2.5)).fit(train).learn(plant, ref)
+        IterativeLearningControl(ILCConfig(trials=30, q_hz=60.0, gain=2.5), system="ix").fit(train).learn(plant, ref)
     with pytest.raises(RuntimeError, match="no feedforward learned"):
-        IterativeLearningControl().fit(train).feedforward(ref)
+        IterativeLearningControl(system="ix").fit(train).feedforward(ref)
 
 
 def test_arm_load_response_matches_the_two_mass_model():
@@ -150,7 +150,7 @@ def test_arm_one_lcs_iteration(version):
     the static periods, taken over the lines: the zero-padded Q made them worse
     (``frequency_update(hold_edges=True)``)."""
     plant = FlexArmPlant.of_version(version)
-    ilc = IterativeLearningControl().fit([plant.run(arm_reference_set("train", 0, 1)[0])])
+    ilc = IterativeLearningControl(system="flexarm").fit([plant.run(arm_reference_set("train", 0, 1)[0])])
     parts = {period: {"basic": [], "lcs": []} for period in ("dynamic", "static")}
     for seed in (0, 1):
         ref = arm_reference_set("validation", seed, 1)[0]
@@ -198,12 +198,12 @@ def test_ilc_transfer_carries_the_correction_to_other_references(ix_setup):
     """Learned once on the first training reference; on that reference it is ILC's result, on another
     the correction is added as a time signal (cut or held to length) to the physical feedforward."""
     plant, train, ref = ix_setup
-    transfer = ILCTransfer(ILCConfig(trials=3)).fit(train)
+    transfer = ILCTransfer(ILCConfig(trials=3), system="ix").fit(train)
     transfer.learn(plant, ref)
     transfer.learn(plant, ref)  # learns once
     assert transfer.cost_.plant_trials == 4
     source = transfer.source_
-    ilc = IterativeLearningControl(ILCConfig(trials=3)).fit(train).learn(plant, source)
+    ilc = IterativeLearningControl(ILCConfig(trials=3), system="ix").fit(train).learn(plant, source)
     np.testing.assert_allclose(transfer.feedforward(source), ilc.feedforward(source))
     f = transfer.feedforward(ref)
     assert f.shape == ref.positions.shape and transfer.reference_offset(ref) is None

@@ -114,7 +114,8 @@ def _trials(n=2, duration=6.0):
 
 @pytest.fixture(scope="module")
 def small_pgnn():
-    return PGNN(PGNNConfig(max_epochs=3, batch_size=2000, threads=1, history=(0.1,), periods=((0, 0.1),))).fit(_trials())
+    return PGNN(PGNNConfig(max_epochs=3, batch_size=2000, threads=1, history=(0.1,), periods=((0, 0.1),)), system=IX).fit(
+        _trials())
 
 
 def test_physical_part_is_the_shared_model(small_pgnn):
@@ -145,7 +146,7 @@ def test_module_rejects_unknown_activation():
 
 
 def test_wall_time_cap_stops_after_one_epoch():
-    m = PGNN(PGNNConfig(max_epochs=50, max_seconds=0.0, batch_size=2000, threads=1)).fit(_trials(n=1, duration=3.0))
+    m = PGNN(PGNNConfig(max_epochs=50, max_seconds=0.0, batch_size=2000, threads=1), system=IX).fit(_trials(n=1, duration=3.0))
     assert m.info_["epochs"] == 1
 
 
@@ -168,8 +169,8 @@ def test_network_inputs_and_options():
 class FastPGNN(PGNNFeedforward):
     """The leaderboard's ``pgnn`` with a short training (the cell's plumbing is what is tested)."""
 
-    def __init__(self):
-        super().__init__(PGNNConfig(max_epochs=2, batch_size=1000, threads=1, steps_per_iteration=5))
+    def __init__(self, system=None):  # the runner hands it the cell's machine
+        super().__init__(PGNNConfig(max_epochs=2, batch_size=1000, threads=1, steps_per_iteration=5), system=system)
 
 
 class FastPGNNLS(FastPGNN):
@@ -195,33 +196,33 @@ def test_sample_rate_mismatch_and_ls_variant_config():
         PGNN(PGNNConfig(max_epochs=1, threads=1), fs=500.0, physical=PhysicalModel(IX, fs=1000.0)).fit(_trials(n=1))
     from lcgym.baselines.pgnn import PGNNLSFeedforward
 
-    ls = PGNNLSFeedforward(PGNNConfig(max_epochs=1, batch_size=2000, threads=1), collect="feedback").fit(
-        _trials(n=1, duration=3.0))
+    ls = PGNNLSFeedforward(PGNNConfig(max_epochs=1, batch_size=2000, threads=1), collect="feedback",
+                           system=IX).fit(_trials(n=1, duration=3.0))
     assert ls.pgnn_.config_.regularize is False  # a given config keeps the method's meaning
 
 
 def test_an_iteration_is_a_number_of_adam_steps():
     """The patience counts iterations of ``steps_per_iteration`` Adam steps (None: one epoch)."""
     trials = _trials(n=1, duration=3.0)
-    m = PGNN(PGNNConfig(max_epochs=2, batch_size=200, threads=1, steps_per_iteration=7)).fit(trials)
+    m = PGNN(PGNNConfig(max_epochs=2, batch_size=200, threads=1, steps_per_iteration=7), system=IX).fit(trials)
     assert [h["steps"] for h in m.info_["history"]] == [7, 14]
-    m = PGNN(PGNNConfig(max_epochs=2, batch_size=200, threads=1, steps_per_iteration=None)).fit(trials)
+    m = PGNN(PGNNConfig(max_epochs=2, batch_size=200, threads=1, steps_per_iteration=None), system=IX).fit(trials)
     per_epoch = -(-int(0.8 * m.info_["n_samples"]) // 200)
     assert [h["steps"] for h in m.info_["history"]] == [per_epoch, 2 * per_epoch]
     with pytest.raises(ValueError, match="steps_per_iteration must be >= 1"):
-        PGNN(PGNNConfig(max_epochs=1, threads=1, steps_per_iteration=0)).fit(trials)
+        PGNN(PGNNConfig(max_epochs=1, threads=1, steps_per_iteration=0), system=IX).fit(trials)
 
 
 def test_zeta_steps_absolute_or_relative():
     trials = _trials(n=1, duration=3.0)
-    absolute = PGNN(PGNNConfig(max_epochs=1, batch_size=500, threads=1, steps_per_iteration=3)).fit(trials)
+    absolute = PGNN(PGNNConfig(max_epochs=1, batch_size=500, threads=1, steps_per_iteration=3), system=IX).fit(trials)
     assert torch.all(absolute.module_.zeta_scale == 1)  # the paper's: Adam on zeta itself
     relative = PGNN(PGNNConfig(max_epochs=1, batch_size=500, threads=1, steps_per_iteration=3,
-                               zeta_steps="relative")).fit(trials)
+                               zeta_steps="relative"), system=IX).fit(trials)
     zeta0 = relative.module_.zeta0
     torch.testing.assert_close(relative.module_.zeta_scale, torch.clamp(zeta0.abs(), min=1e-3))
     with pytest.raises(ValueError, match="zeta_steps must be 'absolute' or 'relative'"):
-        PGNN(PGNNConfig(max_epochs=1, threads=1, zeta_steps="log")).fit(trials)
+        PGNN(PGNNConfig(max_epochs=1, threads=1, zeta_steps="log"), system=IX).fit(trials)
 
 
 def test_pgnn_method_records_its_training_data_with_the_physical_feedforward():
@@ -235,11 +236,12 @@ def test_pgnn_method_records_its_training_data_with_the_physical_feedforward():
 
     plant = IXPlant.of_version("v1")
     train = plant.run(reference_set("train", 0, 1, 3.0))
-    method = PGNNFeedforward(PGNNConfig(max_epochs=1, batch_size=2000, threads=1, steps_per_iteration=2)).fit(train)
+    method = PGNNFeedforward(PGNNConfig(max_epochs=1, batch_size=2000, threads=1, steps_per_iteration=2),
+                             system="ix").fit(train)
     with pytest.raises(RuntimeError, match="learn"):
         method.feedforward(train[0].ref)
     method.learn(plant, None)
-    physical = PhysicalFeedforward().fit(train)
+    physical = PhysicalFeedforward(system="ix").fit(train)
     np.testing.assert_array_equal(method.data_[0].ff, physical.feedforward(references_of(train)[0]))
     assert method.cost_.plant_trials == 1
     assert method.feedforward(train[0].ref).shape == train[0].ref.shape

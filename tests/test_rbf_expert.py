@@ -150,9 +150,9 @@ def test_rbf_expert_method_on_the_ix_predicts_its_training_error_away():
     plant = IXPlant()
     refs = reference_set("train", 0, 3, 15.0, plant.fs)
     trials = plant.run(refs)
-    method = RBFExpertFeedforward().fit(trials).learn(plant, refs[0])
+    method = RBFExpertFeedforward(system="ix").fit(trials).learn(plant, refs[0])
     assert method.cost_.plant_trials == 3 and set(method.predictor_.joints) == {0, 1}
-    physical = PhysicalFeedforward().fit(trials)
+    physical = PhysicalFeedforward(system="ix").fit(trials)
     before = plant.run([refs[1]], [physical.feedforward(refs[1])])[0].error
     after = plant.run([refs[1]], [method.feedforward(refs[1])])[0].error
     assert method.reference_offset(refs[1]) is None
@@ -169,7 +169,7 @@ def test_rbf_expert_method_on_the_arm_lowers_the_model_following_error():
 
     plant = FlexArmPlant()
     refs = arm_reference_set("train", 0, 2)
-    method = RBFExpertFeedforward().fit([plant.run(r) for r in refs]).learn(plant, refs[0])
+    method = RBFExpertFeedforward(system="flexarm").fit([plant.run(r) for r in refs]).learn(plant, refs[0])
     assert method.predictor_.joints == MOVING
     r = refs[0]
     basic = BasicFeedforward().compute(r.positions, r.fs)

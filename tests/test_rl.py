@@ -33,7 +33,7 @@ def trained(ix_data, tmp_path, **config):
     bench, trials, val = ix_data
     cfg = RLConfig(**{"total_steps": 2048, "cache_dir": str(tmp_path),
                       "hyperparameters": {"n_steps": 128, "batch_size": 256, "n_epochs": 2}, **config})
-    return RLFeedforward(cfg).fit(trials).learn(bench.plant, val[0])
+    return RLFeedforward(cfg, system=IX).fit(trials).learn(bench.plant, val[0])
 
 
 @pytest.mark.parametrize("algorithm", [PPO, SAC, TD3])
@@ -71,7 +71,7 @@ def test_budget_and_cost(ix_data, tmp_path):
     rl.learn(bench.plant, val[0])  # a second reference: one more rollout, no training
     assert rl.cost_.env_steps == steps + 2 * val[0].n_samples
     samples = sum(t.ref.shape[0] for t in trials)
-    by_passes = RLFeedforward(RLConfig(passes=2.5)).fit(trials)
+    by_passes = RLFeedforward(RLConfig(passes=2.5), system=IX).fit(trials)
     assert by_passes.budget() == round(2.5 * samples)
 
 
@@ -101,7 +101,7 @@ def test_training_curve_rows_and_plot(tmp_path):
     bench = IX.bench()
     trials = bench.run(short)
     rl = RLFeedforward(RLConfig(total_steps=8192, num_envs=2, cache_dir=str(tmp_path),
-                                hyperparameters={"n_steps": 512, "batch_size": 512, "n_epochs": 1}))
+                                hyperparameters={"n_steps": 512, "batch_size": 512, "n_epochs": 1}), system=IX)
     rl.fit(trials).learn(bench.plant, short[0])
     curve = rl.curve_
     assert list(curve.columns) == ["env_steps", "return", "rms_propeller_deg", "rms_roll_deg"]
@@ -162,7 +162,7 @@ def test_config_errors():
     with pytest.raises(ValueError, match="total_steps"):
         RLConfig(total_steps=0)
     with pytest.raises(RuntimeError, match="fit"):
-        RLFeedforward().learn(IXPlant(), reference_set("validation", 0, 1, 4.0)[0])
+        RLFeedforward(system=IX).learn(IXPlant(), reference_set("validation", 0, 1, 4.0)[0])
 
 
 def test_bench_cell_counts_env_steps(monkeypatch, tmp_path):

@@ -19,7 +19,7 @@ from lcgym.systems.ix.plant import V1_GAINS, V1_SIZES, FeedbackGains, HiddenEffe
 
 def test_names_resolve_to_the_newest_version():
     assert systems.benchmark_name("ix") == "ix-v1" and systems.benchmark_name("ix-v0") == "ix-v0"
-    assert systems.newest_benchmarks() == ("ix-v1", "flexarm-v1")
+    assert systems.newest_benchmarks() == ("ix-v1", "flexarm-v1", "two_link-v0")
     assert BenchConfig(systems=("ix", "flexarm-v0", "ix-v1")).systems == ("ix-v1", "flexarm-v0")
     assert systems.get("ix-v0") is systems.get("ix")  # one machine (its model), versions of its plant
     for bad in ("ix-v7", "crane", "ix-"):
@@ -29,12 +29,16 @@ def test_names_resolve_to_the_newest_version():
 
 def test_the_version_lists_agree():
     """``systems.VERSIONS`` (read without importing the machines) names exactly the plants' versions."""
+    from lcgym.systems import urdf_bench
     from lcgym.systems.flexarm import plant as arm_plant
     from lcgym.systems.ix import plant as ix_plant
 
-    assert systems.VERSIONS == {"ix": tuple(ix_plant.VERSIONS), "flexarm": tuple(arm_plant.VERSIONS)}
-    assert {f"lcgym/{n}-{v}" for n, m in (("IX", "ix"), ("FlexArm", "flexarm")) for v in systems.VERSIONS[m]} == set(
-        systems.ENVS)
+    assert systems.VERSIONS == {"ix": tuple(ix_plant.VERSIONS), "flexarm": tuple(arm_plant.VERSIONS),
+                                "two_link": urdf_bench.VERSIONS}
+    names = (("IX", "ix"), ("FlexArm", "flexarm"), ("TwoLink", "two_link"))
+    assert {f"lcgym/{n}-{v}" for n, m in names for v in systems.VERSIONS[m]} | {"lcgym/Machine-v0"} == set(systems.ENVS)
+    for name, machine in names:  # each machine's own ids, and only those
+        assert set(systems.get(machine).envs) == {f"lcgym/{name}-{v}" for v in systems.VERSIONS[machine]}
 
 
 def test_v0_is_the_first_release_and_v1_the_calibrated_plant():

@@ -8,21 +8,27 @@ from __future__ import annotations
 import numpy as np
 
 from .. import systems as machines
-from .protocol import Controller, Cost
+from .protocol import Controller, Cost, given_system
 
 
 class BasicArmFeedforward(Controller):
     """Method ``basic``: nothing to fit; feedforward and reference offset of the nominal structure
-    (``nominal``, default the trials' machine's ``System.nominal``)."""
+    (``nominal``, default the ``System.nominal`` of the machine ``system``: a ``System`` or a spec
+    for ``systems.get``, such as "flexarm")."""
 
     name = "basic"
     systems = ("flexarm",)  # the machines with a nominal structure
 
-    def __init__(self, nominal=None):
+    def __init__(self, nominal=None, system: machines.System | str | None = None):
         self.nominal = nominal
+        self.system = system
 
     def fit(self, trials) -> BasicArmFeedforward:
-        self.nominal_ = self.nominal if self.nominal is not None else machines.of_trials(trials).nominal
+        if self.nominal is not None:
+            self.nominal_ = self.nominal
+        else:
+            self.system_ = given_system(self, alternative=", or the structure, BasicArmFeedforward(nominal=...)")
+            self.nominal_ = self.system_.nominal
         if self.nominal_ is None:
             raise ValueError("basic: the machine has no nominal feedforward structure (System.nominal)")
         self.cost_ = Cost()

@@ -4,14 +4,19 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import systems
 from ..physics.kinematics import reference_positions
 from .protocol import Controller
 
 
 class FeedbackOnly(Controller):
-    """Feedforward identically zero; ``fit`` learns nothing."""
+    """Feedforward identically zero; ``fit`` learns nothing. ``system`` is accepted like every
+    method's (the protocol hands it) and not needed."""
 
     name = "feedback"
+
+    def __init__(self, system: systems.System | str | None = None):
+        self.system = system
 
     def feedforward(self, reference) -> np.ndarray:
         """Zeros (T, n_axes) [V]."""

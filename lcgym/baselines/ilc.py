@@ -63,7 +63,7 @@ import numpy as np
 
 from .. import systems
 from ..systems import SimulationDiverged
-from .protocol import Controller, Cost
+from .protocol import Controller, Cost, given_system
 
 
 class ILCDiverged(RuntimeError):
@@ -171,13 +171,15 @@ class IterativeLearningControl(Controller):
     (the FlexArm's Basic, tau_nl update of eq. 16). ``history_[name]``: (trials, n_axes) error RMS
     per trial and axis, trial 0 the start (IX: tracking error as measured [rad]; arm: e_pl from the
     accelerometer [rad/s^2]); ``true_history_[name]``: the same for the simulation's true load-side
-    error where the trials carry it (IX: ``load_<axis>``; arm: ``e_pl_true_<joint>``)."""
+    error where the trials carry it (IX: ``load_<axis>``; arm: ``e_pl_true_<joint>``). ``system``:
+    the machine (a ``System`` or a spec for ``systems.get``, such as "ix")."""
 
     name = "ilc"
     uses_plant = True
 
-    def __init__(self, config: ILCConfig | None = None):
+    def __init__(self, config: ILCConfig | None = None, system: systems.System | str | None = None):
         self.config = config
+        self.system = system
 
     @property
     def config_(self) -> ILCConfig:
@@ -186,7 +188,7 @@ class IterativeLearningControl(Controller):
     def fit(self, trials) -> IterativeLearningControl:
         from .physical import PhysicalFeedforward
 
-        self.system_ = systems.of_trials(trials)
+        self.system_ = given_system(self)
         self.nominal_ = self.system_.nominal
         self.start_ = PhysicalFeedforward(system=self.system_).fit(trials) if self.nominal_ is None else None
         self.learned_, self.history_, self.true_history_ = {}, {}, {}

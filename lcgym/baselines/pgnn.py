@@ -35,7 +35,7 @@ from .. import systems
 from ..pgnn import PGNN, PGNNConfig
 from ..references import references_of
 from .physical import PhysicalFeedforward
-from .protocol import Controller, Cost
+from .protocol import Controller, Cost, given_system
 
 COLLECT = "feedback"
 """What the training data are recorded with where the machine does not say
@@ -74,6 +74,7 @@ class PGNNFeedforward(Controller):
     ``fit`` keeps the training trials (and trains at once where ``collect`` is "feedback");
     ``learn`` records the training data with the physical feedforward on, on its first call, and
     trains. Learned: ``pgnn_`` (the fitted ``PGNN``), ``data_`` (its training trials), ``cost_``.
+    ``system``: the machine (a ``System`` or a spec for ``systems.get``, such as "ix").
     """
 
     name = "pgnn"
@@ -81,12 +82,14 @@ class PGNNFeedforward(Controller):
     uses_plant = True
     learns_once = True  # learn's plant runs happen on its first call (the training data), not per reference
 
-    def __init__(self, config: PGNNConfig | None = None, collect: str | None = None):
+    def __init__(self, config: PGNNConfig | None = None, collect: str | None = None,
+                 system: systems.System | str | None = None):
         self.config = config
         self.collect = collect
+        self.system = system
 
     def fit(self, trials: Sequence) -> PGNNFeedforward:
-        self.system_ = systems.of_trials(trials)
+        self.system_ = given_system(self)
         self.trials_ = list(trials)
         self.collect_ = self.collect or protocol(self.system_).get("collect", COLLECT)
         if self.collect_ not in ("physical", "feedback"):

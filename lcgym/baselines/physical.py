@@ -10,18 +10,18 @@ import numpy as np
 
 from .. import systems
 from ..physics.model import PhysicalModel
-from .protocol import Controller, Cost
+from .protocol import Controller, Cost, given_system
 
 
 class PhysicalFeedforward(Controller):
-    """``fit`` identifies the physical model of the trials' machine (``system``, default the built-in
-    machine named in the trials' metadata; or the ``model`` given) on training trials;
-    ``feedforward`` evaluates it on a reference, ``reference_offset`` gives the model's reference
-    offset where it has one (the arm), else None."""
+    """``fit`` identifies the physical model of the machine (``system``: a ``System`` or a spec for
+    ``systems.get``, such as "ix"; or the ``model`` given) on training trials; ``feedforward``
+    evaluates it on a reference, ``reference_offset`` gives the model's reference offset where it
+    has one (the arm), else None."""
 
     name = "physical"
 
-    def __init__(self, model: PhysicalModel | None = None, system: systems.System | None = None):
+    def __init__(self, model: PhysicalModel | None = None, system: systems.System | str | None = None):
         self.model = model
         self.system = system
 
@@ -29,7 +29,8 @@ class PhysicalFeedforward(Controller):
         if self.model is not None:
             model = self.model
         else:
-            model = (self.system or systems.of_trials(trials)).physical_model(fs=trials[0].fs)
+            self.system_ = given_system(self, alternative=", or the model, PhysicalFeedforward(model=...)")
+            model = self.system_.physical_model(fs=trials[0].fs)
         self.model_ = model.fit(trials)
         self.cost_ = Cost()
         return self

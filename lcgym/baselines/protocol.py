@@ -16,17 +16,30 @@ A feedforward controller has
 
 Subclassing ``Controller`` gives the no-op defaults; duck typing works too. A user's class is
 named on the command line as ``module:Class`` (see ``load_method``).
+
+Each method is handed its machine, scikit-learn style: the constructor takes ``system`` (a
+``System``, or what ``systems.get`` resolves: a name such as "ix", a .urdf file, ``module:attr``),
+stores it as given, and ``fit`` resolves it (``given_system``). Whoever builds a method hands it
+the machine: the benchmark's cell and ``simulate`` through ``build_method``, which builds a user's
+class whose constructor takes no ``system`` without it. ``apply`` then runs the protocol on a list
+of references, the same way for both.
 """
 
 from __future__ import annotations
 
 import importlib
+import inspect
 import os
 import sys
+import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
+
+from .. import systems
+from ..envs.actions import short_repr
 
 
 @dataclass
@@ -78,3 +91,89 @@ def load_method(spec: str, registry: dict[str, type]) -> type:
     if missing:
         raise ValueError(f"method {spec!r}: {class_name} lacks {', '.join(missing)} (see lcgym.baselines.protocol)")
     return cls
+
+
+def given_system(method, alternative: str = "") -> systems.System:
+    """The machine ``method`` was handed (its ``system``: a ``System`` or a spec for ``systems.get``),
+    or a ValueError that says how to give it (``alternative``: another way the method accepts)."""
+    if getattr(method, "system", None) is None:
+        example = next(iter(getattr(method, "systems", None) or ()), "ix")  # a machine it runs on
+        raise ValueError(f"{method.name}: give the machine, {type(method).__name__}(system={example!r}) (a name, a "
+                         f".urdf file, module:attr or a System){alternative}")
+    return systems.get(method.system)
+
+
+def takes_system(cls: type) -> bool:
+    """Whether ``cls``'s constructor takes a ``system`` keyword (by name, or through ``**kwargs``)."""
+    try:
+        parameters = inspect.signature(cls).parameters.values()
+    except (TypeError, ValueError):  # a signature Python cannot read: built without arguments
+        return False
+    keyword = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    return any((p.name == "system" and p.kind in keyword) or p.kind is inspect.Parameter.VAR_KEYWORD
+               for p in parameters)
+
+
+def build_method(spec: str, system: systems.System, registry: dict[str, type]):
+    """The controller of method ``spec`` (an id of ``registry`` or ``module:Class``, ``load_method``)
+    for ``system``: ``cls(system=system)``; a user's class whose constructor takes no ``system`` is
+    built without arguments."""
+    cls = load_method(spec, registry)
+    return cls(system=system) if takes_system(cls) else cls()
+
+
+@dataclass
+class Signals:
+    """What a controller gives on a list of references (``apply``), one entry per reference:
+    feedforwards (T, n_axes), reference offsets (T, n_axes) [rad] or None, the network's
+    contributions (only for a method with ``nn_contribution``, else empty), and the wall time [s]
+    its ``learn`` calls took."""
+
+    feedforwards: list[np.ndarray] = field(default_factory=list)
+    offsets: list[np.ndarray | None] = field(default_factory=list)
+    nn_contributions: list[np.ndarray] = field(default_factory=list)
+    learn_seconds: float = 0.0
+
+
+def apply(controller, plant, references: Sequence, axes: Sequence[str], learn: Literal["each", "first"] = "each",
+          stage: list[str] | None = None) -> Signals:
+    """Run a fitted controller's protocol on ``references``, one reference after the other: a method
+    that learns on the plant (``uses_plant``) gets ``learn(plant, reference)`` first, before every
+    reference (``learn="each"``, the benchmark) or before the first only ("first", ``simulate``,
+    whose methods learn once); then its ``feedforward`` and ``reference_offset``, checked
+    (``checked``), and its ``nn_contribution`` where it has one. ``stage[0]`` names the step it is
+    in (the benchmark's time limit reports it)."""
+    if learn not in ("each", "first"):
+        raise ValueError(f"learn must be 'each' or 'first', got {learn!r}")
+    stage = [""] if stage is None else stage
+    out = Signals()
+    for i, r in enumerate(references):
+        if getattr(controller, "uses_plant", False) and (learn == "each" or i == 0):
+            stage[0] = f"learn on {r.name}"
+            t0 = time.perf_counter()
+            controller.learn(plant, r)
+            out.learn_seconds += time.perf_counter() - t0
+        stage[0] = f"feedforward of {r.name}"
+        out.feedforwards.append(checked(controller.feedforward(r), r, "feedforward", axes))
+        offset = getattr(controller, "reference_offset", lambda _: None)(r)
+        out.offsets.append(None if offset is None else checked(offset, r, "reference_offset", axes))
+        if hasattr(controller, "nn_contribution"):
+            out.nn_contributions.append(controller.nn_contribution(r))
+    return out
+
+
+def checked(values, reference, what: str, axes: Sequence[str]) -> np.ndarray:
+    """A method's signal for ``reference`` as a float array, or a clear error: real numbers, the
+    reference's shape, finite (the error names the first bad sample and axis)."""
+    f = np.asarray(values)
+    if f.dtype.kind not in "fiu":
+        raise ValueError(f"{what} for {reference.name} must be real numbers, got dtype {f.dtype}: {short_repr(values)}")
+    if f.shape != reference.positions.shape:
+        raise ValueError(f"{what} for {reference.name} has shape {f.shape}, expected {reference.positions.shape}")
+    f = f.astype(float, copy=False)
+    bad = np.argwhere(~np.isfinite(f))
+    if len(bad):
+        sample, axis = bad[0]
+        raise ValueError(f"{what} for {reference.name} contains NaN or inf, first at sample {sample}, axis "
+                         f"{axes[axis]}: {f[sample, axis]}")
+    return f

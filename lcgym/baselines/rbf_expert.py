@@ -33,7 +33,7 @@ from .. import systems
 from ..rbf_expert.influence import task_influence
 from ..rbf_expert.predictor import RBFExpertConfig, RBFExpertPredictor
 from .ilc import ILCConfig, frequency_update, learning_filters, nominal_update
-from .protocol import Controller, Cost
+from .protocol import Controller, Cost, given_system
 
 MOVING_TOL = 1e-6  # rad/s: a joint whose reference velocity never exceeds this gets no networks
 
@@ -43,20 +43,23 @@ class RBFExpertFeedforward(Controller):
     has no nominal structure);
     ``learn(plant, reference)`` trains the predictor on the first call; ``feedforward(reference)``
     applies the predicted update. Learned: ``predictor_``, ``plant_`` (the one trained on: its
-    loop defines L), ``outside_``, ``cost_``."""
+    loop defines L), ``outside_``, ``cost_``. ``system``: the machine (a ``System`` or a spec for
+    ``systems.get``, such as "flexarm")."""
 
     name = "rbf-expert"
     uses_plant = True
 
-    def __init__(self, config: RBFExpertConfig | None = None, learning: ILCConfig | None = None):
+    def __init__(self, config: RBFExpertConfig | None = None, learning: ILCConfig | None = None,
+                 system: systems.System | str | None = None):
         self.config = config
         self.learning = learning
+        self.system = system
 
     def fit(self, trials) -> RBFExpertFeedforward:
         from ..references import references_of
         from .physical import PhysicalFeedforward
 
-        self.system_ = systems.of_trials(trials)
+        self.system_ = given_system(self)
         self.nominal_ = self.system_.nominal
         self.start_ = PhysicalFeedforward(system=self.system_).fit(trials) if self.nominal_ is None else None
         self.training_ = references_of(trials)

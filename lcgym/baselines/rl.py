@@ -53,7 +53,7 @@ from tqdm.auto import tqdm
 
 from .. import systems
 from ..provenance import source_hash
-from .protocol import Controller, Cost
+from .protocol import Controller, Cost, given_system
 
 ALGORITHMS = ("ppo", "sac", "td3")
 PASSES = 1.0  # env steps per training sample on a machine that sets none (System.hints["benchmark"]["rl"])
@@ -155,19 +155,21 @@ class RLFeedforward(Controller):
     policy out deterministically on ``reference``; ``feedforward(reference)`` returns that
     rollout's feedforward. Learned: ``model_`` (the SB3 agent), ``curve_`` (training curve),
     ``record_`` (steps, episodes, seconds, cache key), ``rollouts_`` (reference name -> the
-    rollout's ``Trial``), ``cost_``."""
+    rollout's ``Trial``), ``cost_``. ``system``: the machine (a ``System`` or a spec for
+    ``systems.get``, such as "ix")."""
 
     name = "rl"
     uses_plant = True
 
-    def __init__(self, config: RLConfig | None = None):
+    def __init__(self, config: RLConfig | None = None, system: systems.System | str | None = None):
         self.config = config
+        self.system = system
 
     # --- fit: what the training data gives -------------------------------------------------
     def fit(self, trials) -> RLFeedforward:
         from ..references import references_of
 
-        self.system_ = systems.of_trials(trials)
+        self.system_ = given_system(self)
         cfg = self._config()
         self.base_ = None
         if cfg.residual and self.system_.nominal is None:

@@ -32,18 +32,23 @@ KEYS = ["system", "signal", "period", "axis"]
 
 
 def select(df: pd.DataFrame, config_hash: str | None = None) -> tuple[pd.DataFrame, list[str]]:
-    """Rows of one configuration (default: the newest row's), newest run per cell; and the other
+    """Rows of one configuration per machine (``config_hash``, else each machine's newest: a file may
+    collect machines benchmarked at different times), newest run per cell; and the other
     configuration hashes present in the file."""
     if df.empty:
         return df, []
     newest = df.sort_values("timestamp", kind="stable")
-    chosen = config_hash or str(newest["config_hash"].iloc[-1])
-    if chosen not in set(df["config_hash"]):
-        raise ValueError(f"configuration {chosen!r} not in the results; present: {sorted(set(df['config_hash']))}")
-    part = newest[newest["config_hash"] == chosen]
+    if config_hash is not None and config_hash not in set(df["config_hash"]):
+        raise ValueError(f"configuration {config_hash!r} not in the results; present: {sorted(set(df['config_hash']))}")
+    if config_hash:
+        part = newest[newest["config_hash"] == config_hash]
+    else:
+        per_machine = newest.groupby("system", sort=False)["config_hash"].last()
+        part = newest[newest["config_hash"] == newest["system"].map(per_machine)]
+    chosen = set(part["config_hash"])
     last_run = part.groupby(["system", "method", "seed"])["run_id"].transform("last")
     part = part[part["run_id"] == last_run]
-    others = sorted(set(df["config_hash"]) - {chosen})
+    others = sorted(set(df["config_hash"]) - chosen)
     return part.sort_index(), others
 
 

@@ -5,8 +5,9 @@ A cell (system, method, seed):
 1. runs the system's plant with feedback only on the seeded training references (the shared
    training data, counted in every method's ``plant_trials``; computed once per process for all
    methods of a system and seed);
-2. builds the method's controller and calls ``fit(training trials)``; methods that learn on the
-   plant (``uses_plant``) also get ``learn(plant, reference)`` before each evaluation reference;
+2. builds the method's controller, handing it the cell's machine (``protocol.build_method``), and
+   calls ``fit(training trials)``; methods that learn on the plant (``uses_plant``) also get
+   ``learn(plant, reference)`` before each evaluation reference (``protocol.apply``);
 3. applies its feedforward (and, on the FlexArm, its reference offset) on the training and the
    validation references and computes MA, RMS and Inf of what the system scores
    (``System.bench``, ``systems/<machine>/bench.py``: tracking error [deg] and input residual u - f per axis; on the arm also the
@@ -44,9 +45,9 @@ import pandas as pd
 from tqdm.auto import tqdm
 
 from .. import systems
-from ..baselines import CONTROLLERS, Cost, load_method
+from ..baselines import CONTROLLERS, Cost, load_method, protocol
+from ..baselines.protocol import apply, build_method
 from ..data import atomic_write
-from ..envs.actions import short_repr
 from ..provenance import __version__, git_commit, source_hash
 from .store import append_rows, completed_cells
 
@@ -57,8 +58,10 @@ EVALUATED_SETS = ("train", "validation")
 class BenchConfig:
     """What a benchmark runs: systems, method ids (or module:Class), seeds, and the budgets.
 
-    n_train / n_validation: references per set; duration: seconds of moves per IX reference (an
-    arm reference is one TCP line out and back; ``systems.FlexArmBench``).
+    systems: benchmark names (``systems.benchmark_name``: "ix-v1", "two_link", a machine file, a
+    URDF, ``module:attr``); methods: the default runs every registered method on the machines it
+    runs on (``basic``: the FlexArm only). n_train / n_validation: references per set; duration:
+    seconds of moves per reference (an arm reference is one TCP line out and back; ``FlexArmBench``).
     """
 
     systems: tuple[str, ...] = field(default_factory=systems.newest_benchmarks)
@@ -72,9 +75,10 @@ class BenchConfig:
         # versioned names: "ix" is the newest version ("ix-v1"); an unknown name fails with the list
         object.__setattr__(self, "systems", tuple(dict.fromkeys(systems.benchmark_name(s) for s in self.systems)))
         families = {systems.family_of(s) for s in self.systems}
+        every = tuple(self.methods) == tuple(CONTROLLERS)  # the default: each method where it runs (cells)
         for m in self.methods:
             where = getattr(load_method(m, CONTROLLERS), "systems", None)  # fails early with a clear message
-            if where is not None and not set(where) & families:
+            if where is not None and not set(where) & families and not every:
                 raise ValueError(f"method {m!r} runs on {', '.join(where)} only, not on {', '.join(self.systems)}")
         if any(s < 0 for s in self.seeds):
             raise ValueError(f"seeds must be >= 0, got {list(self.seeds)}")
@@ -169,28 +173,18 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_th
     stage = ["loading the method"]
     try:
         with _time_limit(timeout, stage):
-            controller = load_method(method, CONTROLLERS)()
+            controller = build_method(method, systems.benchmark(system), CONTROLLERS)
             stage[0] = "fit"
             t0 = time.perf_counter()
             controller.fit(train_trials)
             learn_seconds = time.perf_counter() - t0
             rows = []
             for set_name in EVALUATED_SETS:
-                ffs, offsets, nn = [], [], []
-                for r in refs[set_name]:
-                    if getattr(controller, "uses_plant", False):
-                        stage[0] = f"learn on {r.name}"
-                        t1 = time.perf_counter()
-                        controller.learn(bench.plant, r)
-                        learn_seconds += time.perf_counter() - t1
-                    stage[0] = f"feedforward of {r.name}"
-                    ffs.append(_checked(controller.feedforward(r), r, "feedforward", bench.axes))
-                    offset = getattr(controller, "reference_offset", lambda _: None)(r)
-                    offsets.append(None if offset is None else _checked(offset, r, "reference_offset", bench.axes))
-                    if hasattr(controller, "nn_contribution"):
-                        nn.append(controller.nn_contribution(r))
+                signals = apply(controller, bench.plant, refs[set_name], bench.axes, stage=stage)
+                learn_seconds += signals.learn_seconds
+                ffs, nn = signals.feedforwards, signals.nn_contributions
                 stage[0] = f"the plant runs of the {set_name} references"
-                trials = bench.run(refs[set_name], ffs, offsets)
+                trials = bench.run(refs[set_name], ffs, signals.offsets)
                 if set_name == "validation":
                     trace = bench.trace(trials[0])
                 nn_rms = dict(zip(bench.axes, _rms_per_axis(nn), strict=True)) if nn else {}
@@ -211,32 +205,15 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_th
 def _failure(exc: Exception, stage: str) -> str:
     """One line for a failed cell: the exception, the stage of the cell, and the innermost line of
     the method's own code that raised it (file name and line; not a line of numpy or another
-    installed package, nor of this runner, whose checks say what they refused), so that a user's
-    bug is found without a traceback. A time limit names its stage itself."""
+    installed package, nor of this runner or the protocol's driver, whose checks say what they
+    refused), so that a user's bug is found without a traceback. A time limit names its stage itself."""
     if isinstance(exc, CellTimeout):
         return f"{type(exc).__name__}: {exc}"
     library = (sysconfig.get_paths()["stdlib"], sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"])
     frames = [f for f in traceback.extract_tb(exc.__traceback__)
-              if f.filename != __file__ and not f.filename.startswith(library)]
+              if f.filename not in (__file__, protocol.__file__) and not f.filename.startswith(library)]
     place = f" at {Path(frames[-1].filename).name}:{frames[-1].lineno}" if frames else ""
     return f"{type(exc).__name__} in {stage}{place}: {' '.join(str(exc).split())}"
-
-
-def _checked(values, reference, what: str, axes: Sequence[str]) -> np.ndarray:
-    """A method's signal for ``reference`` as a float array, or a clear error: real numbers, the
-    reference's shape, finite (the error names the first bad sample and axis)."""
-    f = np.asarray(values)
-    if f.dtype.kind not in "fiu":
-        raise ValueError(f"{what} for {reference.name} must be real numbers, got dtype {f.dtype}: {short_repr(values)}")
-    if f.shape != reference.positions.shape:
-        raise ValueError(f"{what} for {reference.name} has shape {f.shape}, expected {reference.positions.shape}")
-    f = f.astype(float, copy=False)
-    bad = np.argwhere(~np.isfinite(f))
-    if len(bad):
-        sample, axis = bad[0]
-        raise ValueError(f"{what} for {reference.name} contains NaN or inf, first at sample {sample}, axis "
-                         f"{axes[axis]}: {f[sample, axis]}")
-    return f
 
 
 def traces_dir(out: str | Path) -> Path:

@@ -38,7 +38,9 @@ COLUMNS = (
     "lcgym_version", "git_commit", "timestamp", "config_hash",
 )
 SYSTEMS = (*(f"{m}-{v}" for m, versions in systems.VERSIONS.items() for v in versions), *systems.BUILT_IN)
-"""Versioned benchmark machines ("ix-v1"), and the bare names of files written before versions (their v0)."""
+"""Versioned built-in machines ("ix-v1"), and the bare names of files written before versions (their v0).
+Any other non-empty name is a user's machine (a machine file, a URDF, ``module:attr``), whose input
+unit is its own."""
 REFERENCE_SETS = ("train", "validation", "test")
 SIGNALS = {
     "tracking_error": "deg",
@@ -108,7 +110,7 @@ def validate(df: pd.DataFrame, where: str = "results") -> None:
             r = int(rows[0])
             raise ResultsFileError(f"{where}: column {column!r}, row {r + 1}: invalid value {df[column].iloc[r]!r}")
 
-    bad("system", ~df["system"].isin(SYSTEMS))
+    bad("system", ~(df["system"].isin(SYSTEMS) | (df["system"].astype(str).str.strip().str.len() > 0)))
     bad("status", ~df["status"].isin(STATUS))
     ok = df["status"] == "ok"
     bad("reference_set", ok & ~df["reference_set"].isin(REFERENCE_SETS))
@@ -118,11 +120,20 @@ def validate(df: pd.DataFrame, where: str = "results") -> None:
         values = pd.to_numeric(df[col], errors="coerce")
         bad(col, ok & ~(values.notna() & (values >= 0) & values.abs().lt(float("inf"))))
     bad("seed", ~pd.to_numeric(df["seed"], errors="coerce").ge(0))
-    expected_unit = [
-        (SIGNALS[s][sys] if isinstance(SIGNALS.get(s), dict) else SIGNALS.get(s))
-        for s, sys in zip(df["signal"], df["system"], strict=True)
-    ]
+    expected_unit = [_unit(s, sys, unit) for s, sys, unit in zip(df["signal"], df["system"], df["unit"], strict=True)]
     bad("unit", ok & (df["unit"] != pd.Series(expected_unit, index=df.index)))
+
+
+def _unit(signal: str, system: str, unit: str):
+    """The unit a row of ``signal`` on ``system`` must carry (``unit``, the row's, where it may be its own:
+    a user machine's input residual; a prismatic axis's tracking error in mm)."""
+    expected = SIGNALS.get(signal)
+    if system not in SYSTEMS:
+        if signal == "input_residual" and isinstance(unit, str) and unit.strip():
+            return unit
+        if signal == "tracking_error" and unit in ("deg", "mm"):
+            return unit
+    return expected.get(system) if isinstance(expected, dict) else expected
 
 
 def completed_cells(path: str | Path, config_hash: str) -> set[tuple[str, str, int]]:

@@ -35,14 +35,15 @@ class PGNN:
     are stored as given; ``fit`` sets ``module_`` (the trained torch module), ``physical_`` (the
     least-squares physical model it started from) and ``info_`` (training history, epochs, seconds).
 
-    system: the machine (a ``systems.System``; default the built-in machine named in the trials'
-    metadata, ``meta["system"]``); config: default ``PGNNConfig.for_system(system)``. A ``physical``
-    model passed in is fitted in place (its ``params_`` become zeta^0); it must use the same sample
-    rate ``fs`` [Hz] as the PGNN and the trials (checked). ``load`` restores ``module_`` only:
+    system: the machine (a ``systems.System`` or a spec for ``systems.get``, such as "ix"; default
+    the machine of ``physical``; one of the two is needed); config: default
+    ``PGNNConfig.for_system(system)``. A ``physical`` model passed in is fitted in place (its
+    ``params_`` become zeta^0); it must use the same sample rate ``fs`` [Hz] as the PGNN and the
+    trials (checked). ``load`` restores ``module_`` only:
     ``physical_`` and ``info_`` belong to the fit and are not saved."""
 
     def __init__(self, config: PGNNConfig | None = None, fs: float = 500.0, physical: PhysicalModel | None = None,
-                 system: systems.System | None = None):
+                 system: systems.System | str | None = None):
         self.config = config
         self.fs = fs
         self.physical = physical
@@ -56,7 +57,7 @@ class PGNN:
         return getattr(self, "_system_config", PGNNConfig())
 
     def fit(self, trials, progress: bool = False) -> PGNN:
-        machine = self.system or (self.physical.system if self.physical is not None else systems.of_trials(trials))
+        machine = self._machine()
         if self.config is None:
             self._system_config = PGNNConfig.for_system(machine)
         cfg = self.config_
@@ -77,6 +78,15 @@ class PGNN:
         self.info_ = train(self.module_, data, cfg, progress=progress, seconds=left)
         self.info_["fit_seconds"] = time.perf_counter() - start
         return self
+
+    def _machine(self) -> systems.System:
+        """The machine it learns on: ``system``, else the one of the ``physical`` model given."""
+        if self.system is not None:
+            return systems.get(self.system)
+        if self.physical is not None:
+            return self.physical.system
+        raise ValueError("PGNN: give the machine, PGNN(system='ix') (a name, a .urdf file, module:attr or a System), "
+                         "or a physical model, PGNN(physical=...)")
 
     @property
     def params_(self):

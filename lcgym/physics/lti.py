@@ -85,4 +85,19 @@ def lsim(A, B, C, D, u, fs: float, x0=None) -> tuple[np.ndarray, np.ndarray]:
     return y, np.squeeze(x)
 
 
+def rigid_axis(J: float, D: float, fs: float, z: np.ndarray, delay: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """(numerator, denominator) at the points z of the sampled rigid axis P(s) = 1 / (J s^2 + D s)
+    [rad per input unit; J in input unit s^2/rad, D in input unit s/rad] behind a zero-order hold at
+    ``fs`` [Hz], with ``delay`` samples of computation delay (z^-delay): P(z) = num / den. What
+    plant-inversion ILC inverts on a machine seen as independent rigid axes (``baselines.ilc``)."""
+    from scipy import signal
+
+    num, den, _ = signal.cont2discrete(([1.0], [J, D, 0.0]), 1.0 / fs, method="zoh")
+    num = np.trim_zeros(np.ravel(num), "f")
+    pn, pd = np.polyval(num, z), np.polyval(den, z)
+    for _ in range(delay):
+        pd = z * pd
+    return pn, pd
+
+
 numba.config.CACHE_DIR = _previous_cache_dir

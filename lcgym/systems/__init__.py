@@ -4,12 +4,16 @@
     ix = systems.get("ix")                              # a built-in benchmark machine
     emps = systems.get("emps")                          # a worked example of real data (``EXAMPLES``)
     arm = systems.get("path/to/robot.urdf", joints=("shoulder", "elbow"))   # a URDF (pinocchio)
-    two = systems.get("two_link", joints=("shoulder", "elbow"))  # a URDF shipped with lcgym (``URDF_EXAMPLES``)
+    two = systems.get("two_link")                       # a built-in machine given by its machine file
+    cobot = systems.get("cobot6")                       # a URDF shipped with lcgym (``URDF_EXAMPLES``)
     mine = systems.get("my_module:MY_MACHINE")          # a System (or a function returning one)
+    arm = systems.benchmark("my_arm.toml")              # a machine file: a URDF with its plant (``machine.py``)
 
 Built-in machines (``BUILT_IN``) live in one folder each: ``systems/ix/`` (paper 000's C-arm) and
 ``systems/flexarm/`` (paper 002's arm); they have a plant, so the benchmark, the simulator and the
-Gymnasium envs run on them. Any machine, built-in or not, has a rigid-body model, so the
+Gymnasium envs run on them. So has a machine file's or a URDF's machine (``benchmark``: a
+``URDFPlant`` with the hidden effects, feedback and sensors the file gives; ``lcgym/Machine-v0``).
+Any machine, built-in or not, has a rigid-body model, so the
 diagnosis, the physical model and the PGNN run on it (``System``'s docstring).
 """
 
@@ -19,49 +23,84 @@ import importlib
 import os
 import sys
 from collections.abc import Sequence
+from dataclasses import dataclass
 from importlib import resources
 
 from .system import Axis, ParameterVector, SimulationDiverged, System
 
-BUILT_IN = {"ix": ("lcgym.systems.ix", "IX"), "flexarm": ("lcgym.systems.flexarm", "FLEXARM")}
-"""Name -> (module, attribute) of each built-in machine."""
+
+@dataclass(frozen=True)
+class BuiltIn:
+    """Where a built-in benchmark machine lives and how Gymnasium finds it: ``module``.``attr`` is its
+    ``System``; ``versions`` its plant's versions, oldest first (a version is frozen once released: a
+    plant change makes a new one; the newest is the benchmark's default); ``env`` the name of its
+    Gymnasium ids (``lcgym/<env>-<version>``), built by ``entry_point`` / ``vector_entry_point`` with
+    ``env_kwargs`` and the version."""
+
+    module: str
+    attr: str
+    versions: tuple[str, ...]
+    env: str
+    entry_point: str
+    vector_entry_point: str
+    env_kwargs: tuple[tuple[str, str], ...] = ()
+
+
+_MACHINE_ENV = ("lcgym.systems.machine_env:MachineEnv", "lcgym.systems.machine_env:MachineVectorEnv")
+
+BUILT_IN = {
+    "ix": BuiltIn("lcgym.systems.ix", "IX", ("v0", "v1"), "IX", "lcgym.systems.ix.env:IXEnv",
+                  "lcgym.systems.ix.env:IXVectorEnv"),
+    "flexarm": BuiltIn("lcgym.systems.flexarm", "FLEXARM", ("v0", "v1"), "FlexArm", "lcgym.systems.flexarm.env:FlexArmEnv",
+                       "lcgym.systems.flexarm.env:FlexArmVectorEnv"),
+    "two_link": BuiltIn("lcgym.systems.two_link", "TWO_LINK", ("v0",), "TwoLink", *_MACHINE_ENV, (("machine", "two_link"),)),
+}
+"""The built-in benchmark machines, one folder each (``systems/<name>/``): one line here registers one."""
 
 EXAMPLES = {"emps": ("lcgym.systems.examples.emps", "EMPS")}
 """Name -> (module, attribute) of machines shipped as worked examples of real data (no plant: the
 diagnosis and the physical model run on them, the benchmark does not)."""
 
-URDF_EXAMPLES = {"two_link": "two_link.urdf", "cobot6": "cobot6.urdf"}
+URDF_EXAMPLES = {"cobot6": "cobot6.urdf"}
 """Name -> file in ``lcgym/systems/examples/`` of the URDFs shipped with lcgym (package data): by
-name, ``--system two_link`` works from an installed wheel as well as from the source tree."""
+name, ``--system cobot6`` works from an installed wheel as well as from the source tree. (The
+two-link arm's URDF is the built-in machine ``two_link``'s, in ``systems/two_link/``.)"""
 
-VERSIONS = {"ix": ("v0", "v1"), "flexarm": ("v0", "v1")}
-"""The versions of each built-in machine's plant, oldest first. A version is frozen once released: a
-plant change makes a new one (what changed: the Version History of ``systems/<machine>/env.py``).
-The newest is the benchmark's default; the rigid-body model (diagnosis, physical model) is the
-machine's, shared by its versions."""
+VERSIONS = {name: m.versions for name, m in BUILT_IN.items()}
+"""The versions of each built-in machine's plant, oldest first (``BuiltIn.versions``). The
+rigid-body model (diagnosis, physical model) is the machine's, shared by its versions."""
 
-_IX_ENV = {"entry_point": "lcgym.systems.ix.env:IXEnv", "vector_entry_point": "lcgym.systems.ix.env:IXVectorEnv"}
-_ARM_ENV = {"entry_point": "lcgym.systems.flexarm.env:FlexArmEnv",
-            "vector_entry_point": "lcgym.systems.flexarm.env:FlexArmVectorEnv"}
-ENVS = {
-    "lcgym/IX-v0": {**_IX_ENV, "kwargs": {"version": "v0"}},
-    "lcgym/IX-v1": {**_IX_ENV, "kwargs": {"version": "v1"}},
-    "lcgym/FlexArm-v0": {**_ARM_ENV, "kwargs": {"version": "v0"}},
-    "lcgym/FlexArm-v1": {**_ARM_ENV, "kwargs": {"version": "v1"}},
-}
-"""The built-in machines' Gymnasium ids and entry points (their ``System.envs`` take them from here), so
-that ``import lcgym`` registers them without importing the machines (plants, kernels, scipy)."""
+ENVS = {f"lcgym/{m.env}-{v}": {"entry_point": m.entry_point, "vector_entry_point": m.vector_entry_point,
+                               "kwargs": {**dict(m.env_kwargs), "version": v}}
+        for m in BUILT_IN.values() for v in m.versions}
+ENVS["lcgym/Machine-v0"] = {"entry_point": _MACHINE_ENV[0], "vector_entry_point": _MACHINE_ENV[1], "kwargs": {}}
+"""The Gymnasium ids and entry points of the built-in machines (their ``System.envs`` take them
+from here) and ``lcgym/Machine-v0``, any machine's (``gym.make("lcgym/Machine-v0",
+machine="my_arm.toml")``), so that ``import lcgym`` registers them without importing the machines
+(plants, kernels, scipy)."""
+
+
+def is_file_machine(spec) -> bool:
+    """A machine named by a file or by Python (``.toml``, ``.urdf``, ``module:attr``), not a built-in name."""
+    text = str(spec)
+    return text.lower().endswith((".toml", ".urdf")) or (":" in text and not text.startswith(":"))
 
 
 def benchmark_name(spec: str) -> str:
-    """The versioned name of a benchmark machine: "ix" -> the newest ("ix-v1"), "ix-v0" -> "ix-v0"."""
-    family, sep, version = str(spec).rpartition("-")
+    """The name of a benchmark machine in the results: a built-in one with its version ("ix" -> the
+    newest, "ix-v1"; "ix-v0" -> "ix-v0"), a machine file, URDF or ``module:attr`` as given (it
+    must load and have a plant: ``benchmark``)."""
+    spec = str(spec)
+    if is_file_machine(spec) or (spec not in VERSIONS and spec in URDF_EXAMPLES):
+        benchmark(spec)  # fails here, with the reason, rather than in every cell
+        return spec
+    family, sep, version = spec.rpartition("-")
     if not sep:
         family, version = spec, None
     if family not in VERSIONS or (version is not None and version not in VERSIONS[family]):
         names = ", ".join(f"{m} ({', '.join(f'{m}-{v}' for v in vs)})" for m, vs in VERSIONS.items())
-        raise ValueError(f"unknown system {spec!r}; available: {names} (a name without a version is the "
-                         "newest; the benchmark needs a machine with a plant)")
+        raise ValueError(f"unknown system {spec!r}; available: {names}, or a machine file (.toml), a URDF or "
+                         "module:attr (a name without a version is the newest; the benchmark needs a machine with a plant)")
     return f"{family}-{version or VERSIONS[family][-1]}"
 
 
@@ -70,34 +109,73 @@ def newest_benchmarks() -> tuple[str, ...]:
     return tuple(benchmark_name(m) for m in VERSIONS)
 
 
+def benchmark(spec: str | System) -> System:
+    """The benchmark machine ``spec`` names: a built-in one (any version), a machine file (its plant
+    as the file says), a URDF (a plant with ``machine.MachineSettings``' defaults: no hidden effect,
+    10 Hz PD feedback), ``module:attr`` or a ``System``; it has a ``bench``."""
+    machine = get(spec)
+    if machine.bench is not None:
+        return machine
+    from .machine import benchmark_machine
+    from .urdf import URDFRobot
+
+    if isinstance(getattr(machine.regressor, "__self__", None), URDFRobot):
+        return benchmark_machine(machine)
+    raise ValueError(f"machine {machine.name} has no plant, so the benchmark cannot run on it: give a machine file "
+                     "(.toml), a URDF, or a System made by lcgym.systems.machine.benchmark_machine")
+
+
 def make_bench(spec: str):
-    """The bench (``systems/bench.py``) of a benchmark machine, "ix", "ix-v0", "flexarm-v1", ...,
-    with the plant of that version."""
-    family, version = benchmark_name(spec).rsplit("-", 1)
+    """The bench (``systems/bench.py``) of a benchmark machine, "ix", "ix-v0", "flexarm-v1",
+    "my_arm.toml", ..., with the plant of that version."""
+    name = benchmark_name(spec)
+    built_in = _built_in_version(name)
+    if built_in is None:
+        return benchmark(name).bench("v0")
+    family, version = built_in
     return get(family).bench(version)
 
 
 def family_of(spec: str) -> str:
-    """The machine a (versioned) benchmark name belongs to: "ix-v0" -> "ix"."""
-    return benchmark_name(spec).rsplit("-", 1)[0]
+    """The machine a benchmark name belongs to: "ix-v0" -> "ix"; a file or ``module:attr`` as given."""
+    name = benchmark_name(spec)
+    built_in = _built_in_version(name)
+    return name if built_in is None else built_in[0]
+
+
+def _built_in_version(name: str) -> tuple[str, str] | None:
+    """("ix", "v0") of a built-in machine's versioned name "ix-v0"; None for any other name."""
+    family, sep, version = name.rpartition("-")
+    return (family, version) if sep and family in VERSIONS and version in VERSIONS[family] else None
 
 
 def get(spec: str | System, joints: Sequence[str] | None = None, **options) -> System:
     """The machine ``spec`` names: a ``System`` (returned as is), a built-in name (``BUILT_IN``; a
     versioned one, "ix-v0", names the same machine: versions differ in their plant only), a
     ``.urdf`` file (``urdf.from_urdf(spec, joints, **options)``: ``joints`` are the axes, the
-    URDF's other joints are locked) or ``module:attr`` (a ``System`` or a function returning one,
+    URDF's other joints are locked), a machine file (``.toml``, ``machine.load_machine``: a URDF
+    with the plant it should have) or ``module:attr`` (a ``System`` or a function returning one,
     imported from the current folder too, like ``python -m``)."""
     if isinstance(spec, System):
         return spec
     spec = str(spec)
     if spec not in BUILT_IN and spec.rpartition("-")[0] in VERSIONS:  # "ix-v0": the machine of that plant
         spec = family_of(spec)
-    if spec in BUILT_IN or spec in EXAMPLES:
-        module, attr = {**BUILT_IN, **EXAMPLES}[spec]
+    if spec in BUILT_IN:
+        machine = getattr(importlib.import_module(BUILT_IN[spec].module), BUILT_IN[spec].attr)
+        if (joints is not None and tuple(joints) != machine.axis_names) or options:
+            raise ValueError(f"{spec} is a built-in machine with axes {', '.join(machine.axis_names)}: give its URDF "
+                             "file to choose other joints or options")
+        return machine
+    if spec in EXAMPLES:
+        module, attr = EXAMPLES[spec]
         return getattr(importlib.import_module(module), attr)
     if spec in URDF_EXAMPLES:
         spec = str(resources.files("lcgym.systems.examples").joinpath(URDF_EXAMPLES[spec]))
+    if spec.lower().endswith(".toml"):
+        from .machine import load_machine
+
+        return load_machine(spec)
     if spec.lower().endswith(".urdf"):
         from .urdf import from_urdf
 
@@ -106,7 +184,7 @@ def get(spec: str | System, joints: Sequence[str] | None = None, **options) -> S
     if sep and module_name and attr:
         return from_python(module_name, attr)
     known = ", ".join([*BUILT_IN, *EXAMPLES, *URDF_EXAMPLES])
-    raise ValueError(f"unknown machine {spec!r}: give a built-in one ({known}), a .urdf file, "
+    raise ValueError(f"unknown machine {spec!r}: give a built-in one ({known}), a .urdf file, a machine file (.toml), "
                      "or module:attr naming a lcgym.systems.System")
 
 
@@ -141,18 +219,6 @@ def built_in() -> list[System]:
     return [get(name) for name in BUILT_IN]
 
 
-def of_trials(trials) -> System:
-    """The built-in machine that recorded ``trials`` (their ``meta["system"]``; "ix" when unset)."""
-    names = {t.meta.get("system", "ix") for t in trials}
-    if len(names) != 1:
-        raise ValueError(f"trials of several machines mixed: {sorted(names)}")
-    name = names.pop()
-    if name not in BUILT_IN:
-        raise ValueError(f"trials of machine {name!r}: give the machine (a System) explicitly; built-in: "
-                         f"{', '.join(BUILT_IN)}")
-    return get(name)
-
-
 def register_envs() -> None:
     """Register the built-in machines' Gymnasium ids (``ENVS``) with Gymnasium, once."""
     import gymnasium as gym
@@ -162,6 +228,8 @@ def register_envs() -> None:
             gym.register(id=env_id, **entry)
 
 
-__all__ = ["Axis", "BUILT_IN", "ENVS", "EXAMPLES", "URDF_EXAMPLES", "VERSIONS", "ParameterVector", "SimulationDiverged", "System",
-           "benchmark_name", "built_in", "family_of", "from_python", "get", "make_bench", "newest_benchmarks", "of_trials",
-           "register_envs"]
+__all__ = [
+    "Axis", "BUILT_IN", "BuiltIn", "ENVS", "EXAMPLES", "ParameterVector", "SimulationDiverged", "System",
+    "URDF_EXAMPLES", "VERSIONS", "benchmark", "benchmark_name", "built_in", "family_of", "from_python", "get",
+    "is_file_machine", "make_bench", "newest_benchmarks", "register_envs",
+]

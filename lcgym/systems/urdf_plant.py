@@ -54,7 +54,8 @@ import pinocchio as pin
 from ..data import Trial
 from ..physics import effects as fx
 from ..physics.compiled import FASTMATH, cache_dir
-from ..references import AxisProfile, Reference, sample
+from ..physics.lti import rigid_axis
+from ..references import Reference, random_moves
 from .system import SimulationDiverged, System
 from .urdf import URDFRobot, urdf_robot
 
@@ -157,6 +158,13 @@ def rk4_finish(a_last, S, h):
 
 
 @numba.njit(cache=True, fastmath=FASTMATH)
+def encoder(q, resolution, noise):
+    """The encoder's reading of position q [rad or m]: quantized to ``resolution`` (0: exact), plus
+    ``noise``."""
+    return (math.floor(q / resolution + 0.5) * resolution if resolution > 0.0 else q) + noise
+
+
+@numba.njit(cache=True, fastmath=FASTMATH)
 def control(k, S, C, ref, ff, noise, out, ts):
     """Sample k: encoder reading, PID and saturation (module docstring); S[U] receives u[k], out[k]
     the measured position, the input and the true position. Returns OK, TOO_FAR (a tracking error
@@ -166,8 +174,7 @@ def control(k, S, C, ref, ff, noise, out, ts):
         q = S[Q, i]
         if not (math.isfinite(q) and math.isfinite(S[V, i])):
             return NOT_FINITE
-        res = C[i, RES]
-        y = (math.floor(q / res + 0.5) * res if res > 0.0 else q) + noise[k, i]
+        y = encoder(q, C[i, RES], noise[k, i])
         e = ref[k, i] - y
         if k == 0:
             S[EPREV, i] = e
@@ -424,6 +431,7 @@ class URDFPlant:
         if not (np.isfinite(preroll) and preroll >= 0):
             raise ValueError(f"preroll must be >= 0 s, got {preroll}")
         self.fs, self.preroll, self.seed = float(fs), float(preroll), seed
+        self.parameters = None if parameters is None else tuple(np.asarray(parameters, dtype=float).ravel().tolist())
         self.model, viscous = self._true_model(parameters)
         self.data = self.model.createData()
         self.effects = tuple(effects)
@@ -453,6 +461,41 @@ class URDFPlant:
     @property
     def name(self) -> str:
         return self.system.name
+
+    @property
+    def axes(self) -> tuple[str, ...]:
+        return self.system.axis_names
+
+    def __repr__(self) -> str:
+        """Everything the plant's runs depend on (a trained model's cache key includes it)."""
+        arrays = {k: np.round(getattr(self, k), 12).tolist() for k in ("u_max", "encoder_resolution", "noise_rms",
+                                                                        "max_error")}
+        return (f"URDFPlant({self.system.name!r}, urdf={self.robot.path.name!r}, axes={list(self.axes)}, "
+                f"effects={list(self.bound_effects)}, gains={self.gains}, fs={self.fs}, substeps={self.substeps}, "
+                f"seed={self.seed}, preroll={self.preroll}, {arrays}, parameters={self.parameters})")
+
+    def process_sensitivity(self, n: int, positions: np.ndarray) -> np.ndarray:
+        """P S (e^{i w Ts}) (n_freq, n_axes) [rad or m per input unit] of the nominal closed loop per
+        axis on the rfft grid of n samples (what plant-inversion ILC inverts, ``baselines.ilc``):
+        each axis a rigid inertia J, the diagonal of the nominal (URDF) mass matrix at the mean pose of
+        ``positions`` (T, n_axes), behind a zero-order hold without computation delay
+        (``physics.lti.rigid_axis``), and this plant's PID with its low-passed derivative (``control``)."""
+        p = self.system.nominal_params().to_vector()
+        q_mean = np.asarray(positions, dtype=float).mean(axis=0)
+        J = np.diag(self.system.mass_matrix(p, q_mean[None, :])[0])
+        ts, g = 1.0 / self.fs, self.gains
+        z = np.exp(1j * 2 * math.pi * np.fft.rfftfreq(n, ts) * ts)
+        alpha = math.exp(-2 * math.pi * g.f_lp / self.fs)
+        out = np.empty((z.size, self.n_axes), dtype=complex)
+        for a in range(self.n_axes):
+            pn, pd = rigid_axis(J[a], 0.0, self.fs, z)
+            c = g.kp[a] + g.kd[a] * (1 - alpha) * (1 - 1 / z) / ts / (1 - alpha / z)
+            with np.errstate(divide="ignore", invalid="ignore"):  # the integrator's pole at z = 1 (bin 0)
+                c = c + g.ki[a] * ts / (z - 1) if g.ki[a] > 0 else c
+                out[:, a] = pn / (pd + pn * c)  # P / (1 + P C), finite at z = 1 without an integrator
+            if g.ki[a] > 0:
+                out[0, a] = 0.0  # with one it removes a constant error: P S (1) = 0
+        return out
 
     # ------------------------------------------------------------------ set-up
     def _true_model(self, parameters):
@@ -532,29 +575,12 @@ class URDFPlant:
         return name, x, f
 
     def _run_one(self, name: str, ref: np.ndarray, ff: np.ndarray) -> Trial:
-        P, T, n = int(round(self.preroll * self.fs)), ref.shape[0], self.n_axes
-        order = np.argsort(self.robot.v_index)  # pinocchio velocity index -> axis
-        REF = np.concatenate([np.repeat(ref[:1], P, axis=0), ref])[:, order]
-        FF = np.concatenate([np.repeat(ff[:1], P, axis=0), ff])[:, order]
-        noise = np.zeros((P + T, n))
-        if np.any(self.noise_rms > 0):
-            noise = self._rng.standard_normal((P + T, n)) * self.noise_rms[order]
-        S = self._workspace(REF[0], np.zeros(n))
-        out = np.zeros((P + T, 3, n))
-        ts, h = 1.0 / self.fs, 1.0 / (self.fs * self.substeps)
-        for k in range(P + T):
-            status = control(k, S, self._C, REF, FF, noise, out, ts)
+        run = ClosedLoopRun(self, name, ref, ff)
+        for k in range(-run.preroll, ref.shape[0]):
+            status = run.sample(k)
             if status != OK:
-                self._diverged(name, k - P, S, REF[k], status)
-            self._interval(S, h)
-        back = self.robot.v_index  # axis -> pinocchio velocity index
-        rec = out[P:]
-        return Trial(
-            t=np.arange(T) / self.fs, ref=ref, pos=rec[:, OUT_Y][:, back], u=rec[:, OUT_U][:, back], ff=ff,
-            axes=self.system.axis_names,
-            extra={f"load_{a}": rec[:, OUT_Q, back[i]] for i, a in enumerate(self.system.axis_names)},
-            meta={"system": self.name, "reference": name, "effects": [e.key for e in self.bound_effects]},
-        )
+                run.diverged(k, status)
+        return run.trial()
 
     def free_response(self, q0, qd0, inputs) -> tuple[np.ndarray, np.ndarray]:
         """The plant without feedback: from q0, qd0 (n_axes,) [rad or m, per s], each row of
@@ -564,31 +590,35 @@ class URDFPlant:
         if u.ndim != 2 or u.shape[1] != self.n_axes:
             raise ValueError(f"inputs must have shape (T, {self.n_axes}), got {u.shape}")
         order, back = np.argsort(self.robot.v_index), self.robot.v_index
-        S = self._workspace(np.asarray(q0, dtype=float)[order], np.asarray(qd0, dtype=float)[order])
+        S = self.workspace(np.asarray(q0, dtype=float)[order], np.asarray(qd0, dtype=float)[order])
+        views = self.views(S)
         q, qd = np.empty((u.shape[0] + 1, self.n_axes)), np.empty((u.shape[0] + 1, self.n_axes))
         q[0], qd[0] = S[Q, :self.n_axes][back], S[V, :self.n_axes][back]
         h = 1.0 / (self.fs * self.substeps)
         for k in range(u.shape[0]):
             S[U, :self.n_axes] = u[k, order]
-            self._interval(S, h)
+            self.interval(S, h, views)
             q[k + 1], qd[k + 1] = S[Q, :self.n_axes][back], S[V, :self.n_axes][back]
         return q, qd
 
-    def _workspace(self, q0: np.ndarray, v0: np.ndarray) -> np.ndarray:
-        """Workspace rows (module constants) for a start at rest at q0, v0 (pinocchio order); the
-        views aba reads are made once per run."""
+    def workspace(self, q0: np.ndarray, v0: np.ndarray) -> np.ndarray:
+        """Workspace rows (module constants) for a start at q0 with velocity v0 (pinocchio order)."""
         n, nq = self.n_axes, self.model.nq
         S = np.zeros((N_ROWS, max(n, nq)))
         S[Q, :n], S[V, :n] = q0, v0
-        self._views = (S[QPIN, :nq], S[VS, :n], S[TAU, :n])
         return S
 
-    def _interval(self, S: np.ndarray, h: float) -> None:
-        """One sample interval: ``substeps`` RK4 steps of size h with S[U] held."""
+    def views(self, S: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The rows of S that ``aba`` reads: configuration, stage velocity, net torque (made once per run)."""
+        n, nq = self.n_axes, self.model.nq
+        return S[QPIN, :nq], S[VS, :n], S[TAU, :n]
+
+    def interval(self, S: np.ndarray, h: float, views: tuple) -> None:
+        """One sample interval: ``substeps`` RK4 steps of size h with S[U] held; ``views``: ``views(S)``."""
         model, data, aba, E, tables, C = self.model, self.data, pin.aba, self._E, self._tables, self._C
-        qpin, vs, tau = self._views
+        qpin, vs, tau = views
         if self._load_rows.size:  # the slower path: a load-dependent friction reads g(q) at every stage
-            self._interval_with_load(S, h)
+            self._interval_with_load(S, h, views)
             return
         for _ in range(self.substeps):
             rk4_stage(0, vs, S, E, tables, C, h)
@@ -600,11 +630,11 @@ class URDFPlant:
             rk4_stage(3, a, S, E, tables, C, h)
             rk4_finish(aba(model, data, qpin, vs, tau), S, h)
 
-    def _interval_with_load(self, S: np.ndarray, h: float) -> None:
-        """``_interval`` with the load-dependent friction of ``_load_rows`` subtracted from each stage's
+    def _interval_with_load(self, S: np.ndarray, h: float, views: tuple) -> None:
+        """``interval`` with the load-dependent friction of ``_load_rows`` subtracted from each stage's
         net torque: (Fc + mu |g(q)|) tanh(v / eps), g the plant's gravity torque at the stage."""
         model, data, E, tables, C = self.model, self.data, self._E, self._tables, self._C
-        qpin, vs, tau = self._views
+        qpin, vs, tau = views
         rows = self._load_rows
         Fc, mu, eps = E[rows, LF_FC], E[rows, LF_MU], E[rows, LF_EPS]
 
@@ -637,6 +667,79 @@ class URDFPlant:
             "rad or m)")
 
 
+class ClosedLoopRun:
+    """One closed-loop run of a ``URDFPlant`` on one reference, sample by sample: what ``run`` loops
+    over and what the Gymnasium env (``machine_env``) steps. Samples k = -preroll .. T - 1; the
+    pre-roll holds the first reference and feedforward sample. ``ff`` (T, n_axes) [N m or N] may be
+    filled as the run goes (``set_feedforward``) before each sample; arrays in axis order."""
+
+    def __init__(self, plant: URDFPlant, name: str, ref: np.ndarray, ff: np.ndarray):
+        self.plant, self.name = plant, name
+        self.preroll, T, n = int(round(plant.preroll * plant.fs)), ref.shape[0], plant.n_axes
+        P = self.preroll
+        self.order = np.argsort(plant.robot.v_index)  # pinocchio velocity index -> axis
+        self.ref = ref
+        self.REF = np.concatenate([np.repeat(ref[:1], P, axis=0), ref])[:, self.order]
+        self.FF = np.concatenate([np.repeat(ff[:1], P, axis=0), ff])[:, self.order]
+        self.noise = np.zeros((P + T, n))
+        if np.any(plant.noise_rms > 0):
+            self.noise = plant._rng.standard_normal((P + T, n)) * plant.noise_rms[self.order]
+        self.S = plant.workspace(self.REF[0], np.zeros(n))
+        self.views = plant.views(self.S)
+        self.out = np.zeros((P + T, 3, n))
+        self.ts, self.h = 1.0 / plant.fs, 1.0 / (plant.fs * plant.substeps)
+
+    def set_feedforward(self, k: int, row: np.ndarray) -> None:
+        """The feedforward of sample k (n_axes,), axis order."""
+        self.FF[self.preroll + k] = row[self.order]
+
+    def sample(self, k: int) -> int:
+        """Sample k: encoder, feedback and input (``control``), then the interval to the next
+        sample. Returns OK, TOO_FAR or NOT_FINITE (then the state did not advance)."""
+        status = control(self.preroll + k, self.S, self.plant._C, self.REF, self.FF, self.noise, self.out, self.ts)
+        if status == OK:
+            self.plant.interval(self.S, self.h, self.views)
+        return status
+
+    def state(self) -> np.ndarray:
+        """A copy of the loop's state (the plant's and the controller's)."""
+        return self.S.copy()
+
+    def restore(self, state: np.ndarray) -> None:
+        self.S[:] = state
+
+    def measured(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(encoder reading, input, true position) of sample k, axis order."""
+        row = self.out[self.preroll + k][:, self.plant.robot.v_index]
+        return row[OUT_Y], row[OUT_U], row[OUT_Q]
+
+    def reading(self, k: int) -> np.ndarray:
+        """The encoders' reading (n_axes,) [rad or m], axis order, of the current state as sample k
+        will see it (what the loop reads next; after the last sample, without noise)."""
+        n, C, row = self.plant.n_axes, self.plant._C, self.preroll + k
+        noise = self.noise[row] if row < self.noise.shape[0] else np.zeros(n)
+        y = np.array([encoder(self.S[Q, i], C[i, RES], noise[i]) for i in range(n)])
+        return y[self.plant.robot.v_index]
+
+    def diverged(self, k: int, status: int):
+        self.plant._diverged(self.name, k, self.S, self.REF[self.preroll + k], status)
+
+    def trial(self, n: int | None = None, **meta) -> Trial:
+        """The first n samples (default all) as a Trial: reference, encoder ``pos``, input ``u``,
+        feedforward ``ff``, true positions ``extra["load_<axis>"]``; ``meta`` added to its meta."""
+        plant, P = self.plant, self.preroll
+        n = self.ref.shape[0] if n is None else n
+        back = plant.robot.v_index  # axis -> pinocchio velocity index
+        rec = self.out[P : P + n]
+        axes = plant.system.axis_names
+        return Trial(
+            t=np.arange(n) / plant.fs, ref=self.ref[:n], pos=rec[:, OUT_Y][:, back], u=rec[:, OUT_U][:, back],
+            ff=self.FF[P : P + n][:, back], axes=axes,
+            extra={f"load_{a}": rec[:, OUT_Q, back[i]] for i, a in enumerate(axes)},
+            meta={"system": plant.name, "reference": self.name, "effects": [e.key for e in plant.bound_effects], **meta},
+        )
+
+
 # ---------------------------------------------------------------------------------------------
 # References
 # ---------------------------------------------------------------------------------------------
@@ -644,44 +747,28 @@ class URDFPlant:
 
 def random_references(system: System, n: int = 1, duration: float = 20.0, fs: float = 1000.0, seed: int = 0,
                       speed: float = 0.5, accel_time: float = 0.2, jerk_time: float = 0.05, margin: float = 0.1,
-                      velocity_fallback: tuple[float, float] = (1.0, 0.1)) -> list[Reference]:
+                      velocity_fallback: tuple[float, float] = (1.0, 0.1), rng: np.random.Generator | None = None,
+                      prefix: str | None = None) -> list[Reference]:
     """``n`` seeded references of random point-to-point moves of every axis of a URDF machine,
-    third-order setpoints (``references.AxisProfile``) for about ``duration`` s each.
+    third-order setpoints (``references.random_moves``) for about ``duration`` s each.
 
     Targets lie within the URDF's joint limits, ``margin`` of the range inside each end (+-pi for a
     continuous joint). A move's velocity limit is a random 0.4-1 of ``speed`` times the URDF's
     velocity limit (``velocity_fallback`` [rad/s, m/s] where the URDF gives none), its
     acceleration limit reaches that velocity in ``accel_time`` s, its jerk limit that acceleration
-    in ``jerk_time`` s; dwells 0.2-1 s between moves."""
+    in ``jerk_time`` s; dwells 0.2-1 s between moves. ``rng``: the random stream (default one of
+    ``seed``); the references are named ``<prefix>-<i>`` (default ``<machine>-<seed>``)."""
     robot = urdf_robot(system)
     if n < 1 or not duration > 0 or not fs > 0 or not 0 < speed or not 0 <= margin < 0.5:
         raise ValueError(f"need n >= 1, duration > 0, fs > 0, speed > 0, 0 <= margin < 0.5; got {n}, {duration}, {fs}, "
                          f"{speed}, {margin}")
-    rng = np.random.default_rng(seed)
-    refs = []
-    for i in range(n):
-        profiles = [_axis_profile(rng, robot, k, duration, speed, accel_time, jerk_time, margin, velocity_fallback)
-                    for k in range(robot.n_axes)]
-        refs.append(sample(f"{system.name}-{seed}-{i}", profiles, fs, tail=0.5, axes=system.axis_names))
-    return refs
-
-
-def _axis_profile(rng, robot: URDFRobot, k: int, duration: float, speed: float, accel_time: float, jerk_time: float,
-                  margin: float, fallback: tuple[float, float]) -> AxisProfile:
-    lo, hi = robot.lower[k], robot.upper[k]
-    inset = margin * (hi - lo)
-    lo, hi = lo + inset, hi - inset
-    v_urdf = robot.velocity[k]
-    v_max = speed * (v_urdf if np.isfinite(v_urdf) and v_urdf > 0 else fallback[robot.kinds[k] == "prismatic"])
-    p = AxisProfile(rng.uniform(lo, hi)).dwell(0.5)
-    while p.end_time < duration:
-        target = rng.uniform(lo, hi)
-        if abs(target - p.x) < 0.05 * (hi - lo):
-            continue
-        v = rng.uniform(0.4, 1.0) * v_max
-        a = v / accel_time
-        p.move(target, v, a, a / jerk_time).dwell(rng.uniform(0.2, 1.0))
-    return p
+    rng = np.random.default_rng(seed) if rng is None else rng
+    v_urdf = robot.velocity
+    fallback = np.where(np.array(robot.kinds) == "prismatic", velocity_fallback[1], velocity_fallback[0])
+    v_max = speed * np.where(np.isfinite(v_urdf) & (v_urdf > 0), v_urdf, fallback)
+    prefix = prefix or f"{system.name}-{seed}"
+    return [random_moves(f"{prefix}-{i}", rng, robot.lower, robot.upper, v_max, duration, fs, system.axis_names, margin,
+                         accel_time, jerk_time) for i in range(n)]
 
 
 __all__ = ["FeedbackGains", "URDFPlant", "inertia_range", "pack_effects", "random_references"]

@@ -1,8 +1,9 @@
 """Example robot descriptions shipped with lcgym (package data).
 
-``two_link.urdf``: a planar two-link arm (joints ``shoulder`` and ``elbow`` about parallel
-horizontal axes, links 0.45 m and 0.40 m, 4.2 kg and 2.6 kg) with a 0.35 kg gripper finger on a
-prismatic joint ``finger`` that lcgym locks unless it is named as an axis.
+``two_link.urdf`` (in ``systems/two_link/``: the benchmark machine TwoLink-v0 is built on it): a
+planar two-link arm (joints ``shoulder`` and ``elbow`` about parallel horizontal axes, links 0.45 m
+and 0.40 m, 4.2 kg and 2.6 kg) with a 0.35 kg gripper finger on a prismatic joint ``finger`` that
+lcgym locks unless it is named as an axis.
 
 ``cobot6.urdf``: a six-joint collaborative arm with the UR5's joint layout, link lengths and masses
 (joints ``shoulder_pan_joint``, ``shoulder_lift_joint``, ``elbow_joint``, ``wrist_1_joint`` to
@@ -17,7 +18,7 @@ from pathlib import Path
 
 def two_link_urdf() -> Path:
     """Path of the example two-link arm's URDF (``lcgym.systems.urdf.from_urdf`` reads it)."""
-    return Path(str(resources.files(__name__).joinpath("two_link.urdf")))
+    return Path(str(resources.files("lcgym.systems.two_link").joinpath("two_link.urdf")))
 
 
 def cobot6_urdf() -> Path:

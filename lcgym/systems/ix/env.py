@@ -72,6 +72,7 @@ from gymnasium.vector.utils import batch_space
 from ...data import Trial
 from ...envs.actions import checked_action
 from ...envs.batched import BatchedVectorEnv
+from ...envs.render import render_episode
 from ...physics.kinematics import reference_kinematics, reference_positions, relay
 from ...physics.model import PhysicalModel
 from ...references import Reference
@@ -274,34 +275,8 @@ class IXEnv(gym.Env):
     def render(self):
         if self.render_mode != "rgb_array":
             return None
-        return render_episode(self.episode_trial() if self._k[0] > 0 else None, self.task.names[int(self._ref_idx[0])])
-
-
-def render_episode(trial: Trial | None, title: str) -> np.ndarray:
-    """RGB image (H, W, 3) of reference [deg] and tracking error [deg] per axis so far."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-    fig, axs = plt.subplots(2, 2, figsize=(8, 4.5), dpi=80, sharex=True)
-    fig.suptitle(title, fontsize=9)
-    for i, ax_name in enumerate(("propeller", "roll")):
-        top, bottom = axs[0, i], axs[1, i]
-        if trial is not None:
-            top.plot(trial.t, np.degrees(trial.ref[:, i]), lw=0.8)
-            bottom.plot(trial.t, np.degrees(trial.error[:, i]), lw=0.8, color="C1")
-        top.set_title(ax_name, fontsize=9)
-        top.set_ylabel("reference [deg]", fontsize=8)
-        bottom.set_ylabel("error [deg]", fontsize=8)
-        bottom.set_xlabel("time [s]", fontsize=8)
-    fig.tight_layout()
-    canvas = FigureCanvasAgg(fig)
-    canvas.draw()
-    image = np.asarray(canvas.buffer_rgba())[..., :3].copy()
-    plt.close(fig)
-    return image
+        return render_episode(self.episode_trial() if self._k[0] > 0 else None, self.task.names[int(self._ref_idx[0])],
+                              self.task.plant.axes)
 
 
 class IXVectorEnv(BatchedVectorEnv):

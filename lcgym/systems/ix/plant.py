@@ -39,10 +39,10 @@ from dataclasses import dataclass, field
 
 import numba
 import numpy as np
-from scipy import signal
 
 from ...data import Trial
 from ...physics import effects as fx
+from ...physics.lti import rigid_axis
 from ...references import Reference
 from ..system import SimulationDiverged
 from . import dynamics as ix
@@ -384,10 +384,7 @@ def process_sensitivity(n: int, fs: float, positions: np.ndarray, gains: Feedbac
     z = np.exp(1j * 2 * math.pi * np.fft.rfftfreq(n, ts) * ts)
     out = np.empty((z.size, 2), dtype=complex)
     for a in range(2):
-        num, den, _ = signal.cont2discrete(([1.0], [J[a], D[a], 0.0]), ts, method="zoh")
-        num = np.trim_zeros(np.ravel(num), "f")
-        # P_d(z) = z^-1 num(z) / den(z): the ZOH plant and the one-sample computation delay
-        pn, pd = np.polyval(num, z), z * np.polyval(den, z)
+        pn, pd = rigid_axis(J[a], D[a], fs, z, delay=1)  # the ZOH plant and the one-sample computation delay
         alpha = math.exp(-2 * math.pi * gains.f_lp[a] / fs)
         c = (1 - alpha) * (gains.kp[a] + gains.kd[a] * (1 - 1 / z) / ts) / (1 - alpha / z)
         out[:, a] = pn / (pd + pn * c)  # P / (1 + P C), finite at z = 1 (P has a pole there)

@@ -1,0 +1,274 @@
+"""A machine of your own in the benchmark: a URDF plus what its simulated plant should carry.
+
+The rigid body comes from the URDF (``urdf.from_urdf``, pinocchio); the plant (``URDFPlant``) adds
+the hidden effects you declare (what the nominal model lacks: your machine's friction, a cable, a
+gear), a feedback loop, encoders and input limits. Written as a machine file (TOML; every key but
+``urdf`` is optional):
+
+    # my_arm.toml
+    urdf = "my_arm.urdf"              # relative to this file
+    joints = ["shoulder", "elbow"]    # the axes (default: every movable joint; the others are locked)
+    name = "my_arm"                   # default: the URDF's robot name
+    fs = 1000.0                       # the controller's sample rate [Hz]
+    description = "..."
+
+    [feedback]                        # a bandwidth to derive PD(+I) gains from (FeedbackGains.tuned) ...
+    bandwidth = 10.0                  # Hz
+    damping = 0.7
+    integral_time = 0.5               # s; none by default
+    # ... or the gains themselves, one value per axis: kp, kd, ki and f_lp [Hz]
+
+    [sensors]
+    encoder_resolution = 1e-4         # rad or m per count, one value or one per axis (0: exact)
+    noise_rms = 0.0                   # rad or m
+
+    [limits]
+    u_max = [150.0, 80.0]             # N m or N (default: the URDF's effort limits)
+    max_error = 0.5                   # rad or m: beyond, a run stops as diverged
+
+    [references]                      # random point-to-point moves within the URDF's joint limits
+    speed = 0.5                       # a move's top speed: 0.4-1 x this x the URDF velocity limit
+    accel_time = 0.2                  # s to that speed
+    jerk_time = 0.05                  # s to that acceleration
+    margin = 0.1                      # kept clear of each end of the joint range (fraction)
+
+    [[hidden]]                        # one table per hidden effect (physics.effects; lcgym effects)
+    effect = "coulomb_friction"
+    axis = "elbow"
+    Fc = 3.0
+    eps = 0.02
+
+    [benchmark.rl]                    # a method's settings on this machine (System.hints["benchmark"])
+    passes = 1.0
+
+In Python, ``benchmark_machine(system_or_urdf, hidden=[...], ...)`` takes the same settings as
+arguments. Either gives a ``System`` with a bench (``URDFBench``: references, plant runs, the
+scored tables) and a Gymnasium env (``lcgym/Machine-v0``, ``systems.machine_env``): ``lcgym bench
+--systems my_arm.toml`` and ``gym.make("lcgym/Machine-v0", machine="my_arm.toml")``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .system import System
+
+MACHINE_ENV = "lcgym/Machine-v0"
+"""The Gymnasium id of every machine given by a machine file or by ``benchmark_machine``."""
+
+ENV_ENTRY = {"entry_point": "lcgym.systems.machine_env:MachineEnv",
+             "vector_entry_point": "lcgym.systems.machine_env:MachineVectorEnv"}
+
+
+@dataclass(frozen=True)
+class ReferenceSettings:
+    """Random point-to-point moves of every axis (``references.point_to_point``): a move's top speed
+    is a random 0.4-1 of ``speed`` x the URDF velocity limit (``velocity_fallback`` [rad/s, m/s]
+    where it gives none), reached in ``accel_time`` s with its acceleration reached in ``jerk_time``
+    s; targets ``margin`` (a fraction of the range) clear of each joint limit."""
+
+    speed: float = 0.5
+    accel_time: float = 0.2
+    jerk_time: float = 0.05
+    margin: float = 0.1
+    velocity_fallback: tuple[float, float] = (1.0, 0.1)
+
+    def __post_init__(self):
+        if not (self.speed > 0 and self.accel_time > 0 and self.jerk_time > 0 and 0 <= self.margin < 0.5):
+            raise ValueError(f"references: need speed, accel_time, jerk_time > 0 and 0 <= margin < 0.5, got {self}")
+
+
+@dataclass(frozen=True)
+class FeedbackSettings:
+    """The plant's feedback: gains derived from ``bandwidth`` [Hz], ``damping`` and ``integral_time``
+    [s] (``FeedbackGains.tuned``), or given per axis (``kp``, ``kd``, ``ki``; ``f_lp`` [Hz])."""
+
+    bandwidth: float = 10.0
+    damping: float = 0.7
+    integral_time: float | None = None
+    kp: tuple[float, ...] | None = None
+    kd: tuple[float, ...] | None = None
+    ki: tuple[float, ...] | None = None
+    f_lp: float | None = None
+
+    def gains(self, system: System, fs: float):
+        from .urdf_plant import FeedbackGains
+
+        if self.kp is None:
+            if self.kd is not None or self.ki is not None:
+                raise ValueError("feedback: give kp with kd (and ki), or a bandwidth")
+            return FeedbackGains.tuned(system, self.bandwidth, self.damping, self.integral_time, fs=fs)
+        n = len(self.kp)
+        return FeedbackGains(self.kp, self.kd if self.kd is not None else (0.0,) * n,
+                             self.ki if self.ki is not None else (0.0,) * n, f_lp=self.f_lp or 10 * self.bandwidth)
+
+
+@dataclass(frozen=True)
+class MachineSettings:
+    """What the simulated plant of a URDF machine carries beyond the URDF (module docstring). fs
+    [Hz]; encoder_resolution, noise_rms [rad or m], u_max [N m or N; None: the URDF's effort
+    limits], max_error [rad or m; None: the plant's default]: one value or one per axis; hidden: the
+    hidden effects (``physics.effects`` objects); hints: ``System.hints`` of the machine (e.g.
+    ``{"benchmark": {"rl": {"passes": 1.0}}}``); source: the machine file, if any."""
+
+    fs: float = 1000.0
+    feedback: FeedbackSettings = field(default_factory=FeedbackSettings)
+    encoder_resolution: float | tuple[float, ...] = 0.0
+    noise_rms: float | tuple[float, ...] = 0.0
+    u_max: float | tuple[float, ...] | None = None
+    max_error: float | tuple[float, ...] | None = None
+    hidden: tuple = ()
+    references: ReferenceSettings = field(default_factory=ReferenceSettings)
+    hints: Mapping = field(default_factory=dict)
+    source: str | None = None
+
+    def __post_init__(self):
+        if not (np.isfinite(self.fs) and self.fs > 0):
+            raise ValueError(f"fs must be > 0 Hz, got {self.fs}")
+
+    def plant(self, system: System, seed: int = 0):
+        """The simulated plant of ``system`` with these settings (``URDFPlant``)."""
+        from .urdf import urdf_robot
+        from .urdf_plant import URDFPlant
+
+        u_max = self.u_max
+        if u_max is None:
+            effort = urdf_robot(system).effort
+            u_max = np.where(np.isfinite(effort) & (effort > 0), effort, np.inf)
+        return URDFPlant(system, effects=self.hidden, gains=self.feedback.gains(system, self.fs), fs=self.fs,
+                         u_max=u_max, encoder_resolution=self.encoder_resolution, noise_rms=self.noise_rms,
+                         seed=seed, max_error=self.max_error)
+
+
+def benchmark_machine(machine: System | str | Path, settings: MachineSettings | None = None,
+                      joints: Sequence[str] | None = None, name: str | None = None, envs: Mapping | None = None,
+                      **kwargs) -> System:
+    """A benchmark machine: ``machine`` (a URDF machine, ``urdf.from_urdf``, or a URDF path with
+    ``joints`` and ``name``) with a simulated plant of ``settings`` (or ``MachineSettings(**kwargs)``):
+    its ``System.bench`` (``URDFBench``), its Gymnasium ids (``envs``; default ``MACHINE_ENV``) and
+    the settings' hints."""
+    from .urdf import from_urdf
+    from .urdf_bench import URDFBench
+
+    settings = settings or MachineSettings(**kwargs)
+    system = machine if isinstance(machine, System) else from_urdf(machine, joints=joints, name=name)
+    bench = type(f"{system.name}Bench", (URDFBench,), {"settings": settings})
+    hints = {**system.hints, **{k: dict(v) for k, v in settings.hints.items()}}
+    made = dataclasses.replace(system, fs=settings.fs, bench=bench, hints=hints,
+                               observation_error=slice(-system.n_axes, None),  # the env's error columns
+                               envs=envs or {MACHINE_ENV: {**ENV_ENTRY, "kwargs": {"machine": settings.source or system.name}}})
+    bench.system = made
+    return made
+
+
+# ---------------------------------------------------------------------------------------------
+# The machine file
+# ---------------------------------------------------------------------------------------------
+
+TOP_KEYS = ("urdf", "joints", "name", "fs", "gravity", "description", "feedback", "sensors", "limits", "references",
+            "hidden", "benchmark")
+SECTION_KEYS = {
+    "feedback": tuple(f.name for f in dataclasses.fields(FeedbackSettings)),
+    "sensors": ("encoder_resolution", "noise_rms"),
+    "limits": ("u_max", "max_error"),
+    "references": tuple(f.name for f in dataclasses.fields(ReferenceSettings)),
+}
+
+
+class MachineFileError(ValueError):
+    """A machine file broke its format; the message names the file and the key."""
+
+
+def load_machine(path: str | Path, envs: Mapping | None = None) -> System:
+    """The benchmark machine a machine file describes (module docstring); ``envs``: its Gymnasium ids
+    (a built-in machine's own; default ``MACHINE_ENV``)."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise MachineFileError(f"machine file {path} not found") from None
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise MachineFileError(f"{path}: not a readable TOML file ({exc})") from None
+    where = str(path)
+
+    def fail(key: str, why: str):
+        raise MachineFileError(f"{where}: {key}: {why}")
+
+    unknown = [k for k in data if k not in TOP_KEYS]
+    if unknown:
+        fail(unknown[0], f"unknown key; a machine file has {', '.join(TOP_KEYS)}")
+    if "urdf" not in data or not isinstance(data["urdf"], str):
+        fail("urdf", "give the URDF file, a path relative to the machine file")
+    sections = {}
+    for section, keys in SECTION_KEYS.items():
+        table = data.get(section, {})
+        if not isinstance(table, dict):
+            fail(section, "must be a table, [section]")
+        bad = [k for k in table if k not in keys]
+        if bad:
+            fail(f"{section}.{bad[0]}", f"unknown key; [{section}] has {', '.join(keys)}")
+        sections[section] = {k: tuple(v) if isinstance(v, list) else v for k, v in table.items()}
+    try:
+        urdf = (path.parent / data["urdf"]).resolve()
+        from .urdf import from_urdf
+
+        system = from_urdf(urdf, joints=data.get("joints"), gravity=data.get("gravity"), name=data.get("name"))
+        if "description" in data:  # the file's words first, then what the URDF gives (its base parameters)
+            system = dataclasses.replace(system, description=f"{data['description']} ({system.description})")
+        hidden = tuple(_hidden_effect(system, i, entry) for i, entry in enumerate(_list(data.get("hidden", []), "hidden")))
+        settings = MachineSettings(
+            fs=float(data.get("fs", 1000.0)), feedback=FeedbackSettings(**sections["feedback"]),
+            hidden=hidden, references=ReferenceSettings(**sections["references"]), hints=_hints(data.get("benchmark", {})),
+            source=str(path), **sections["sensors"], **sections["limits"])
+        made = benchmark_machine(system, settings, envs=envs)
+        made.bench.check(made)  # the plant builds: gains, limits and effects fit the machine
+        return made
+    except MachineFileError:
+        raise
+    except (ValueError, TypeError) as exc:
+        raise MachineFileError(f"{where}: {' '.join(str(exc).split())}") from None
+
+
+def _list(value, key: str) -> list:
+    if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
+        raise ValueError(f"{key}: must be a list of tables, [[{key}]]")
+    return value
+
+
+def _hidden_effect(system: System, i: int, entry: Mapping):
+    """The i-th [[hidden]] table as an effect bound to ``system``."""
+    entry = dict(entry)
+    name, axis = entry.pop("effect", None), entry.pop("axis", None)
+    if not isinstance(name, str) or not isinstance(axis, str):
+        raise ValueError(f"hidden[{i}]: give effect = \"<name>\" and axis = \"<axis>\" (e.g. coulomb_friction, "
+                         f"{system.axis_names[0]})")
+    classes = system.effect_classes()
+    if name not in classes:
+        raise ValueError(f"hidden[{i}]: unknown effect {name!r}; known: {', '.join(sorted(classes))}")
+    fields = {f.name for f in dataclasses.fields(classes[name]) if f.init and f.name not in ("axis", "index")}
+    bad = [k for k in entry if k not in fields]
+    if bad:
+        raise ValueError(f"hidden[{i}] ({name}): unknown parameter {bad[0]!r}; it has {', '.join(sorted(fields))}")
+    params = {k: tuple(v) if isinstance(v, list) else v for k, v in entry.items()}
+    return system.effect(f"{name}@{axis}", **params)
+
+
+def _hints(table) -> dict:
+    """[benchmark.<method>] tables -> ``System.hints["benchmark"]``."""
+    if not isinstance(table, dict) or not all(isinstance(v, dict) for v in table.values()):
+        raise ValueError("benchmark: must hold one table per method, [benchmark.<method>]")
+    return {"benchmark": table} if table else {}
+
+
+def is_machine_file(spec) -> bool:
+    return str(spec).lower().endswith(".toml")
+
+
+__all__ = ["MACHINE_ENV", "FeedbackSettings", "MachineFileError", "MachineSettings", "ReferenceSettings",
+           "benchmark_machine", "is_machine_file", "load_machine"]

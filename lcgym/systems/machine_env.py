@@ -1,0 +1,321 @@
+"""Gymnasium tracking environment of any benchmark machine with a URDF plant: ``lcgym/Machine-v0``.
+
+    env = gym.make("lcgym/Machine-v0", machine="my_arm.toml")          # a machine file
+    venv = gym.make_vec("lcgym/Machine-v0", num_envs=4, machine="my_arm.toml",
+                        vectorization_mode="vector_entry_point")
+
+One episode tracks one reference of a reference set on the machine's closed-loop plant
+(``URDFPlant``: the URDF's rigid body, the machine file's hidden effects, its feedback, encoders
+and input limits; ``systems/machine.py``). The agent supplies the **feedforward**; the feedback
+loop runs inside the environment. One env step is one control sample (1 / fs).
+
+Action (float32, shape (n,), n the machine's axes): the feedforward of each axis for the current
+    sample [N m or N]. ``base_feedforward="none"``: the action is the feedforward, bounds +-u_scale
+    (the input limit; 1 where the machine has none). ``"physical"``: the action is added to the
+    rigid-model feedforward (``PhysicalModel`` fitted on feedback-only runs of the training
+    references), bounds +-``RESIDUAL_FRACTION`` x u_scale. A fitted model (anything with
+    ``predict(positions) -> (T, n)``) may be given instead: residual learning on that model.
+    Out-of-bound actions are clipped and counted (``info["clipped_actions"]``); NaN, inf, a wrong
+    shape or non-numbers raise ``ValueError`` naming the step, before the plant moves.
+
+Observation (float32, shape (3 n P + 3 n,)), all O(1); P = len(PREVIEW) preview points at 0, 10,
+    25, 50 and 100 ms ahead (beyond the reference end the last sample is repeated):
+    - reference position per axis at the P points, (q - centre of the joint range) / half the range
+    - reference velocity, same layout / the references' speed limit of the axis
+    - reference acceleration, same layout / (that speed / ``ReferenceSettings.accel_time``)
+    - relay of the reference velocity, paper 000 eq. (12) (+1, -1, or 0 before motion), per axis
+    - base feedforward of the current sample / u_scale, per axis
+    - tracking error e = reference - encoder reading / ``ERR_SCALE`` (0.5 deg or 0.5 mm), clipped to +-20
+
+Reward: -1/2 sum over axes (e_i / ``REWARD_SCALE``)^2 (0.1 deg or 0.1 mm), e the tracking error
+    measured at the next sample (the error the action helped to make).
+
+Episode end: ``truncated`` after the last sample of the reference; ``terminated`` when the plant
+    leaves its safe range (a tracking error over ``max_error`` or a non-finite state).
+
+Info: per step ``pos`` (encoder [rad or m]), ``u`` (total input), ``ff`` (applied feedforward),
+    ``error`` (reference - encoder), ``clipped_actions``; at the episode's end (single env)
+    ``trial``, the episode as a ``Trial``, and ``tracking_rms`` (RMS tracking error per axis).
+    The vector env gives the per-step keys as (N, ...) arrays with Gymnasium's ``_key`` masks.
+
+Reset: the reference is drawn with the env's seeded generator, or chosen with
+    ``options={"reference": i}``; the plant starts settled (held at the first reference sample for
+    ``plant.preroll`` s, computed once per reference).
+
+Arguments: ``machine`` (a machine file, a URDF, ``module:attr`` or a ``System``: what
+    ``systems.benchmark`` takes; or give ``plant``), ``references`` ("train", "validation", "test",
+    or a list of ``Reference`` / (T, n) position arrays), ``reference_seed``, ``n_references`` (8)
+    and ``duration`` (20 s) of a generated set, ``base_feedforward``, ``plant`` (a ``URDFPlant``),
+    ``version`` ("v0", the only one), ``render_mode="rgb_array"``.
+
+Version History:
+    - v0: the first release.
+"""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.vector import AutoresetMode
+from gymnasium.vector.utils import batch_space
+
+from ..data import Trial
+from ..envs.actions import checked_action
+from ..envs.batched import BatchedVectorEnv
+from ..envs.render import render_episode
+from ..physics.kinematics import reference_kinematics, reference_positions, relay
+from ..references import Reference
+from .urdf_plant import OK, ClosedLoopRun, URDFPlant
+
+DEG = math.pi / 180
+PREVIEW_SECONDS = (0.0, 0.010, 0.025, 0.050, 0.100)
+ERR_SCALE = {"rad": 0.5 * DEG, "m": 0.5e-3}
+ERR_CLIP = 20.0
+REWARD_SCALE = {"rad": 0.1 * DEG, "m": 0.1e-3}
+RESIDUAL_FRACTION = 0.2  # the residual action's bound, a fraction of the input scale
+OBS_BOUND = 25.0
+DEFAULT_REFERENCES, DEFAULT_DURATION = 8, 20.0
+
+
+class MachineTask:
+    """What the single and the vector env share: the plant, the references with their observation
+    features and base feedforward, each reference's settled start, and the scales."""
+
+    def __init__(self, machine, references, base_feedforward, plant: URDFPlant | None, reference_seed: int,
+                 n_references: int | None, duration: float, version: str = "v0"):
+        from . import benchmark
+
+        if plant is None and machine is None:
+            raise ValueError("lcgym/Machine-v0: give machine= (a machine file, a URDF, module:attr or a System) or plant=")
+        bench = benchmark(plant.system if plant is not None and machine is None else machine).bench(version)
+        self.plant = plant if plant is not None else bench.plant
+        self.system, self.bench = self.plant.system, bench
+        n, fs = self.plant.n_axes, self.plant.fs
+        if isinstance(references, str):
+            refs = bench.references(references, reference_seed, n_references or DEFAULT_REFERENCES, duration)
+        elif isinstance(references, Reference) or (isinstance(references, np.ndarray) and references.ndim == 2):
+            refs = [references]
+        else:
+            refs = list(references)
+            if not refs:
+                raise ValueError("references: empty list")
+        self.names = [r.name if isinstance(r, Reference) else f"reference-{i}" for i, r in enumerate(refs)]
+        self.positions = [np.asarray(reference_positions(r), dtype=float) for r in refs]
+        for name, x in zip(self.names, self.positions, strict=True):
+            if x.ndim != 2 or x.shape[1] != n or x.shape[0] < 3 or not np.all(np.isfinite(x)):
+                raise ValueError(f"{name}: a reference must be a finite (T >= 3, {n}) array of positions, got shape {x.shape}")
+        model, self.base_feedforward = self._base_model(base_feedforward, reference_seed)
+        limits = self.plant.u_max
+        self.u_scale = np.where(np.isfinite(limits), limits, 1.0)
+        self.bound = RESIDUAL_FRACTION * self.u_scale if model is not None else self.u_scale
+        robot, settings = self.plant.robot, bench.settings.references
+        lo = np.where(np.isfinite(robot.lower), robot.lower, -math.pi)
+        hi = np.where(np.isfinite(robot.upper), robot.upper, math.pi)
+        self.centre, self.half_range = 0.5 * (lo + hi), 0.5 * (hi - lo)
+        v = np.where(np.isfinite(robot.velocity) & (robot.velocity > 0), robot.velocity, 1.0) * settings.speed
+        self.v_scale, self.a_scale = v, v / settings.accel_time
+        units = [a.unit for a in self.system.axes]
+        self.err_scale = np.array([ERR_SCALE[u] for u in units])
+        self.reward_scale = np.array([REWARD_SCALE[u] for u in units])
+        self.preview = np.array([int(round(t * fs)) for t in PREVIEW_SECONDS])
+        self.base_ff = [np.zeros_like(x) if model is None else np.asarray(model.predict(x), dtype=float)
+                        for x in self.positions]
+        self.feats = [self._features(x, f) for x, f in zip(self.positions, self.base_ff, strict=True)]
+        self.n_obs = self.feats[0].shape[1] + n
+        self._settled: dict[int, np.ndarray] = {}
+
+    def _base_model(self, base, seed: int):
+        if isinstance(base, str):
+            if base not in ("none", "physical"):
+                raise ValueError(f"base_feedforward must be 'none', 'physical' or a fitted model, got {base!r}")
+            if base == "none":
+                return None, "none"
+            train = self.bench.references("train", seed, DEFAULT_REFERENCES, DEFAULT_DURATION)
+            return self.system.physical_model(fs=self.plant.fs).fit(self.plant.run(train)), "physical"
+        if not callable(getattr(base, "predict", None)):
+            raise ValueError(f"base_feedforward must be 'none', 'physical' or a fitted model with predict(positions), "
+                             f"got {type(base).__name__}")
+        return base, "physical (given model)"
+
+    def _features(self, x: np.ndarray, base_ff: np.ndarray) -> np.ndarray:
+        """Observation columns but the error's, for every sample of one reference, float32 (T, 3 n P + 2 n)."""
+        q, qd, qdd = reference_kinematics(x, self.plant.fs)
+        T = x.shape[0]
+        cols = []
+        for signal, offset, scale in ((q, self.centre, self.half_range), (qd, 0.0, self.v_scale), (qdd, 0.0, self.a_scale)):
+            scaled = (signal - offset) / scale
+            for axis in range(x.shape[1]):
+                for d in self.preview:
+                    cols.append(scaled[np.minimum(np.arange(T) + d, T - 1), axis])
+        feats = np.column_stack([*cols, *relay(qd).T, *(base_ff / self.u_scale).T])
+        return np.clip(feats, -OBS_BOUND, OBS_BOUND).astype(np.float32)
+
+    @property
+    def n_references(self) -> int:
+        return len(self.names)
+
+    def spaces(self) -> tuple[gym.spaces.Box, gym.spaces.Box]:
+        obs = gym.spaces.Box(-OBS_BOUND, OBS_BOUND, (self.n_obs,), np.float32)
+        act = gym.spaces.Box(-self.bound.astype(np.float32), self.bound.astype(np.float32), dtype=np.float32)
+        return obs, act
+
+    def start(self, r: int) -> ClosedLoopRun:
+        """A run of reference r, settled: the pre-roll computed once per reference, then copied."""
+        run = ClosedLoopRun(self.plant, self.names[r], self.positions[r], self.base_ff[r].copy())
+        if r not in self._settled:
+            for k in range(-run.preroll, 0):
+                status = run.sample(k)
+                if status != OK:
+                    run.diverged(k, status)
+            self._settled[r] = run.state()
+        run.restore(self._settled[r])
+        return run
+
+    def error_columns(self, e: np.ndarray) -> np.ndarray:
+        return np.clip(e / self.err_scale, -ERR_CLIP, ERR_CLIP).astype(np.float32)
+
+
+class Episode:
+    """One sub-env's episode: its reference, its run, its step count and clipped actions."""
+
+    def __init__(self, task: MachineTask, r: int):
+        self.task, self.r, self.k, self.clipped = task, r, 0, 0
+        self.run = task.start(r)
+        e0 = task.positions[r][0] - self.run.reading(0)
+        self.obs = np.concatenate([task.feats[r][0], task.error_columns(e0)])
+
+    @property
+    def length(self) -> int:
+        return self.task.positions[self.r].shape[0]
+
+    def step(self, action: np.ndarray) -> tuple[float, bool, bool, dict]:
+        """Apply ``action`` at sample k (after the caller's checks) and advance one sample."""
+        t, k, r = self.task, self.k, self.r
+        clipped = np.clip(action, -t.bound, t.bound)
+        self.clipped += int(np.any(clipped != action))
+        self.run.set_feedforward(k, t.base_ff[r][k] + clipped)
+        status = self.run.sample(k)
+        pos, u, _ = self.run.measured(k)
+        info = {"pos": pos, "u": u, "ff": t.base_ff[r][k] + clipped, "error": t.positions[r][k] - pos,
+                "clipped_actions": self.clipped}
+        self.k = k + 1
+        terminated = status != OK
+        nxt = min(self.k, self.length - 1)
+        e_next = t.positions[r][nxt] - (self.run.reading(self.k) if not terminated else pos)
+        self.obs = np.concatenate([t.feats[r][nxt], t.error_columns(e_next)])
+        reward = -0.5 * float(np.sum((e_next / t.reward_scale) ** 2)) if not terminated else -0.5 * ERR_CLIP**2 * len(pos)
+        truncated = self.k >= self.length and not terminated
+        return reward, terminated, truncated, info
+
+    def trial(self) -> Trial:
+        return self.run.trial(self.k, base_feedforward=self.task.base_feedforward, clipped_actions=self.clipped)
+
+
+def _choose(rng: np.random.Generator, options: dict | None, n: int) -> int:
+    r = (options or {}).get("reference")
+    if r is None:
+        return int(rng.integers(n))
+    if not 0 <= int(r) < n:
+        raise ValueError(f"options['reference'] must be in 0..{n - 1}, got {r}")
+    return int(r)
+
+
+class MachineEnv(gym.Env):
+    """Tracking environment of a machine with a URDF plant, one plant; see the module docstring."""
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
+
+    def __init__(self, machine=None, references="train", base_feedforward="none", reference_seed: int = 0,
+                 n_references: int | None = None, duration: float = DEFAULT_DURATION, plant: URDFPlant | None = None,
+                 render_mode: str | None = None, version: str = "v0"):
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        self.task = MachineTask(machine, references, base_feedforward, plant, reference_seed, n_references, duration,
+                                version)
+        self.observation_space, self.action_space = self.task.spaces()
+        self.render_mode = render_mode
+        self.label = f"{self.task.system.name} env"
+        self._episode: Episode | None = None
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        r = _choose(self.np_random, options, self.task.n_references)
+        self._episode = Episode(self.task, r)
+        return self._episode.obs.copy(), {"reference": self.task.names[r]}
+
+    def step(self, action):
+        if self._episode is None:
+            raise RuntimeError(f"{self.label}: call reset() before step()")
+        ep, n = self._episode, self.task.plant.n_axes
+        a = checked_action(action, (n,), self.label, ep.k, self._what()).astype(float)
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{self.label}: action {a.tolist()} at step {ep.k} is NaN or inf")
+        reward, terminated, truncated, info = ep.step(a)
+        if terminated or truncated:
+            info["trial"] = ep.trial()
+            info["tracking_rms"] = np.sqrt(np.mean(np.square(info["trial"].error), axis=0))
+            self._episode = None
+            self._last_trial = info["trial"]
+        return ep.obs.copy(), reward, bool(terminated), bool(truncated), info
+
+    def _what(self) -> str:
+        return f"({', '.join(self.task.system.axis_names)}) feedforward in {self.task.system.input_unit}"
+
+    def render(self):
+        if self.render_mode != "rgb_array":
+            return None
+        trial = self._episode.trial() if self._episode is not None and self._episode.k > 0 else getattr(self, "_last_trial", None)
+        system = self.task.system
+        return render_episode(trial, system.name, system.axis_names, [a.display for a in system.axes])
+
+
+class MachineVectorEnv(BatchedVectorEnv):
+    """N plants of one machine stepped one after the other (the URDF plant runs pinocchio per
+    sample, in Python: no compiled batch); Gymnasium's autoreset modes (``envs.batched``)."""
+
+    def __init__(self, num_envs: int = 1, machine=None, references="train", base_feedforward="none",
+                 reference_seed: int = 0, n_references: int | None = None, duration: float = DEFAULT_DURATION,
+                 plant: URDFPlant | None = None, render_mode: str | None = None,
+                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, version: str = "v0"):
+        self._init_batch(num_envs, autoreset_mode)
+        if render_mode is not None:
+            raise ValueError("the machine's vector env does not render; use the single env")
+        self.task = MachineTask(machine, references, base_feedforward, plant, reference_seed, n_references, duration,
+                                version)
+        self.label = f"{self.task.system.name} vector env"
+        self.single_observation_space, self.single_action_space = self.task.spaces()
+        self.observation_space = batch_space(self.single_observation_space, num_envs)
+        self.action_space = batch_space(self.single_action_space, num_envs)
+        self._episodes: list[Episode | None] = [None] * num_envs
+        self._obs = np.zeros((num_envs, self.task.n_obs), dtype=np.float32)
+        self._k = np.zeros(num_envs, dtype=np.int64)
+
+    def _restart(self, mask: np.ndarray) -> None:
+        for i in np.flatnonzero(mask):
+            self._episodes[i] = Episode(self.task, int(self.np_random.integers(self.task.n_references)))
+            self._obs[i], self._k[i] = self._episodes[i].obs, 0
+
+    def step(self, actions):
+        if not self._started:
+            raise RuntimeError(f"{self.label}: call reset() before step()")
+        n = self.task.plant.n_axes
+        a = checked_action(actions, (self.num_envs, n), self.label, self._steps,
+                           f"({', '.join(self.task.system.axis_names)}) feedforward, one row per sub-env").astype(float)
+        active = self._begin_step(a)
+        N = self.num_envs
+        reward = np.zeros(N)
+        terminated, truncated = np.zeros(N, dtype=bool), np.zeros(N, dtype=bool)
+        infos = {key: np.zeros((N, n)) for key in ("pos", "u", "ff", "error")}
+        infos["clipped_actions"] = np.zeros(N, dtype=np.int64)
+        for i in np.flatnonzero(active):
+            ep = self._episodes[i]
+            reward[i], terminated[i], truncated[i], info = ep.step(a[i])
+            for key, value in info.items():
+                infos[key][i] = value
+            self._obs[i], self._k[i] = ep.obs, ep.k
+        for key in ("pos", "u", "ff", "error", "clipped_actions"):
+            infos[f"_{key}"] = active
+        self._end_step(terminated | truncated, infos)
+        return self._obs.copy(), reward, terminated, truncated, infos

@@ -1,0 +1,74 @@
+"""A URDF machine in the benchmark (``machine.benchmark_machine``, a machine file): its plant, its
+reference sets and what it scores, the contract of ``systems/bench.py``.
+
+Feedforward = joint torques [N m] or forces [N], one column per axis; no reference-offset
+channel. References: random point-to-point moves of every axis within the URDF's joint limits
+(``references.random_moves`` with the machine's ``ReferenceSettings``), about ``duration`` s of
+moves each, each set from its own random stream (``references.stream``: train, validation and test
+never share a reference). Scored on every axis: the tracking error reference - encoder [deg, or mm
+on a prismatic axis: reported in the units the machine's ``Axis.display`` gives] and the input
+residual u - f [the machine's input unit].
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from ..metrics import input_residual_table, norms_table
+from ..references import stream
+from .bench import trace_frame
+from .system import System
+
+VERSIONS = ("v0",)  # a machine of a machine file has one plant: the file's
+
+
+class URDFBench:
+    """The bench of a URDF machine; ``benchmark_machine`` makes a subclass per machine with its
+    ``settings`` (``MachineSettings``) and ``system``."""
+
+    settings = None  # MachineSettings, set on the machine's subclass
+    system: System | None = None
+    scored = None  # every axis
+
+    def __init__(self, version: str = "v0"):
+        if version not in VERSIONS:
+            raise ValueError(f"{self.system.name} has one version, v0, not {version!r}")
+        self.version = version
+        self.name = f"{self.system.name}-{version}"
+        self.plant = self.settings.plant(self.system)
+        self.axes = self.system.axis_names
+
+    @classmethod
+    def check(cls, system: System) -> None:
+        """Build the plant once: the settings' gains, limits and effects fit the machine (or a
+        ValueError says which does not)."""
+        cls.settings.plant(system)
+
+    def references(self, set_name: str, seed: int, n: int, duration: float):
+        from .urdf_plant import random_references
+
+        r = self.settings.references
+        return random_references(self.system, n, duration, self.plant.fs, speed=r.speed, accel_time=r.accel_time,
+                                 jerk_time=r.jerk_time, margin=r.margin, velocity_fallback=r.velocity_fallback,
+                                 rng=stream(set_name, seed), prefix=f"{set_name}-{seed}")
+
+    def run(self, references, feedforward=None, offsets=None):
+        if offsets is not None and any(o is not None for o in offsets):
+            raise ValueError(f"{self.system.name} has no reference-offset channel: reference_offset must return None")
+        return self.plant.run(list(references), None if feedforward is None else list(feedforward))
+
+    def tables(self, trials, feedforward, references=None) -> list[pd.DataFrame]:
+        """The tracking error per axis [deg or mm] and the input residual u - f [input unit]."""
+        parts = []
+        for unit in dict.fromkeys(a.display[1] for a in self.system.axes):
+            cols = [i for i, a in enumerate(self.system.axes) if a.display[1] == unit]
+            factor = self.system.axes[cols[0]].display[0]
+            e = factor * np.concatenate([t.error[:, cols] for t in trials])
+            parts.append(norms_table(e, [self.axes[i] for i in cols], "tracking_error", unit))
+        return [pd.concat(parts, ignore_index=True),
+                input_residual_table(trials, feedforward, unit=self.system.input_unit)]
+
+    def trace(self, trial) -> pd.DataFrame:
+        """Every TRACE_DECIMATION-th sample of the reference and the tracking error [rad or m]."""
+        return trace_frame(trial, self.axes, trial.error, range(len(self.axes)))

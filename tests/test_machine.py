@@ -1,0 +1,232 @@
+"""A machine of the user's own in the benchmark: the machine file (``systems.machine``), its bench
+(``systems.urdf_bench``), its Gymnasium env (``lcgym/Machine-v0``), the built-in TwoLink-v0 made
+the same way, and the nominal closed loop that ILC inverts (``URDFPlant.process_sensitivity``)
+checked against a simulation.
+
+The machines here are written by the tests (URDF and machine file), not shipped with lcgym.
+"""
+
+from __future__ import annotations
+
+import math
+import textwrap
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import lcgym  # noqa: F401  (registers the envs)
+from lcgym import systems
+from lcgym.systems.machine import MachineFileError, load_machine
+from lcgym.systems.urdf_plant import URDFPlant
+
+YAW_PITCH_URDF = """<?xml version="1.0"?>
+<!-- written by tests/test_machine.py: a turret turning about z (yaw) carrying a boom that pitches about y -->
+<robot name="yaw_pitch">
+  <link name="base"/>
+  <link name="turret">
+    <inertial><origin xyz="0 0 0.1"/><mass value="3.0"/>
+      <inertia ixx="0.02" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.015"/></inertial>
+  </link>
+  <link name="boom">
+    <inertial><origin xyz="0.25 0 0"/><mass value="2.0"/>
+      <inertia ixx="0.002" ixy="0" ixz="0" iyy="0.045" iyz="0" izz="0.045"/></inertial>
+  </link>
+  <joint name="yaw" type="revolute">
+    <parent link="base"/><child link="turret"/><origin xyz="0 0 0.3"/><axis xyz="0 0 1"/>
+    <limit lower="-2.5" upper="2.5" effort="60" velocity="2.0"/>
+  </joint>
+  <joint name="pitch" type="revolute">
+    <parent link="turret"/><child link="boom"/><origin xyz="0 0 0.2"/><axis xyz="0 1 0"/>
+    <limit lower="-1.2" upper="1.2" effort="40" velocity="2.0"/>
+  </joint>
+</robot>
+"""
+
+MACHINE_FILE = """\
+urdf = "yaw_pitch.urdf"
+fs = 1000.0
+
+[feedback]
+bandwidth = 8.0
+
+[sensors]
+encoder_resolution = 1e-4
+
+[[hidden]]
+effect = "coulomb_friction"
+axis = "yaw"
+Fc = 1.5
+eps = 0.02
+
+[[hidden]]
+effect = "cable_spring"
+axis = "pitch"
+k = 20.0
+q0 = 0.2
+width = 0.2
+"""
+
+
+def write_machine(folder: Path, text: str = MACHINE_FILE) -> Path:
+    """The test's URDF and machine file in ``folder``; returns the machine file."""
+    (folder / "yaw_pitch.urdf").write_text(YAW_PITCH_URDF)
+    path = folder / "yaw_pitch.toml"
+    path.write_text(text)
+    return path
+
+
+@pytest.fixture()
+def machine_file(tmp_path) -> Path:
+    return write_machine(tmp_path)
+
+
+def test_machine_file_makes_a_benchmark_machine(machine_file):
+    m = systems.get(str(machine_file))
+    assert m.name == "yaw_pitch" and m.axis_names == ("yaw", "pitch") and m.fs == 1000.0
+    assert m.env_id == "lcgym/Machine-v0" and m.bench is not None
+    assert systems.benchmark_name(str(machine_file)) == str(machine_file)
+    assert systems.family_of(str(machine_file)) == str(machine_file)
+    bench = systems.make_bench(str(machine_file))
+    assert [e.key for e in bench.plant.bound_effects] == ["coulomb_friction@yaw", "cable_spring@pitch"]
+    assert np.allclose(bench.plant.encoder_resolution, 1e-4)
+    assert np.allclose(bench.plant.u_max, [60.0, 40.0])  # the URDF's effort limits
+
+
+def test_reference_sets_are_seeded_disjoint_and_within_limits(machine_file):
+    bench = systems.make_bench(str(machine_file))
+    train = bench.references("train", 0, 2, 6.0)
+    again = bench.references("train", 0, 2, 6.0)
+    val = bench.references("validation", 0, 2, 6.0)
+    assert [r.name for r in train] == ["train-0-0", "train-0-1"]
+    assert all(np.array_equal(a.positions, b.positions) for a, b in zip(train, again, strict=True))
+    assert not np.allclose(train[0].positions[: val[0].n_samples], val[0].positions[: train[0].n_samples])
+    q = np.concatenate([r.positions for r in train + val])
+    assert np.all(q[:, 0] > -2.5 * 0.8 - 1e-9) and np.all(q[:, 0] < 2.5 * 0.8 + 1e-9)  # 10 % margin of the range
+    assert np.all(np.abs(q[:, 1]) < 1.2 * 0.8 + 1e-9)
+    assert all(r.n_samples >= 6.0 * 1000 for r in train)
+
+
+@pytest.mark.parametrize("text, key", [
+    ("urdf = 'yaw_pitch.urdf'\nspeed = 3\n", "speed: unknown key"),
+    ("fs = 1000.0\n", "urdf: give the URDF"),
+    ("urdf = 'yaw_pitch.urdf'\n[feedback]\nbandwith = 5\n", "feedback.bandwith: unknown key"),
+    ("urdf = 'yaw_pitch.urdf'\n[[hidden]]\neffect = 'coulomb'\naxis = 'yaw'\n", "unknown effect 'coulomb'"),
+    ("urdf = 'yaw_pitch.urdf'\n[[hidden]]\neffect = 'coulomb_friction'\naxis = 'yaw'\nF = 1\n", "unknown parameter 'F'"),
+    ("urdf = 'yaw_pitch.urdf'\n[[hidden]]\neffect = 'coulomb_friction'\naxis = 'roll'\nFc = 1\n", "no axis 'roll'"),
+    ("urdf = 'yaw_pitch.urdf'\n[[hidden]]\neffect = 'stiction'\naxis = 'yaw'\n", "internal state"),
+    ("urdf = 'yaw_pitch.urdf'\n[sensors]\nencoder_resolution = [1e-4, 1e-4, 1e-4]\n", "encoder_resolution"),
+    ("urdf = 'missing.urdf'\n", "missing.urdf"),
+    ("urdf = 'yaw_pitch.urdf\n", "not a readable TOML file"),
+])
+def test_a_bad_machine_file_says_what_and_where(tmp_path, text, key):
+    path = write_machine(tmp_path, text)
+    with pytest.raises(MachineFileError) as info:
+        load_machine(path)
+    message = str(info.value)
+    assert str(path) in message and key in message and "\n" not in message
+
+
+def test_env_episode_is_the_plants_run(machine_file):
+    """A zero action replays what the plant's own run gives, bit for bit; the checker passes."""
+    bench = systems.make_bench(str(machine_file))
+    ref = bench.references("validation", 1, 1, 3.0)[0]
+    env = gym.make("lcgym/Machine-v0", machine=str(machine_file), references=[ref])
+    obs, info = env.reset(seed=0)
+    assert env.observation_space.contains(obs) and info == {"reference": ref.name}
+    done, rewards = False, []
+    while not done:
+        obs, reward, terminated, truncated, info = env.step(np.zeros(2, dtype=np.float32))
+        rewards.append(reward)
+        done = terminated or truncated
+    assert truncated and not terminated and len(rewards) == ref.n_samples
+    run = bench.plant.run(ref)
+    assert np.array_equal(info["trial"].pos, run.pos) and np.array_equal(info["trial"].u, run.u)
+    np.testing.assert_allclose(info["tracking_rms"], np.sqrt(np.mean(run.error**2, axis=0)))
+
+
+def test_env_residual_on_the_physical_model_and_bad_actions(machine_file):
+    env = gym.make("lcgym/Machine-v0", machine=str(machine_file), references="validation", n_references=1,
+                   duration=2.0, base_feedforward="physical")
+    env.reset(seed=0)
+    np.testing.assert_allclose(env.action_space.high, 0.2 * np.array([60.0, 40.0]))
+    _, _, _, _, info = env.step(np.array([100.0, 0.0], dtype=np.float32))
+    assert info["clipped_actions"] == 1 and info["ff"][0] != 0.0
+    with pytest.raises(ValueError, match="NaN or inf"):
+        env.step(np.array([np.nan, 0.0]))
+    with pytest.raises(ValueError, match="shape"):
+        env.step(np.zeros(3))
+
+
+def test_vector_env_steps_its_sub_envs_as_single_envs(machine_file):
+    refs = systems.make_bench(str(machine_file)).references("train", 0, 2, 1.0)
+    venv = gym.make_vec("lcgym/Machine-v0", num_envs=2, machine=str(machine_file), references=refs,
+                        vectorization_mode="vector_entry_point")
+    env = gym.make("lcgym/Machine-v0", machine=str(machine_file), references=refs)
+    obs, _ = venv.reset(seed=3)
+    chosen = [int(np.flatnonzero([np.array_equal(o, env.unwrapped.task.feats[r][0].tolist() + o[-2:].tolist())
+                                  for r in range(2)])[0]) for o in obs]
+    single, _ = env.reset(options={"reference": chosen[1]})
+    np.testing.assert_array_equal(obs[1], single)
+    for _ in range(50):
+        actions = np.full((2, 2), 0.5, dtype=np.float32)
+        obs, reward, terminated, truncated, info = venv.step(actions)
+        single, r1, *_ = env.step(actions[1])
+    np.testing.assert_array_equal(obs[1], single)
+    assert reward[1] == pytest.approx(r1) and info["_error"].all()
+
+
+def test_process_sensitivity_matches_a_simulated_axis(tmp_path):
+    """P S of one rigid axis under the plant's PID: the plant's own closed loop, driven by a sine
+    feedforward at reference zero, answers with the predicted amplitude and phase (an independent
+    check: the simulation integrates the URDF's dynamics with RK4, the formula is the z-domain
+    product of the ZOH plant and the controller)."""
+    urdf = tmp_path / "disc.urdf"
+    urdf.write_text("""<robot name="disc"><link name="base"/><link name="disc"><inertial><origin xyz="0 0 0"/>
+        <mass value="1"/><inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.05"/></inertial></link>
+        <joint name="turn" type="revolute"><parent link="base"/><child link="disc"/><axis xyz="0 0 1"/>
+        <limit lower="-3" upper="3" effort="10" velocity="5"/></joint></robot>""")
+    from lcgym.systems.urdf_plant import FeedbackGains
+
+    system = systems.get(str(urdf))
+    fs, n = 1000.0, 4000
+    for ki in (0.0, 20.0):
+        plant = URDFPlant(system, gains=FeedbackGains((40.0,), (1.2,), (ki,), f_lp=80.0), fs=fs, preroll=0.0,
+                          max_error=1.0)
+        ps = plant.process_sensitivity(n, np.zeros((10, 1)))
+        for k in (8, 40, 160):  # 2, 10, 40 Hz: whole periods in n samples
+            f = k * fs / n
+            t = np.arange(3 * n) / fs
+            ff = 0.05 * np.sin(2 * math.pi * f * t)[:, None]
+            y = plant.run(np.zeros((3 * n, 1)), ff).extra["load_turn"][-n:]  # settled: the last n samples
+            measured = 2 * np.fft.rfft(y)[k] / n / (0.05 * -1j * np.exp(2j * math.pi * f * (2 * n) / fs))
+            assert abs(measured / ps[k, 0] - 1) < 2e-3, (ki, f, measured, ps[k, 0])
+        assert (ps[0, 0] == 0.0) == (ki > 0)  # an integrator leaves no constant error
+
+
+def test_two_link_is_a_built_in_machine_from_one_folder():
+    m = systems.get("two_link")
+    assert m.env_id == "lcgym/TwoLink-v0" and systems.benchmark_name("two_link") == "two_link-v0"
+    assert "two_link" in systems.newest_benchmarks()[-1]
+    bench = systems.make_bench("two_link-v0")
+    assert [e.key for e in bench.plant.bound_effects] == ["coulomb_friction@elbow", "cable_spring@shoulder"]
+    env = gym.make("lcgym/TwoLink-v0", references="validation", n_references=1, duration=1.0)
+    assert env.reset(seed=0)[0].shape == env.observation_space.shape
+    folder = Path(systems.__file__).parent / "two_link"
+    assert sorted(p.name for p in folder.iterdir() if not p.name.startswith("__pycache__")) == [
+        "__init__.py", "machine.toml", "two_link.urdf"]
+    with pytest.raises(ValueError, match="built-in machine"):
+        systems.get("two_link", joints=("finger", "shoulder", "elbow"))
+
+
+def test_machine_file_docstring_example_is_a_valid_machine_file(tmp_path):
+    """The module docstring's machine file, as written there, loads (with the test's URDF)."""
+    from lcgym.systems import machine
+
+    doc = machine.__doc__
+    block = textwrap.dedent(doc[doc.index("    # my_arm.toml"): doc.index("In Python,")])
+    text = block.replace('"my_arm.urdf"', '"yaw_pitch.urdf"').replace('["shoulder", "elbow"]', '["yaw", "pitch"]')
+    text = text.replace('axis = "elbow"', 'axis = "pitch"')
+    m = load_machine(write_machine(tmp_path, text))
+    assert m.name == "my_arm" and m.hints["benchmark"]["rl"]["passes"] == 1.0

@@ -1,0 +1,108 @@
+"""The machine handed to the method (``baselines/protocol.py``): every method takes ``system``; without
+one it fails with a message that says how to give it; the benchmark's cell builds each method with
+its machine, and a user's class whose constructor takes no ``system`` as before."""
+
+from __future__ import annotations
+
+import textwrap
+
+import numpy as np
+import pytest
+
+from lcgym.baselines import CONTROLLERS, FeedbackOnly, PhysicalFeedforward
+from lcgym.baselines.protocol import build_method, given_system, takes_system
+from lcgym.data import Trial
+from lcgym.leaderboard.runner import BenchConfig, run_cell
+from lcgym.pgnn import PGNN, PGNNConfig
+from lcgym.systems.flexarm import FLEXARM
+from lcgym.systems.ix import IX
+from lcgym.systems.ix import dynamics as ix
+from lcgym.systems.ix.references import random_moves
+
+TINY = {"seeds": (0,), "n_train": 1, "n_validation": 1, "duration": 4.0}
+
+USER_METHODS = textwrap.dedent("""
+    import numpy as np
+
+    HANDED = []  # what each constructor was given, in order
+
+    class Zero:
+        name = "zero"
+        def fit(self, trials):
+            return self
+        def feedforward(self, reference):
+            return np.zeros_like(reference.positions)
+
+    class Handed(Zero):
+        def __init__(self, system=None):
+            HANDED.append(("Handed", system))
+            self.system = system
+
+    class ByKeywords(Zero):
+        def __init__(self, **options):
+            HANDED.append(("ByKeywords", options.get("system")))
+
+    class Plain(Zero):
+        def __init__(self):
+            HANDED.append(("Plain", None))
+
+    class NoConstructor(Zero):
+        pass
+""")
+
+
+def _trials() -> list[Trial]:
+    r = random_moves("s0", np.random.default_rng(0), duration=2.0)
+    return [Trial(t=r.t, ref=r.positions, pos=r.positions, u=np.zeros_like(r.positions), axes=ix.AXES)]
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize("method", sorted(set(CONTROLLERS) - {"feedback"}))
+def test_a_method_without_a_machine_says_how_to_give_it(method):
+    cls = CONTROLLERS[method]
+    with pytest.raises(ValueError, match=rf"{method}: give the machine, {cls.__name__}\(system='\w+'\) \(a name"):
+        cls().fit(_trials())
+
+
+@pytest.mark.bad_input
+def test_the_message_names_the_other_way_where_there_is_one():
+    with pytest.raises(ValueError, match=r"or the model, PhysicalFeedforward\(model=\.\.\.\)"):
+        PhysicalFeedforward().fit(_trials())
+    with pytest.raises(ValueError, match=r"BasicArmFeedforward\(system='flexarm'\).*or the structure"):
+        CONTROLLERS["basic"]().fit(_trials())
+    with pytest.raises(ValueError, match=r"PGNN: give the machine, PGNN\(system='ix'\).*PGNN\(physical=\.\.\.\)"):
+        PGNN(PGNNConfig(max_epochs=1, threads=1)).fit(_trials())
+
+
+def test_a_machine_by_name_or_as_a_system_is_stored_as_given_and_resolved_in_fit():
+    trials = _trials()
+    by_name = PhysicalFeedforward(system="ix-v1").fit(trials)
+    given = PhysicalFeedforward(system=IX).fit(trials)
+    assert by_name.system == "ix-v1" and by_name.system_ is IX and given.system is IX
+    ref = random_moves("new", np.random.default_rng(1), duration=1.0)
+    np.testing.assert_array_equal(by_name.feedforward(ref), given.feedforward(ref))
+    assert FeedbackOnly(system="anything").system == "anything"  # taken, not needed
+    assert given_system(FeedbackOnly(system="flexarm")) is FLEXARM
+
+
+def test_every_built_in_method_takes_its_machine():
+    assert all(takes_system(cls) for cls in CONTROLLERS.values())
+    for name, cls in CONTROLLERS.items():
+        method = build_method(name, IX, CONTROLLERS)
+        assert type(method) is cls and method.system is IX
+
+
+def test_the_cell_hands_its_machine_and_builds_a_class_without_one_as_before(tmp_path, monkeypatch):
+    (tmp_path / "handed_methods.py").write_text(USER_METHODS)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import handed_methods
+
+    assert [takes_system(getattr(handed_methods, c)) for c in ("Handed", "ByKeywords", "Plain", "NoConstructor")] \
+        == [True, True, False, False]
+    for system, machine in (("ix", IX), ("flexarm-v1", FLEXARM)):
+        handed_methods.HANDED.clear()
+        for c in ("Handed", "ByKeywords", "Plain", "NoConstructor"):
+            method = f"handed_methods:{c}"
+            rows, trace = run_cell(system, method, 0, BenchConfig(systems=(system,), methods=(method,), **TINY))
+            assert {r["status"] for r in rows} == {"ok"}, rows[0].get("error")
+        assert handed_methods.HANDED == [("Handed", machine), ("ByKeywords", machine), ("Plain", None)]
