@@ -6,16 +6,19 @@ of constant jerk (+j, 0, -j, 0, -j, 0, +j); phases shrink when a limit cannot be
 reference strings moves and dwells together per axis; position, velocity and acceleration are
 evaluated exactly (piecewise cubic) at the sample times. Units: rad (or m) and seconds.
 
-The machines' reference sets (seeded, split train / validation / test as in the papers) are in
-``systems/ix/references.py`` and ``systems/flexarm/references.py``; any other machine's come from
-``random_moves`` (random point-to-point moves within given joint limits: URDF machines, the
-benchmark machines of machine files); ``stream`` gives each set its own random stream.
+Random point-to-point moves, the references of the machines' sets, are made here
+(``random_profile``, with the rule that draws each move's limits: ``limit_fractions`` for the IX,
+``speed_fraction`` for a URDF machine, ``random_moves`` for all its axes); the sets themselves
+(seeded, split train / validation / test as in the papers) are the machines'
+(``systems/ix/references.py``, ``systems/urdf_bench.py``; the FlexArm's are TCP lines through its
+inverse kinematics, ``systems/flexarm/references.py``); ``stream`` gives each set its own random
+stream.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -172,31 +175,85 @@ def stream(set_name: str, seed: int) -> np.random.Generator:
 
 
 
-def point_to_point(rng: np.random.Generator, low: float, high: float, v_max: float, duration: float,
-                   accel_time: float = 0.2, jerk_time: float = 0.05) -> AxisProfile:
-    """One axis's random moves between ``low`` and ``high`` (rad or m) for at least ``duration`` s: a dwell of
-    0.5 s at a random start, then moves to random targets (at least 5 % of the range away) at a
-    random 0.4-1 of ``v_max`` [per s], the acceleration reaching that speed in ``accel_time`` s and
-    the jerk that acceleration in ``jerk_time`` s, each followed by a dwell of 0.2-1 s."""
-    p = AxisProfile(rng.uniform(low, high)).dwell(0.5)
+def random_profile(rng: np.random.Generator, low: float, high: float, duration: float,
+                   limits: Callable[[np.random.Generator], tuple[float, float, float]], start_dwell: float = 0.5,
+                   min_step: float = 0.0, dwells: tuple[float, float] = (0.2, 1.0)) -> AxisProfile:
+    """One axis's random point-to-point moves between ``low`` and ``high`` (rad or m) for at least
+    ``duration`` s: a dwell of ``start_dwell`` s at a random start, then moves to random targets (at
+    least ``min_step`` away) under the limits ``limits(rng)`` draws for each move (velocity,
+    acceleration, jerk; ``limit_fractions``, ``speed_fraction``), each followed by a random dwell
+    within ``dwells`` [s]. The machines' reference sets are made of these (the IX's, a URDF
+    machine's); one random stream ``rng`` for all, in this order of draws."""
+    p = AxisProfile(rng.uniform(low, high)).dwell(start_dwell)
     while p.end_time < duration:
         target = rng.uniform(low, high)
-        if abs(target - p.x) < 0.05 * (high - low):
+        if abs(target - p.x) < min_step:
             continue
+        p.move(target, *limits(rng)).dwell(rng.uniform(*dwells))
+    return p
+
+
+def limit_fractions(limits: AxisLimits) -> Callable[[np.random.Generator], tuple[float, float, float]]:
+    """A move's limits: random 0.4-1 fractions of the axis's velocity, acceleration and jerk limits,
+    drawn independently (the IX's moves)."""
+
+    def draw(rng):
+        f = rng.uniform(0.4, 1.0, size=3)
+        return f[0] * limits.v, f[1] * limits.a, f[2] * limits.j
+
+    return draw
+
+
+def speed_fraction(v_max: float, accel_time: float, jerk_time: float):
+    """A move's limits: a random 0.4-1 of ``v_max``, the acceleration that reaches it in
+    ``accel_time`` s and the jerk that reaches that in ``jerk_time`` s (a URDF machine's moves)."""
+
+    def draw(rng):
         v = rng.uniform(0.4, 1.0) * v_max
         a = v / accel_time
-        p.move(target, v, a, a / jerk_time).dwell(rng.uniform(0.2, 1.0))
-    return p
+        return v, a, a / jerk_time
+
+    return draw
 
 
 def random_moves(name: str, rng: np.random.Generator, low: Sequence[float], high: Sequence[float],
                  v_max: Sequence[float], duration: float, fs: float, axes: Sequence[str] = (), margin: float = 0.1,
                  accel_time: float = 0.2, jerk_time: float = 0.05) -> Reference:
-    """A reference of random point-to-point moves of every axis (``point_to_point``, axis after
-    axis from ``rng``), targets ``margin`` of each axis's range (``low`` to ``high``) inside its ends,
-    sampled at ``fs`` with 0.5 s of rest at the end."""
+    """A reference of random point-to-point moves of every axis (``random_profile`` with
+    ``speed_fraction``, axis after axis from ``rng``), targets ``margin`` of each axis's range
+    (``low`` to ``high``) inside its ends, sampled at ``fs`` with 0.5 s of rest at the end."""
     profiles = []
     for lo, hi, v in zip(low, high, v_max, strict=True):
         inset = margin * (hi - lo)
-        profiles.append(point_to_point(rng, lo + inset, hi - inset, v, duration, accel_time, jerk_time))
+        lo, hi = lo + inset, hi - inset
+        profiles.append(random_profile(rng, lo, hi, duration, speed_fraction(v, accel_time, jerk_time),
+                                       min_step=0.05 * (hi - lo)))
     return sample(name, profiles, fs, tail=0.5, axes=axes)
+
+
+def sweeps(rng: np.random.Generator, limits: Sequence[AxisLimits], axes: Sequence[str], fs: float,
+           n_positions: int = 7, speeds: Sequence[float] = (1.0, 0.75, 0.5, 0.25), margin=2 * DEG,
+           jitter=1 * DEG, name: str = "calibration") -> list[Reference]:
+    """Calibration sweeps (paper 000, V-A): each axis in turn swept over its range (``margin``
+    inside each limit, one value or one per axis) and back at each speed fraction of its velocity
+    and acceleration limits, the other axes parked together at ``n_positions`` positions across
+    their ranges (each position plus a normal draw of standard deviation ``jitter``, one value or one
+    per axis, clipped into the range); one reference per park, ``<name>-<axis>-sweep-<k>``."""
+    margins = np.broadcast_to(np.asarray(margin, dtype=float), (len(limits),))
+    jitters = np.broadcast_to(np.asarray(jitter, dtype=float), (len(limits),))
+    refs = []
+    for swept, ls in enumerate(limits):
+        lo, hi = ls.low + margins[swept], ls.high - margins[swept]
+        parked = [i for i in range(len(limits)) if i != swept]
+        parks = [np.linspace(limits[i].low + margins[i], limits[i].high - margins[i], n_positions) for i in parked]
+        for k in range(n_positions):
+            sw = AxisProfile(lo).dwell(1.0)
+            for s in speeds:
+                sw.move(hi, s * ls.v, s * ls.a, ls.j).dwell(0.5).move(lo, s * ls.v, s * ls.a, ls.j).dwell(0.5)
+            profiles = {swept: sw}
+            for i, park in zip(parked, parks, strict=True):
+                pos = float(np.clip(park[k] + rng.normal(0, jitters[i]), limits[i].low, limits[i].high))
+                profiles[i] = AxisProfile(pos).dwell(sw.end_time)
+            refs.append(sample(f"{name}-{axes[swept]}-sweep-{k}", [profiles[i] for i in range(len(limits))], fs,
+                               axes=axes))
+    return refs

@@ -1,5 +1,6 @@
 """Effect library: formulas checked against independent derivations and limits."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -10,7 +11,7 @@ from lcgym.physics import effects as fx
 from lcgym.references import AxisProfile, sample
 from lcgym.systems.ix import dynamics as ix
 from lcgym.systems.ix.effects import PositionDependentFriction
-from lcgym.systems.ix.plant import FeedbackGains, IXPlant
+from lcgym.systems.ix.plant import IX_GAINS, IXPlant
 
 DEG = math.pi / 180
 AXES = ix.AXES  # effects act on the IX's axes here (bound with ``.bound(AXES)``)
@@ -106,7 +107,7 @@ def _open_loop_roll(effects, ff_roll, duration=8.0):
     """Gravity-free plant, no feedback: a constant roll torque ff_roll from standstill."""
     profiles = [AxisProfile(0.0).dwell(duration), AxisProfile(0.0).dwell(duration)]
     ref = sample("hold", profiles, 500.0, tail=0.0)
-    plant = IXPlant(rigid=NO_GRAVITY, effects=effects, gains=FeedbackGains(kp=(0.0, 0.0), kd=(0.0, 0.0)),
+    plant = IXPlant(rigid=NO_GRAVITY, effects=effects, gains=dataclasses.replace(IX_GAINS, kp=(0.0, 0.0), kd=(0.0, 0.0)),
                     encoder_resolution=(0.0, 0.0), preroll=0.0)
     ff = np.zeros_like(ref.positions)
     ff[:, 1] = ff_roll

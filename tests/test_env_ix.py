@@ -1,6 +1,8 @@
 """Gymnasium environments of the IX: conformance, determinism, vector autoreset, PPO (bad actions:
 test_bad_actions.py)."""
 
+import dataclasses
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -10,7 +12,7 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 import lcgym  # noqa: F401  (registers the ids)
 from lcgym.envs.sb3 import make_sb3_vec_env
 from lcgym.systems.ix import env as ix_env
-from lcgym.systems.ix.plant import FeedbackGains, IXPlant
+from lcgym.systems.ix.plant import IX_GAINS, IXPlant
 from lcgym.systems.ix.references import random_moves
 
 SHORT = {"n_references": 2, "duration": 4.0}  # small reference sets keep the tests fast
@@ -77,7 +79,7 @@ def test_episode_matches_plant_run_and_ends_with_trial():
 
 @pytest.mark.fault
 def test_terminated_when_plant_leaves_safe_range():
-    plant = IXPlant(gains=FeedbackGains(kp=(-170.0, 120.0)))  # destabilizing propeller feedback
+    plant = IXPlant(gains=dataclasses.replace(IX_GAINS, kp=(-170.0, 120.0)))  # destabilizing propeller feedback
     env = gym.make("lcgym/IX-v0", plant=plant, **SHORT)
     env.reset(seed=0)
     for _ in range(3000):

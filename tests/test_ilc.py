@@ -19,7 +19,7 @@ from lcgym.systems.flexarm.nominal import BasicFeedforward
 from lcgym.systems.flexarm.plant import FlexArmPlant
 from lcgym.systems.flexarm.references import arm_reference_set
 from lcgym.systems.ix import dynamics as ix
-from lcgym.systems.ix.plant import FeedbackGains, IXPlant, process_sensitivity
+from lcgym.systems.ix.plant import IX_GAINS, IXPlant, process_sensitivity
 from lcgym.systems.ix.references import reference_set
 
 FS = 500.0
@@ -34,7 +34,7 @@ def test_process_sensitivity_matches_a_time_domain_closed_loop():
     ps = process_sensitivity(n, FS, pos)
     p = ix.IXParameters().to_vector()
     J = np.diag(ix.mass_matrix(p, pos[:1])[0])
-    g = FeedbackGains()
+    g = IX_GAINS
     f = np.tile(np.random.default_rng(0).standard_normal(n), periods)
     for a in range(2):
         (num,), den, _ = signal.cont2discrete(([1.0], [J[a], p[[ix.D2, ix.D3]][a], 0.0]), 1 / FS, method="zoh")

@@ -192,8 +192,8 @@ def test_process_sensitivity_matches_a_simulated_axis(tmp_path):
     system = systems.get(str(urdf))
     fs, n = 1000.0, 4000
     for ki in (0.0, 20.0):
-        plant = URDFPlant(system, gains=FeedbackGains((40.0,), (1.2,), (ki,), f_lp=80.0), fs=fs, preroll=0.0,
-                          max_error=1.0)
+        gains = FeedbackGains((40.0,), (1.2,), (ki,), f_lp=80.0, filtered="derivative")
+        plant = URDFPlant(system, gains=gains, fs=fs, preroll=0.0, max_error=1.0)
         ps = plant.process_sensitivity(n, np.zeros((10, 1)))
         for k in (8, 40, 160):  # 2, 10, 40 Hz: whole periods in n samples
             f = k * fs / n
@@ -230,3 +230,57 @@ def test_machine_file_docstring_example_is_a_valid_machine_file(tmp_path):
     text = text.replace('axis = "elbow"', 'axis = "pitch"')
     m = load_machine(write_machine(tmp_path, text))
     assert m.name == "my_arm" and m.hints["benchmark"]["rl"]["passes"] == 1.0
+
+
+@pytest.mark.slow
+def test_every_method_on_a_machine_the_test_writes(tmp_path, monkeypatch):
+    """The acceptance run of issue 36 on the quick budgets: every method on the test's machine over
+    seeds 0-2, rows in the CSV and on the results page; on every axis and seed the physical model
+    tracks better than feedback alone, and ILC (learning each validation reference) better than
+    the physical model. (The note's figures: the same at the default budgets,
+    ``lcgym bench --systems yaw_pitch.toml``.)"""
+    from lcgym.baselines import CONTROLLERS
+    from lcgym.leaderboard.page import write_html
+    from lcgym.leaderboard.report import select
+    from lcgym.leaderboard.runner import BenchConfig, run_benchmark
+    from lcgym.leaderboard.store import read_results
+
+    monkeypatch.setenv("LCGYM_CACHE", str(tmp_path / "cache"))
+    spec = str(write_machine(tmp_path))
+    out = tmp_path / "r.csv"
+    summary = run_benchmark(BenchConfig.quick(systems=(spec,), seeds=(0, 1, 2)), out, jobs=2, progress=False)
+    df = read_results(out)
+    methods = [m for m, c in CONTROLLERS.items() if getattr(c, "systems", None) is None]
+    assert summary["cells_failed"] == 0 and summary["cells_run"] == 3 * len(methods)
+    assert set(df["method"]) == set(methods) and set(df["system"]) == {spec}
+    e = df[(df["reference_set"] == "validation") & (df["signal"] == "tracking_error")]
+    rms = e.pivot_table(index=["seed", "axis"], columns="method", values="RMS")
+    assert (rms["physical"] < rms["feedback"]).all(), rms
+    assert (rms["ilc"] < rms["physical"]).all(), rms
+    text = write_html(select(df)[0], tmp_path / "board.html", source=str(out)).read_text()
+    assert spec in text and all(f">{m}<" in text for m in methods)
+
+
+def test_one_feedback_type_for_every_plant(tmp_path):
+    """``systems.feedback.FeedbackGains`` serves the IX and every URDF plant: where the low-pass
+    sits is named, never assumed, and a plant refuses the other place; an IX plant record written
+    before the field existed reads as the IX's (its output low-passed)."""
+    import dataclasses
+
+    from lcgym.systems.feedback import FeedbackGains
+    from lcgym.systems.ix.plant import IX_GAINS, IXPlant
+
+    with pytest.raises(ValueError, match="filtered"):
+        FeedbackGains((1.0,), (0.1,))
+    with pytest.raises(ValueError, match="one per axis"):
+        FeedbackGains((1.0, 2.0), (0.1,), filtered="derivative")
+    with pytest.raises(ValueError, match="low-passes the output"):
+        IXPlant(gains=dataclasses.replace(IX_GAINS, filtered="derivative"))
+    machine = systems.get(str(write_machine(tmp_path)))
+    tuned = FeedbackGains.tuned(machine)
+    assert tuned.filtered == "derivative" and tuned.f_lp == (100.0, 100.0)
+    with pytest.raises(ValueError, match="derivative term"):
+        URDFPlant(machine, gains=dataclasses.replace(tuned, filtered="output"))
+    record = IXPlant().record()
+    record["gains"] = {k: record["gains"][k] for k in ("kp", "kd", "f_lp", "u_max")}  # as written before
+    assert IXPlant.from_record(record).gains == IX_GAINS

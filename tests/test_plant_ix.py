@@ -87,10 +87,12 @@ def test_input_saturates_at_5_volt(ref):
 
 @pytest.mark.fault
 def test_unstable_feedback_stops_with_state():
-    from lcgym.systems.ix.plant import FeedbackGains
+    from dataclasses import replace
+
+    from lcgym.systems.ix.plant import IX_GAINS
 
     ref = random_moves("unstable", np.random.default_rng(1), duration=5)
-    plant = IXPlant(gains=FeedbackGains(kp=(-170.0, 120.0)))
+    plant = IXPlant(gains=replace(IX_GAINS, kp=(-170.0, 120.0)))
     with pytest.raises(SimulationDiverged, match=r"unstable: the IX plant left its safe range .* angles"):
         plant.run(ref)
 

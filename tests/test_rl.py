@@ -1,6 +1,7 @@
 """Method ``rl``: the numpy actor, rollout = replay, budget and cost, cache (and its safety),
 training curve, the error-blind policy, SB3 adapter extras, and a benchmark cell."""
 
+import dataclasses
 import json
 
 import numpy as np
@@ -14,7 +15,7 @@ from lcgym.leaderboard.runner import BenchConfig, run_cell
 from lcgym.physics.model import PhysicalModel
 from lcgym.systems.ix import IX
 from lcgym.systems.ix.env import IXEnv
-from lcgym.systems.ix.plant import FeedbackGains, IXPlant
+from lcgym.systems.ix.plant import IX_GAINS, IXPlant
 from lcgym.systems.ix.references import reference_set
 
 torch.set_num_threads(1)
@@ -118,7 +119,7 @@ def test_error_blind_policy_is_a_pure_feedforward(ix_data, tmp_path):
     rl = trained(ix_data, tmp_path, observe_error=False)
     assert rl.cost_.plant_trials == rl.record_["episodes"]  # the rollout ran no counted plant trial
     ff = rl.feedforward(val[0])
-    stiff = IXPlant(gains=FeedbackGains(kp=(340.0, 240.0)))
+    stiff = IXPlant(gains=dataclasses.replace(IX_GAINS, kp=(340.0, 240.0)))
     rl.learn(stiff, val[0])  # another plant, other errors: the same feedforward
     np.testing.assert_array_equal(rl.feedforward(val[0]), ff)
 

@@ -14,7 +14,7 @@ from lcgym import systems
 from lcgym.leaderboard.runner import BenchConfig
 from lcgym.systems.flexarm import dynamics as arm
 from lcgym.systems.flexarm.plant import FlexArmPlant, true_arm_v1, true_drive_v1
-from lcgym.systems.ix.plant import V1_GAINS, V1_SIZES, FeedbackGains, HiddenEffectSizes, IXPlant, default_hidden_effects
+from lcgym.systems.ix.plant import IX_GAINS, V1_GAINS, V1_SIZES, HiddenEffectSizes, IXPlant, default_hidden_effects
 
 
 def test_names_resolve_to_the_newest_version():
@@ -43,7 +43,7 @@ def test_the_version_lists_agree():
 
 def test_v0_is_the_first_release_and_v1_the_calibrated_plant():
     v0, v1 = IXPlant.of_version("v0"), IXPlant.of_version("v1")
-    assert v0.effects == default_hidden_effects() == HiddenEffectSizes().effects() and v0.gains == FeedbackGains()
+    assert v0.effects == default_hidden_effects() == HiddenEffectSizes().effects() and v0.gains == IX_GAINS
     assert v1.effects == V1_SIZES.effects() and v1.gains == V1_GAINS
     assert [type(e) for e in v1.effects] == [type(e) for e in v0.effects]  # the same forms, other sizes
     assert not FlexArmPlant.of_version("v0").settled_start and FlexArmPlant.of_version("v1").settled_start

@@ -57,6 +57,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .feedback import FeedbackGains
 from .system import System
 
 MACHINE_ENV = "lcgym/Machine-v0"
@@ -97,16 +98,13 @@ class FeedbackSettings:
     ki: tuple[float, ...] | None = None
     f_lp: float | None = None
 
-    def gains(self, system: System, fs: float):
-        from .urdf_plant import FeedbackGains
-
+    def gains(self, system: System, fs: float) -> FeedbackGains:
         if self.kp is None:
             if self.kd is not None or self.ki is not None:
                 raise ValueError("feedback: give kp with kd (and ki), or a bandwidth")
             return FeedbackGains.tuned(system, self.bandwidth, self.damping, self.integral_time, fs=fs)
-        n = len(self.kp)
-        return FeedbackGains(self.kp, self.kd if self.kd is not None else (0.0,) * n,
-                             self.ki if self.ki is not None else (0.0,) * n, f_lp=self.f_lp or 10 * self.bandwidth)
+        return FeedbackGains(self.kp, self.kd if self.kd is not None else (0.0,) * len(self.kp), self.ki,
+                             f_lp=self.f_lp or 10 * self.bandwidth, filtered="derivative")
 
 
 @dataclass(frozen=True)

@@ -114,7 +114,7 @@ class MachineTask:
         lo = np.where(np.isfinite(robot.lower), robot.lower, -math.pi)
         hi = np.where(np.isfinite(robot.upper), robot.upper, math.pi)
         self.centre, self.half_range = 0.5 * (lo + hi), 0.5 * (hi - lo)
-        v = np.where(np.isfinite(robot.velocity) & (robot.velocity > 0), robot.velocity, 1.0) * settings.speed
+        v = bench.speed_limits()
         self.v_scale, self.a_scale = v, v / settings.accel_time
         units = [a.unit for a in self.system.axes]
         self.err_scale = np.array([ERR_SCALE[u] for u in units])

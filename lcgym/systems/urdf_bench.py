@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 
 from ..metrics import input_residual_table, norms_table
-from ..references import stream
+from ..references import DEG, AxisLimits, stream, sweeps
 from .bench import trace_frame
 from .system import System
 
@@ -45,13 +45,33 @@ class URDFBench:
         ValueError says which does not)."""
         cls.settings.plant(system)
 
-    def references(self, set_name: str, seed: int, n: int, duration: float):
+    def references(self, set_name: str, seed: int, n: int = 8, duration: float = 20.0):
+        """The seeded set ``set_name``: "train", "validation", "test" (``n`` references of random moves
+        of about ``duration`` s), or "calibration" (each axis swept over its range and back at four
+        speeds, the others parked at seven positions: ``references.sweeps``)."""
         from .urdf_plant import random_references
 
-        r = self.settings.references
+        r, rng = self.settings.references, stream(set_name, seed)
+        if set_name == "calibration":
+            robot = self.plant.robot
+            lo = np.where(np.isfinite(robot.lower), robot.lower, -np.pi)
+            hi = np.where(np.isfinite(robot.upper), robot.upper, np.pi)
+            v = self.speed_limits()
+            limits = [AxisLimits(a, b, s, s / r.accel_time, s / r.accel_time / r.jerk_time)
+                      for a, b, s in zip(lo, hi, v, strict=True)]
+            jitter = [DEG if a.revolute else 1e-3 for a in self.system.axes]
+            return sweeps(rng, limits, self.axes, self.plant.fs, margin=r.margin * (hi - lo), jitter=jitter)
         return random_references(self.system, n, duration, self.plant.fs, speed=r.speed, accel_time=r.accel_time,
                                  jerk_time=r.jerk_time, margin=r.margin, velocity_fallback=r.velocity_fallback,
-                                 rng=stream(set_name, seed), prefix=f"{set_name}-{seed}")
+                                 rng=rng, prefix=f"{set_name}-{seed}")
+
+    def speed_limits(self) -> np.ndarray:
+        """The references' top speed per axis [rad/s or m/s]: ``speed`` x the URDF's velocity limit
+        (``velocity_fallback`` where it gives none)."""
+        from .urdf_plant import reference_speeds
+
+        r = self.settings.references
+        return reference_speeds(self.plant.robot, r.speed, r.velocity_fallback)
 
     def run(self, references, feedforward=None, offsets=None):
         if offsets is not None and any(o is not None for o in offsets):

@@ -32,7 +32,7 @@ against the axis's inertia). ``substeps=None`` picks the number of RK4 steps per
 h times the fastest rate of the effects (velocity slope / inertia, plus sqrt(position slope /
 inertia)) stays at or below ``STEP_RATE``, at least ``MIN_SUBSTEPS``.
 
-Feedback: without given gains, ``FeedbackGains.tuned`` puts every axis at 10 Hz with damping
+Feedback: without given gains, ``tuned_gains`` (``FeedbackGains.tuned``) puts every axis at 10 Hz with damping
 0.7 (PD, no integral action) for the geometric mean of its inertia over the workspace, lowered
 where the sampled loop would be unstable at the smallest or largest inertia.
 
@@ -45,7 +45,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numba
 import numpy as np
@@ -56,6 +55,7 @@ from ..physics import effects as fx
 from ..physics.compiled import FASTMATH, cache_dir
 from ..physics.lti import rigid_axis
 from ..references import Reference, random_moves
+from .feedback import FeedbackGains
 from .system import SimulationDiverged, System
 from .urdf import URDFRobot, urdf_robot
 
@@ -201,78 +201,60 @@ numba.config.CACHE_DIR = _previous_cache_dir
 # ---------------------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
-class FeedbackGains:
-    """Diagonal PID per axis, in the machine's axis order: kp [N m/rad or N/m], kd [N m s/rad or
-    N s/m], ki [N m/(rad s) or N/(m s)]; f_lp [Hz]: the derivative's first-order low-pass."""
+def tuned_gains(system: System, bandwidth: float = 10.0, damping: float = 0.7, integral_time: float | None = None,
+                fs: float = 1000.0, seed: int = 0) -> FeedbackGains:
+    """Gains that put each axis, seen as a rigid inertia J, at ``bandwidth`` Hz with ``damping``:
+    kp = J w^2, kd = 2 damping J w, ki = kp / integral_time (None: no integral action), the
+    derivative low-pass at 10 x bandwidth. J is the geometric mean of the axis's smallest and
+    largest inertia over seeded random configurations (``inertia_range``), so that bandwidth and
+    damping vary by the same factor either way; where the loop sampled at ``fs`` would be
+    unstable at either end (``loop_stable``), that axis's bandwidth is lowered in steps of 20 %."""
+    if not (bandwidth > 0 and damping > 0 and fs > 0):
+        raise ValueError(f"bandwidth, damping and fs must be > 0, got {bandwidth} Hz, {damping}, {fs} Hz")
+    if integral_time is not None and not integral_time > 0:
+        raise ValueError(f"integral_time must be > 0 s, got {integral_time}")
+    lo, hi = inertia_range(urdf_robot(system), seed=seed)
+    J = np.sqrt(lo * hi)
+    gains = [_stable_axis(J[i], lo[i], hi[i], bandwidth, damping, integral_time, fs) for i in range(J.size)]
+    kp, kd, ki = zip(*gains, strict=True)
+    return FeedbackGains(kp, kd, ki, f_lp=10 * bandwidth, filtered="derivative")
 
-    kp: tuple[float, ...]
-    kd: tuple[float, ...]
-    ki: tuple[float, ...]
-    f_lp: float = 100.0
 
-    def __post_init__(self):
-        n = len(self.kp)
-        for what in ("kp", "kd", "ki"):
-            v = np.asarray(getattr(self, what), dtype=float)
-            if v.shape != (n,) or not np.all(np.isfinite(v)) or np.any(v < 0):
-                raise ValueError(f"FeedbackGains.{what} must be {n} finite values >= 0, got {getattr(self, what)!r}")
-            object.__setattr__(self, what, tuple(float(x) for x in v))
-        if not (np.isfinite(self.f_lp) and self.f_lp > 0):
-            raise ValueError(f"FeedbackGains.f_lp must be > 0 Hz, got {self.f_lp}")
+def _stable_axis(J, lo, hi, bandwidth, damping, integral_time, fs) -> tuple[float, float, float]:
+    """(kp, kd, ki) of one axis at the highest bandwidth, from ``bandwidth`` down in steps of 20 %,
+    whose sampled loop is stable at both inertias lo and hi."""
+    f = bandwidth
+    while f > 1e-3 * bandwidth:
+        w = 2 * math.pi * f
+        gains = (J * w**2, 2 * damping * J * w, J * w**2 / integral_time if integral_time else 0.0)
+        one = FeedbackGains(*((g,) for g in gains), f_lp=10 * bandwidth, filtered="derivative")
+        if loop_stable(one, lo, fs)[0] and loop_stable(one, hi, fs)[0]:
+            return gains
+        f *= 0.8
+    raise ValueError(f"no stable feedback found at {fs:g} Hz for an axis of inertia {lo:.3g} to {hi:.3g}")
 
-    @classmethod
-    def tuned(cls, system: System, bandwidth: float = 10.0, damping: float = 0.7, integral_time: float | None = None,
-              fs: float = 1000.0, seed: int = 0) -> FeedbackGains:
-        """Gains that put each axis, seen as a rigid inertia J, at ``bandwidth`` Hz with ``damping``:
-        kp = J w^2, kd = 2 damping J w, ki = kp / integral_time (None: no integral action), the
-        derivative low-pass at 10 x bandwidth. J is the geometric mean of the axis's smallest and
-        largest inertia over seeded random configurations (``inertia_range``), so that bandwidth and
-        damping vary by the same factor either way; where the loop sampled at ``fs`` would be
-        unstable at either end (``stable``), that axis's bandwidth is lowered in steps of 20 %."""
-        if not (bandwidth > 0 and damping > 0 and fs > 0):
-            raise ValueError(f"bandwidth, damping and fs must be > 0, got {bandwidth} Hz, {damping}, {fs} Hz")
-        if integral_time is not None and not integral_time > 0:
-            raise ValueError(f"integral_time must be > 0 s, got {integral_time}")
-        lo, hi = inertia_range(urdf_robot(system), seed=seed)
-        J = np.sqrt(lo * hi)
-        gains = [cls._stable_axis(J[i], lo[i], hi[i], bandwidth, damping, integral_time, fs) for i in range(J.size)]
-        kp, kd, ki = zip(*gains, strict=True)
-        return cls(kp, kd, ki, f_lp=10 * bandwidth)
 
-    @classmethod
-    def _stable_axis(cls, J, lo, hi, bandwidth, damping, integral_time, fs) -> tuple[float, float, float]:
-        """(kp, kd, ki) of one axis at the highest bandwidth, from ``bandwidth`` down in steps of
-        20 %, whose sampled loop is stable at both inertias lo and hi."""
-        f = bandwidth
-        while f > 1e-3 * bandwidth:
-            w = 2 * math.pi * f
-            gains = (J * w**2, 2 * damping * J * w, J * w**2 / integral_time if integral_time else 0.0)
-            one = cls(*((g,) for g in gains), f_lp=10 * bandwidth)
-            if one.stable(lo, fs)[0] and one.stable(hi, fs)[0]:
-                return gains
-            f *= 0.8
-        raise ValueError(f"no stable feedback found at {fs:g} Hz for an axis of inertia {lo:.3g} to {hi:.3g}")
-
-    def stable(self, inertia, fs: float) -> np.ndarray:
-        """Per axis: whether the sampled loop (this PID at ``fs`` Hz, the input held over a sample)
-        around a rigid inertia J (``inertia`` [kg m^2 or kg], per axis) is stable: the roots of
-        its characteristic polynomial lie inside the unit circle. The plant 1 / (J s^2) behind a
-        zero-order hold is Ts^2 / (2 J) (z + 1) / (z - 1)^2; the controller is ``control``'s PID."""
-        ts, alpha = 1.0 / fs, math.exp(-2 * math.pi * self.f_lp / fs)
-        J = np.broadcast_to(np.asarray(inertia, dtype=float), (len(self.kp),))
-        out = np.zeros(len(self.kp), dtype=bool)
-        P = np.polynomial.polynomial
-        for i, (kp, kd, ki) in enumerate(zip(self.kp, self.kd, self.ki, strict=True)):
-            z_a, z_1 = np.array([-alpha, 1.0]), np.array([-1.0, 1.0])
-            num = P.polyadd(kp * z_a, kd * (1 - alpha) / ts * z_1)
-            den = z_a
-            if ki > 0:  # the integrator sums e up to the previous sample: Ts / (z - 1)
-                num, den = P.polyadd(P.polymul(num, z_1), ki * ts * z_a), P.polymul(z_a, z_1)
-            plant_num, plant_den = ts**2 / (2 * J[i]) * np.array([1.0, 1.0]), P.polymul(z_1, z_1)
-            char = P.polyadd(P.polymul(den, plant_den), P.polymul(num, plant_num))
-            out[i] = bool(np.all(np.abs(P.polyroots(char)) < 1.0))
-        return out
+def loop_stable(gains: FeedbackGains, inertia, fs: float) -> np.ndarray:
+    """Per axis: whether the sampled loop (``gains``' PID with its low-passed derivative, ``control``,
+    at ``fs`` Hz, the input held over a sample) around a rigid inertia J (``inertia`` [kg m^2 or
+    kg], per axis) is stable: the roots of its characteristic polynomial lie inside the unit circle.
+    The plant 1 / (J s^2) behind a zero-order hold is Ts^2 / (2 J) (z + 1) / (z - 1)^2."""
+    gains.require("derivative", "URDFPlant")
+    ts = 1.0 / fs
+    J = np.broadcast_to(np.asarray(inertia, dtype=float), (gains.n_axes,))
+    out = np.zeros(gains.n_axes, dtype=bool)
+    P = np.polynomial.polynomial
+    for i, (kp, kd, ki, f_lp) in enumerate(zip(gains.kp, gains.kd, gains.ki, gains.f_lp, strict=True)):
+        alpha = math.exp(-2 * math.pi * f_lp / fs)
+        z_a, z_1 = np.array([-alpha, 1.0]), np.array([-1.0, 1.0])
+        num = P.polyadd(kp * z_a, kd * (1 - alpha) / ts * z_1)
+        den = z_a
+        if ki > 0:  # the integrator sums e up to the previous sample: Ts / (z - 1)
+            num, den = P.polyadd(P.polymul(num, z_1), ki * ts * z_a), P.polymul(z_a, z_1)
+        plant_num, plant_den = ts**2 / (2 * J[i]) * np.array([1.0, 1.0]), P.polymul(z_1, z_1)
+        char = P.polyadd(P.polymul(den, plant_den), P.polymul(num, plant_num))
+        out[i] = bool(np.all(np.abs(P.polyroots(char)) < 1.0))
+    return out
 
 
 def gravity_bound(robot: URDFRobot, model=None, seed: int = 0) -> np.ndarray:
@@ -408,8 +390,8 @@ class URDFPlant:
 
     system: a machine made by ``urdf.from_urdf`` (or a URDF path, with ``joints``). effects: hidden
     effects on its axes. parameters: the true rigid body and viscous friction in the system's
-    parameter order (None: the URDF's, no friction). gains: ``FeedbackGains`` (None:
-    ``FeedbackGains.tuned(system)``). fs [Hz]; substeps: RK4 steps per sample (None: from the
+    parameter order (None: the URDF's, no friction). gains: ``FeedbackGains`` with
+    ``filtered="derivative"`` (None: ``tuned_gains(system)``). fs [Hz]; substeps: RK4 steps per sample (None: from the
     effects' stiffness). u_max [N m or N]: input limit, one value or one per axis (None: none).
     encoder_resolution [rad or m per count] and noise_rms [rad or m]: one value or one per axis
     (0: exact). seed: the noise's. preroll [s]. max_error [rad or m], one value or one per axis
@@ -442,7 +424,7 @@ class URDFPlant:
             self.model = self.model.copy()
             self.model.armature = self.model.armature + self._E[:, ROTOR]
             self.data = self.model.createData()
-        self.gains = gains if gains is not None else FeedbackGains.tuned(system, fs=fs)
+        self.gains = (gains if gains is not None else tuned_gains(system, fs=fs)).require("derivative", "URDFPlant")
         if len(self.gains.kp) != self.n_axes:
             raise ValueError(f"gains for {len(self.gains.kp)} axes, but {system.name} has {self.n_axes}")
         self.u_max = self._per_axis("u_max", np.inf if u_max is None else u_max, positive=True)
@@ -485,9 +467,9 @@ class URDFPlant:
         J = np.diag(self.system.mass_matrix(p, q_mean[None, :])[0])
         ts, g = 1.0 / self.fs, self.gains
         z = np.exp(1j * 2 * math.pi * np.fft.rfftfreq(n, ts) * ts)
-        alpha = math.exp(-2 * math.pi * g.f_lp / self.fs)
         out = np.empty((z.size, self.n_axes), dtype=complex)
         for a in range(self.n_axes):
+            alpha = math.exp(-2 * math.pi * g.f_lp[a] / self.fs)
             pn, pd = rigid_axis(J[a], 0.0, self.fs, z)
             c = g.kp[a] + g.kd[a] * (1 - alpha) * (1 - 1 / z) / ts / (1 - alpha / z)
             with np.errstate(divide="ignore", invalid="ignore"):  # the integrator's pole at z = 1 (bin 0)
@@ -535,8 +517,8 @@ class URDFPlant:
         """Controller, limits and configuration map per axis, rows in pinocchio's velocity order."""
         r, g = self.robot, self.gains
         C = np.zeros((self.n_axes, N_CTRL))
-        alpha = math.exp(-2 * math.pi * g.f_lp / self.fs)
         for k, row in enumerate(r.v_index):
+            alpha = math.exp(-2 * math.pi * g.f_lp[k] / self.fs)
             C[row] = (g.kp[k], g.kd[k], g.ki[k], alpha, self.u_max[k], self.encoder_resolution[k], self.max_error[k],
                       r.q_index[k], float(r.continuous[k]))
         return C
@@ -745,6 +727,14 @@ class ClosedLoopRun:
 # ---------------------------------------------------------------------------------------------
 
 
+def reference_speeds(robot: URDFRobot, speed: float = 0.5,
+                     velocity_fallback: tuple[float, float] = (1.0, 0.1)) -> np.ndarray:
+    """The references' top speed per axis [rad/s or m/s]: ``speed`` x the URDF's velocity limit, or
+    x ``velocity_fallback`` (revolute, prismatic) where the URDF gives none."""
+    fallback = np.where(np.array(robot.kinds) == "prismatic", velocity_fallback[1], velocity_fallback[0])
+    return speed * np.where(np.isfinite(robot.velocity) & (robot.velocity > 0), robot.velocity, fallback)
+
+
 def random_references(system: System, n: int = 1, duration: float = 20.0, fs: float = 1000.0, seed: int = 0,
                       speed: float = 0.5, accel_time: float = 0.2, jerk_time: float = 0.05, margin: float = 0.1,
                       velocity_fallback: tuple[float, float] = (1.0, 0.1), rng: np.random.Generator | None = None,
@@ -763,12 +753,11 @@ def random_references(system: System, n: int = 1, duration: float = 20.0, fs: fl
         raise ValueError(f"need n >= 1, duration > 0, fs > 0, speed > 0, 0 <= margin < 0.5; got {n}, {duration}, {fs}, "
                          f"{speed}, {margin}")
     rng = np.random.default_rng(seed) if rng is None else rng
-    v_urdf = robot.velocity
-    fallback = np.where(np.array(robot.kinds) == "prismatic", velocity_fallback[1], velocity_fallback[0])
-    v_max = speed * np.where(np.isfinite(v_urdf) & (v_urdf > 0), v_urdf, fallback)
+    v_max = reference_speeds(robot, speed, velocity_fallback)
     prefix = prefix or f"{system.name}-{seed}"
     return [random_moves(f"{prefix}-{i}", rng, robot.lower, robot.upper, v_max, duration, fs, system.axis_names, margin,
                          accel_time, jerk_time) for i in range(n)]
 
 
-__all__ = ["FeedbackGains", "URDFPlant", "inertia_range", "pack_effects", "random_references"]
+__all__ = ["ClosedLoopRun", "FeedbackGains", "URDFPlant", "inertia_range", "loop_stable", "pack_effects",
+           "random_references", "reference_speeds", "tuned_gains"]

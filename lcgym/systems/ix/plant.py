@@ -4,7 +4,7 @@ What one run does, per sample k (Ts = 1/fs = 2 ms):
 
 1. The encoders read the axis angles, quantized to 0.0669 deg (propeller) and 0.0119 deg (roll);
    with drivetrain flexibility they sit on the motor side.
-2. The fixed diagonal feedback (PD + first-order low-pass, ``FeedbackGains``) computes
+2. The fixed diagonal feedback (PD + first-order low-pass on its output, ``FeedbackGains``) computes
    ``fb[k]`` from e[k] = ref[k] - measured[k]; the input is u[k] = sat(fb[k] + ff[k], +-5 V).
 3. u[k] is applied over [t_{k+1}, t_{k+2}) (one-sample computation delay, zero-order hold).
 4. The true dynamics are integrated over each interval in ``substeps`` steps (default 1: 2 ms).
@@ -44,6 +44,7 @@ from ...data import Trial
 from ...physics import effects as fx
 from ...physics.lti import rigid_axis
 from ...references import Reference
+from ..feedback import FeedbackGains
 from ..system import SimulationDiverged
 from . import dynamics as ix
 from . import kernel as K
@@ -53,22 +54,16 @@ DEG = math.pi / 180.0
 ENCODER_RESOLUTION = (0.0669 * DEG, 0.0119 * DEG)  # rad per count: propeller, roll
 
 
-@dataclass(frozen=True)
-class FeedbackGains:
-    """Diagonal PD + low-pass feedback per axis (propeller, roll); fixed, as on the real IX.
+IX_GAINS = FeedbackGains(kp=(170.0, 120.0), kd=(14.0, 12.0), f_lp=(20.0, 20.0), u_max=5.0, filtered="output")
+"""IX-v0's diagonal PD + low-pass feedback per axis (propeller, roll); fixed, as on the real IX: kp
+[V/rad], kd [V s/rad], the first-order low-pass on the PD output at f_lp [Hz], the amplifier's
+saturation u_max [V]. Crossover about 2.7 Hz, phase margin 47-53 deg on the rigid plant."""
 
-    kp [V/rad], kd [V s/rad], f_lp [Hz] low-pass corner. Crossover about 2.7 Hz, phase margin
-    47-53 deg on the rigid plant.
-    """
 
-    kp: tuple[float, float] = (170.0, 120.0)
-    kd: tuple[float, float] = (14.0, 12.0)
-    f_lp: tuple[float, float] = (20.0, 20.0)
-    u_max: float = 5.0  # V, amplifier saturation
-
-    def matrix(self, fs: float) -> np.ndarray:
-        alpha = [math.exp(-2 * math.pi * f / fs) for f in self.f_lp]
-        return np.array([[self.kp[i], self.kd[i], alpha[i]] for i in range(2)], dtype=float)
+def gain_matrix(gains: FeedbackGains, fs: float) -> np.ndarray:
+    """The kernel's controller rows (2, 3): kp, kd and the low-pass's pole exp(-2 pi f_lp / fs) per axis."""
+    alpha = [math.exp(-2 * math.pi * f / fs) for f in gains.f_lp]
+    return np.array([[gains.kp[i], gains.kd[i], alpha[i]] for i in range(2)], dtype=float)
 
 
 @dataclass(frozen=True)
@@ -136,7 +131,7 @@ stiction transients after standstill that make Table II's Inf of 1.88 V), and it
 make the default 2 ms step differ from 8 substeps by up to 2e-3 deg of the propeller's angle (3 %
 of an encoder count) on a validation reference without quantization."""
 
-V1_GAINS = FeedbackGains(kp=(140.0, 170.0), kd=(16.0, 14.0), f_lp=(5.0, 20.0))
+V1_GAINS = FeedbackGains(kp=(140.0, 170.0), kd=(16.0, 14.0), f_lp=(5.0, 20.0), u_max=5.0, filtered="output")
 """IX-v1's feedback (``studies/calibrate_ix.py``): the propeller's loop softer (kp 140 against v0's
 170: Table IV's feedback-only error) and low-passed at 5 Hz (the encoder's 0.0669 deg counts
 otherwise make 0.5 V of chatter in u: Table II's residual); the roll's stiffer (kp 170)."""
@@ -229,7 +224,7 @@ class IXPlant:
 
     rigid: ix.IXParameters = field(default_factory=ix.IXParameters)
     effects: tuple[fx.Effect, ...] = field(default_factory=default_hidden_effects)
-    gains: FeedbackGains = field(default_factory=FeedbackGains)
+    gains: FeedbackGains = IX_GAINS
     fs: float = 500.0
     substeps: int = 1
     encoder_resolution: tuple[float, float] = ENCODER_RESOLUTION
@@ -254,7 +249,11 @@ class IXPlant:
         if self.fs <= 0:
             raise ValueError(f"fs must be positive, got {self.fs}")
         self._E, self._p = pack_effects(self.effects, self.rigid)
-        self._C = self.gains.matrix(self.fs)
+        self.gains.require("output", "the IX plant")
+        if self.gains.n_axes != 2 or self.gains.u_max is None or any(k != 0 for k in self.gains.ki):
+            raise ValueError(f"the IX plant's feedback is a PD per axis (propeller, roll) with an amplifier limit u_max; "
+                             f"got {self.gains}")
+        self._C = gain_matrix(self.gains, self.fs)
         self._cfg = np.zeros(K.N_CFG)
         self._cfg[[K.CFG_UMAX, K.CFG_TS, K.CFG_ERR, K.CFG_VEL, K.CFG_SUB]] = (
             self.gains.u_max, 1.0 / self.fs, self.max_error, self.max_velocity, self.substeps)
@@ -273,7 +272,9 @@ class IXPlant:
         """The plant that ``record`` describes."""
         from . import IX
 
-        gains = FeedbackGains(**{k: tuple(v) if isinstance(v, list) else v for k, v in record["gains"].items()})
+        # a record written before the gains named where they filter: the IX's place, its output
+        gains = FeedbackGains(**{"filtered": "output", **{k: tuple(v) if isinstance(v, list) else v
+                                                        for k, v in record["gains"].items()}})
         return cls(rigid=ix.IXParameters.from_vector(np.asarray(record["rigid"], dtype=float)),
                    effects=tuple(fx.effect_from_record(r, IX) for r in record["effects"]), gains=gains, fs=record["fs"],
                    substeps=record["substeps"], encoder_resolution=tuple(record["encoder_resolution"]),
@@ -375,7 +376,7 @@ class IXPlant:
 def process_sensitivity(n: int, fs: float, positions: np.ndarray, gains: FeedbackGains | None = None,
                         params: ix.IXParameters | None = None) -> np.ndarray:
     """P S (e^{i w Ts}) (n_freq, 2) [rad/V] of the nominal IX closed loop (``IXPlant.process_sensitivity``)."""
-    gains = gains or FeedbackGains()
+    gains = gains or IX_GAINS
     p = (params or ix.IXParameters()).to_vector()
     q_mean = np.asarray(positions, dtype=float).mean(axis=0)
     J = np.diag(ix.mass_matrix(p, q_mean[None, :])[0])

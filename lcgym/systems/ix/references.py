@@ -17,7 +17,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ...references import AxisLimits, AxisProfile, Reference, sample, stream
+from ...references import AxisLimits, Reference, limit_fractions, random_profile, sample, stream, sweeps
 
 DEG = math.pi / 180.0
 AXES = ("propeller", "roll")
@@ -34,17 +34,8 @@ def random_moves(
 ) -> Reference:
     """Both axes move point to point between random positions in their range, at random
     fractions (0.4-1) of their limits, with random dwells (0.3-2 s), for about ``duration`` s."""
-    profiles = []
-    for lim in limits:
-        lo, hi = lim.low + margin, lim.high - margin
-        p = AxisProfile(rng.uniform(lo, hi)).dwell(1.0)
-        while p.end_time < duration:
-            target = rng.uniform(lo, hi)
-            if abs(target - p.x) < 2 * DEG:
-                continue
-            f = rng.uniform(0.4, 1.0, size=3)
-            p.move(target, f[0] * lim.v, f[1] * lim.a, f[2] * lim.j).dwell(rng.uniform(0.3, 2.0))
-        profiles.append(p)
+    profiles = [random_profile(rng, lim.low + margin, lim.high - margin, duration, limit_fractions(lim), start_dwell=1.0,
+                               min_step=2 * DEG, dwells=(0.3, 2.0)) for lim in limits]
     return sample(name, profiles, fs, axes=AXES)
 
 
@@ -53,22 +44,9 @@ def calibration_sweeps(
     fs: float = 500.0, limits: Sequence[AxisLimits] = IX_LIMITS, margin: float = 2 * DEG,
 ) -> list[Reference]:
     """Paper 000, V-A: each axis swept over its range and back at each speed fraction, with the
-    other axis parked at ``n_positions`` positions across its range (one reference per park)."""
-    refs = []
-    for swept in range(len(limits)):
-        parked = 1 - swept
-        lp, ls = limits[parked], limits[swept]
-        for k, pos in enumerate(np.linspace(lp.low + margin, lp.high - margin, n_positions)):
-            pos = float(np.clip(pos + rng.normal(0, 1 * DEG), lp.low, lp.high))
-            lo, hi = ls.low + margin, ls.high - margin
-            sw = AxisProfile(lo).dwell(1.0)
-            pk = AxisProfile(pos)
-            for s in speeds:
-                sw.move(hi, s * ls.v, s * ls.a, ls.j).dwell(0.5).move(lo, s * ls.v, s * ls.a, ls.j).dwell(0.5)
-            pk.dwell(sw.end_time)
-            profiles = [sw, pk] if swept == 0 else [pk, sw]
-            refs.append(sample(f"calibration-{AXES[swept]}-sweep-{k}", profiles, fs, axes=AXES))
-    return refs
+    other axis parked at ``n_positions`` positions across its range (one reference per park;
+    ``references.sweeps``)."""
+    return sweeps(rng, limits, AXES, fs, n_positions, speeds, margin)
 
 
 def reference_set(

@@ -1,0 +1,82 @@
+"""``FeedbackGains``: the fixed feedback of a simulated plant, one type for every machine.
+
+A diagonal PID per axis, in the machine's axis order, with a first-order low-pass of corner
+``f_lp`` [Hz] on one of two places, ``filtered``:
+
+* ``"output"``: the whole PD output, C(s) = (kp + kd s) / (1 + s / (2 pi f_lp)) (the IX's
+  amplifier, ``systems/ix/plant.py``; no integral action there);
+* ``"derivative"``: the derivative term only, C = kp + ki / s + kd s / (1 + s / (2 pi f_lp))
+  (``URDFPlant``, every machine given by a URDF or a machine file).
+
+Each plant implements its own place (and says so if handed the other); the sampled forms are in
+their docstrings. Units per axis: kp [input unit per rad or m], kd [input unit s per rad or m], ki
+[input unit per (rad s) or (m s)]; u_max [input unit]: the input limit where the gains carry it
+(the IX's amplifier; None: the plant's own).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+FILTERED = ("output", "derivative")
+
+
+@dataclass(frozen=True)
+class FeedbackGains:
+    """Diagonal PID + first-order low-pass per axis (module docstring): kp, kd and ki (None: no
+    integral action) one value per axis; f_lp [Hz] one value or one per axis; filtered: "output" or
+    "derivative", given by name (it is a different controller); u_max [input unit] or None."""
+
+    kp: tuple[float, ...]
+    kd: tuple[float, ...]
+    ki: tuple[float, ...] | None = None
+    f_lp: float | tuple[float, ...] = 100.0
+    u_max: float | None = None
+    filtered: str = field(default="", kw_only=True)
+
+    def __post_init__(self):
+        if self.filtered not in FILTERED:
+            raise ValueError(f"FeedbackGains.filtered must be 'output' (the PD output low-passed) or 'derivative' (the "
+                             f"derivative term only), got {self.filtered!r}")
+        n = len(self.kp)
+        ki = (0.0,) * n if self.ki is None else self.ki
+        f_lp = (self.f_lp,) * n if np.ndim(self.f_lp) == 0 else self.f_lp
+        for what, value in (("kp", self.kp), ("kd", self.kd), ("ki", ki), ("f_lp", f_lp)):
+            v = np.asarray(value, dtype=float)
+            if v.shape != (n,) or not np.all(np.isfinite(v)):
+                raise ValueError(f"FeedbackGains.{what} must be {n} finite values (one per axis), got {value!r}")
+            object.__setattr__(self, what, tuple(float(x) for x in v))
+        if any(f <= 0 for f in self.f_lp):
+            raise ValueError(f"FeedbackGains.f_lp must be > 0 Hz, got {self.f_lp}")
+        if self.u_max is not None and not self.u_max > 0:
+            raise ValueError(f"FeedbackGains.u_max must be > 0 or None, got {self.u_max}")
+
+    @property
+    def n_axes(self) -> int:
+        return len(self.kp)
+
+    @classmethod
+    def tuned(cls, system, bandwidth: float = 10.0, damping: float = 0.7, integral_time: float | None = None,
+              fs: float = 1000.0, seed: int = 0) -> FeedbackGains:
+        """Gains of a URDF machine's plant for ``bandwidth`` [Hz] and ``damping`` (``urdf_plant.tuned_gains``)."""
+        from .urdf_plant import tuned_gains
+
+        return tuned_gains(system, bandwidth, damping, integral_time, fs, seed)
+
+    def stable(self, inertia, fs: float) -> np.ndarray:
+        """Per axis: the sampled loop around a rigid inertia is stable (``urdf_plant.loop_stable``)."""
+        from .urdf_plant import loop_stable
+
+        return loop_stable(self, inertia, fs)
+
+    def require(self, filtered: str, plant: str) -> FeedbackGains:
+        """These gains, or a ValueError when ``plant`` low-passes elsewhere than they say."""
+        if self.filtered != filtered:
+            raise ValueError(f"{plant} low-passes the {filtered if filtered == 'output' else 'derivative term'} of its "
+                             f"feedback: give FeedbackGains(..., filtered={filtered!r}), got filtered={self.filtered!r}")
+        return self
+
+
+__all__ = ["FILTERED", "FeedbackGains"]
