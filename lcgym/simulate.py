@@ -53,13 +53,12 @@ def simulate(
     controllers: Sequence[str], system: str = "ix", seed: int = 0, n_train: int = 8, n_validation: int = 4,
     duration: float = 40.0, plant=None, progress: bool = True,
 ) -> list[SimulationResult]:
-    """Fit each named controller on seeded training references of a built-in machine and run it on
-    validation ones. ``duration`` [s]: moving time of an IX reference (an arm reference is one TCP
-    line out and back); ``system``: "ix", "flexarm" (their newest versions) or a versioned name,
-    "ix-v0"; ``plant``: the machine's plant (default the plant of that version)."""
-    machine = systems.get(system)
-    if machine.bench is None:
-        raise ValueError(f"simulate needs a built-in machine with a plant ({', '.join(systems.BUILT_IN)}), not {system}")
+    """Fit each named controller on seeded training references of a benchmark machine and run it on
+    validation ones. ``duration`` [s]: moving time of a reference (a FlexArm reference is one TCP
+    line out and back); ``system``: "ix", "flexarm", "two_link" (their newest versions), a
+    versioned name, "ix-v0", or a machine file, URDF or ``module:attr`` (``systems.benchmark``);
+    ``plant``: the machine's plant (default the plant of that version)."""
+    machine = systems.benchmark(system)  # a clear error for a machine without a plant
     available = controllers_for(machine.name)
     unknown = [c for c in controllers if c not in available]
     if unknown:

@@ -284,3 +284,64 @@ def test_one_feedback_type_for_every_plant(tmp_path):
     record = IXPlant().record()
     record["gains"] = {k: record["gains"][k] for k in ("kp", "kd", "f_lp", "u_max")}  # as written before
     assert IXPlant.from_record(record).gains == IX_GAINS
+
+
+TINY = {"seeds": (0,), "n_train": 1, "n_validation": 1, "duration": 2.0}
+
+
+def _cells(out: Path):
+    from lcgym.leaderboard.store import read_results
+
+    df = read_results(out)
+    return df, df[(df["reference_set"] == "validation") & (df["signal"] == "tracking_error")]
+
+
+def test_bench_on_a_urdf_alone_and_on_a_machine_of_python(tmp_path, monkeypatch):
+    """``--systems my_arm.urdf`` (a plant with the defaults: no hidden effect, 10 Hz PD) and
+    ``--systems module:attr`` (a System made by ``benchmark_machine`` in a user's module) run the
+    methods like a machine file; the CSV names each machine as given."""
+    from lcgym.leaderboard.runner import BenchConfig, run_benchmark
+
+    write_machine(tmp_path)
+    (tmp_path / "my_machine.py").write_text(textwrap.dedent("""
+        from lcgym.physics.effects import CoulombFriction
+        from lcgym.systems.machine import benchmark_machine
+
+        MACHINE = benchmark_machine("yaw_pitch.urdf", hidden=(CoulombFriction(axis="yaw", Fc=1.0, eps=0.02),),
+                                    encoder_resolution=1e-4)
+    """))
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    out = tmp_path / "r.csv"
+    config = BenchConfig(systems=("yaw_pitch.urdf", "my_machine:MACHINE"), methods=("feedback", "physical"), **TINY)
+    assert config.systems == ("yaw_pitch.urdf", "my_machine:MACHINE")
+    assert run_benchmark(config, out, progress=False)["cells_failed"] == 0
+    df, e = _cells(out)
+    assert set(df["system"]) == {"yaw_pitch.urdf", "my_machine:MACHINE"}
+    rms = e.pivot_table(index=["system", "axis"], columns="method", values="RMS")
+    assert (rms["physical"] < rms["feedback"]).all(), rms
+    bench = systems.make_bench("my_machine:MACHINE")
+    assert [e.key for e in bench.plant.bound_effects] == ["coulomb_friction@yaw"]
+    assert not systems.make_bench("yaw_pitch.urdf").plant.bound_effects
+
+
+def test_simulate_and_the_command_line_take_a_machine_file(machine_file, tmp_path, capsys):
+    from lcgym.cli import main
+    from lcgym.simulate import metric_table, simulate
+
+    results = simulate(["feedback", "physical"], system=str(machine_file), n_train=1, n_validation=1, duration=2.0,
+                       progress=False)
+    table = metric_table(results)
+    assert set(table["axis"]) == {"yaw", "pitch"} and set(table["controller"]) == {"feedback", "physical"}
+    bad = tmp_path / "bad.toml"
+    bad.write_text("urdf = 'yaw_pitch.urdf'\n[[hidden]]\neffect = 'coulomb_friction'\naxis = 'roll'\n")
+    for args in (["bench", "--quick", "--systems", str(bad), "--out", str(tmp_path / "o.csv")],
+                 ["simulate", "--system", str(bad)]):
+        try:
+            status = main(args)
+        except SystemExit as exc:  # argparse refuses the option
+            status = exc.code
+        assert status not in (0, None)
+        err = capsys.readouterr().err
+        assert str(bad) in err and "no axis 'roll'" in err
+    assert not (tmp_path / "o.csv").exists()

@@ -28,17 +28,17 @@ def test_names_resolve_to_the_newest_version():
 
 
 def test_the_version_lists_agree():
-    """``systems.VERSIONS`` (read without importing the machines) names exactly the plants' versions."""
-    from lcgym.systems import urdf_bench
-    from lcgym.systems.flexarm import plant as arm_plant
-    from lcgym.systems.ix import plant as ix_plant
-
-    assert systems.VERSIONS == {"ix": tuple(ix_plant.VERSIONS), "flexarm": tuple(arm_plant.VERSIONS),
-                                "two_link": urdf_bench.VERSIONS}
-    names = (("IX", "ix"), ("FlexArm", "flexarm"), ("TwoLink", "two_link"))
-    assert {f"lcgym/{n}-{v}" for n, m in names for v in systems.VERSIONS[m]} | {"lcgym/Machine-v0"} == set(systems.ENVS)
-    for name, machine in names:  # each machine's own ids, and only those
-        assert set(systems.get(machine).envs) == {f"lcgym/{name}-{v}" for v in systems.VERSIONS[machine]}
+    """``systems.VERSIONS`` (read without importing the machines) names exactly each built-in machine's
+    plant versions, and ``systems.ENVS`` its Gymnasium ids (and those only), for every machine
+    ``BUILT_IN`` registers."""
+    ids = {"lcgym/Machine-v0"}
+    for name, entry in systems.BUILT_IN.items():
+        machine = systems.get(name)
+        assert systems.VERSIONS[name] == machine.bench.versions
+        own = {f"lcgym/{entry.env}-{v}" for v in machine.bench.versions}
+        assert set(machine.envs) == own and machine.env_id == f"lcgym/{entry.env}-{machine.bench.versions[-1]}"
+        ids |= own
+    assert ids == set(systems.ENVS)
 
 
 def test_v0_is_the_first_release_and_v1_the_calibrated_plant():

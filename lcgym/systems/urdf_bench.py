@@ -30,6 +30,7 @@ class URDFBench:
     settings = None  # MachineSettings, set on the machine's subclass
     system: System | None = None
     scored = None  # every axis
+    versions = VERSIONS
 
     def __init__(self, version: str = "v0"):
         if version not in VERSIONS:

@@ -21,7 +21,7 @@ import pandas as pd
 from ...metrics import input_residual_table, norms_table
 from ..bench import trace_frame
 from .errors import paper_errors, period_mask, tcp_error
-from .plant import FlexArmPlant, load_error
+from .plant import VERSIONS, FlexArmPlant, load_error
 from .references import MOVING, arm_reference_set
 
 
@@ -30,6 +30,7 @@ class FlexArmBench:
 
     family = "flexarm"
     scored = MOVING  # joints 2, 3, 5
+    versions = tuple(VERSIONS)  # the plant's, oldest first (systems.VERSIONS names them without importing this)
 
     def __init__(self, version: str = "v1"):
         self.version = version

@@ -7,7 +7,7 @@ import pandas as pd
 
 from ...metrics import input_residual_table, tracking_error_table
 from ..bench import trace_frame
-from .plant import IXPlant
+from .plant import VERSIONS, IXPlant
 from .references import reference_set
 
 
@@ -16,6 +16,7 @@ class IXBench:
 
     family = "ix"
     scored = None  # both axes
+    versions = tuple(VERSIONS)  # the plant's, oldest first (systems.VERSIONS names them without importing this)
 
     def __init__(self, version: str = "v1"):
         self.version = version
