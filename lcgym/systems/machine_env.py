@@ -28,7 +28,8 @@ Observation (float32, shape (3 n P + 3 n,)), all O(1); P = len(PREVIEW) preview 
     - tracking error e = reference - encoder reading / ``ERR_SCALE`` (0.5 deg or 0.5 mm), clipped to +-20
 
 Reward: -1/2 sum over axes (e_i / ``REWARD_SCALE``)^2 (0.1 deg or 0.1 mm), e the tracking error
-    measured at the next sample (the error the action helped to make).
+    measured at the next sample (the error the action helped to make); the step that leaves the
+    safe range gets -1/2 n ``ERR_CLIP``^2.
 
 Episode end: ``truncated`` after the last sample of the reference; ``terminated`` when the plant
     leaves its safe range (a tracking error over ``max_error`` or a non-finite state).
@@ -77,6 +78,7 @@ REWARD_SCALE = {"rad": 0.1 * DEG, "m": 0.1e-3}
 RESIDUAL_FRACTION = 0.2  # the residual action's bound, a fraction of the input scale
 OBS_BOUND = 25.0
 DEFAULT_REFERENCES, DEFAULT_DURATION = 8, 20.0
+_MODEL_CACHE: dict[tuple, object] = {}  # (plant, seed) -> the physical model fitted on its training runs
 
 
 class MachineTask:
@@ -132,8 +134,11 @@ class MachineTask:
                 raise ValueError(f"base_feedforward must be 'none', 'physical' or a fitted model, got {base!r}")
             if base == "none":
                 return None, "none"
-            train = self.bench.references("train", seed, DEFAULT_REFERENCES, DEFAULT_DURATION)
-            return self.system.physical_model(fs=self.plant.fs).fit(self.plant.run(train)), "physical"
+            key = (repr(self.plant), seed)
+            if key not in _MODEL_CACHE:  # the first env of a process runs and fits; later ones reuse it
+                train = self.bench.references("train", seed, DEFAULT_REFERENCES, DEFAULT_DURATION)
+                _MODEL_CACHE[key] = self.system.physical_model(fs=self.plant.fs).fit(self.plant.run(train))
+            return _MODEL_CACHE[key], "physical"
         if not callable(getattr(base, "predict", None)):
             raise ValueError(f"base_feedforward must be 'none', 'physical' or a fitted model with predict(positions), "
                              f"got {type(base).__name__}")

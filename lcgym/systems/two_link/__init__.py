@@ -3,7 +3,8 @@
 The whole machine is its machine file, ``machine.toml`` (``systems.machine``): the URDF's rigid
 body, a 10 Hz PD loop per joint, 16-bit encoders, the URDF's effort limits, and two effects the
 nominal model lacks, Coulomb friction in the elbow (3 N m) and a one-sided cable spring on the
-shoulder (40 N m/rad beyond 0.3 rad). Its env is ``lcgym/Machine-v0``'s (``systems.machine_env``).
+shoulder (10 N m/rad beyond 0.3 rad: up to 20 N m at the joint limit, about the gravity torque the
+shoulder holds). Its env is ``lcgym/Machine-v0``'s (``systems.machine_env``).
 """
 
 from __future__ import annotations
