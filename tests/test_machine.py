@@ -345,3 +345,35 @@ def test_simulate_and_the_command_line_take_a_machine_file(machine_file, tmp_pat
         err = capsys.readouterr().err
         assert str(bad) in err and "no axis 'roll'" in err
     assert not (tmp_path / "o.csv").exists()
+
+
+def test_machine_env_passes_the_checkers_and_ppo_learns_on_its_vector_env(machine_file):
+    """Gymnasium's and stable-baselines3's env checkers on ``lcgym/Machine-v0`` and
+    ``lcgym/TwoLink-v0``; PPO runs on the vector env through ``make_sb3_vec_env`` and reports the
+    episodes' tracking error (what the ``rl`` method's training curve reads)."""
+    from gymnasium.utils.env_checker import check_env as gym_check_env
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+    from lcgym.envs.sb3 import make_sb3_vec_env
+
+    short = {"references": "train", "n_references": 2, "duration": 0.3}
+    for env_id, kwargs in (("lcgym/Machine-v0", {"machine": str(machine_file)}), ("lcgym/TwoLink-v0", {})):
+        gym_check_env(gym.make(env_id, **kwargs, **short).unwrapped, skip_render_check=True)
+        sb3_check_env(gym.make(env_id, **kwargs, **short).unwrapped, warn=False)
+    venv = make_sb3_vec_env("lcgym/Machine-v0", num_envs=2, machine=str(machine_file), **short)
+    episodes = []
+
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class Episodes(BaseCallback):
+        def _on_step(self) -> bool:
+            episodes.extend(info["tracking_rms"] for info in self.locals["infos"] if "tracking_rms" in info)
+            return True
+
+    PPO("MlpPolicy", venv, n_steps=512, batch_size=256, n_epochs=1, seed=0, device="cpu").learn(2048, callback=Episodes())
+    assert len(episodes) >= 2 and all(np.shape(e) == (2,) and np.all(np.isfinite(e)) for e in episodes)
+    env = gym.make("lcgym/Machine-v0", machine=str(machine_file), render_mode="rgb_array", **short)
+    env.reset(seed=0)
+    env.step(np.zeros(2, dtype=np.float32))
+    assert env.render().ndim == 3
