@@ -277,7 +277,9 @@ def test_one_feedback_type_for_every_plant(tmp_path):
     with pytest.raises(ValueError, match="low-passes the output"):
         IXPlant(gains=dataclasses.replace(IX_GAINS, filtered="derivative"))
     machine = systems.get(str(write_machine(tmp_path)))
-    tuned = FeedbackGains.tuned(machine)
+    from lcgym.systems.urdf_plant import tuned_gains
+
+    tuned = tuned_gains(machine)
     assert tuned.filtered == "derivative" and tuned.f_lp == (100.0, 100.0)
     with pytest.raises(ValueError, match="derivative term"):
         URDFPlant(machine, gains=dataclasses.replace(tuned, filtered="output"))

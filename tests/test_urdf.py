@@ -24,7 +24,7 @@ from lcgym.references import AxisProfile
 from lcgym.systems import SimulationDiverged
 from lcgym.systems.examples import two_link_urdf
 from lcgym.systems.urdf import base_parameters, from_urdf, structural_rank, urdf_robot
-from lcgym.systems.urdf_plant import FeedbackGains, URDFPlant, inertia_range, random_references
+from lcgym.systems.urdf_plant import FeedbackGains, URDFPlant, inertia_range, loop_stable, random_references, tuned_gains
 
 PANDA = Path(__file__).parent / "data" / "panda" / "panda.urdf"
 PANDA_ARM = tuple(f"panda_joint{i}" for i in range(1, 8))
@@ -345,7 +345,7 @@ def test_hidden_coulomb_friction_adds_its_level(arm):
     kin = sampled(profiles, fs)
     ff = arm.inverse_dynamics(arm.nominal_params().to_vector(), *sampled(profiles, fs, advance=arm.advance))
     friction = fx.CoulombFriction("elbow", Fc=Fc, eps=0.01)
-    gains = FeedbackGains.tuned(arm, integral_time=0.05)
+    gains = tuned_gains(arm, integral_time=0.05)
     rigid = URDFPlant(arm, gains=gains).run(kin[0], ff)
     rough = URDFPlant(arm, effects=[friction], gains=gains).run(kin[0], ff)
     assert rough.meta["effects"] == ["coulomb_friction@elbow"]
@@ -408,8 +408,8 @@ def test_divergence_is_reported(arm, tally):
         URDFPlant(arm).run(ref, ff)
     # far beyond the sampled loop's limit
     unstable = FeedbackGains(kp=(6e5, 6e5), kd=(0.0, 0.0), ki=(0.0, 0.0), filtered="derivative")
-    assert not unstable.stable(inertia_range(urdf_robot(arm))[1], 1000.0).any()
-    assert FeedbackGains.tuned(arm).stable(inertia_range(urdf_robot(arm))[1], 1000.0).all()
+    assert not loop_stable(unstable, inertia_range(urdf_robot(arm))[1], 1000.0).any()
+    assert loop_stable(tuned_gains(arm), inertia_range(urdf_robot(arm))[1], 1000.0).all()
     with pytest.raises(SimulationDiverged, match="diverged"):
         URDFPlant(arm, gains=unstable, preroll=0.0).run(np.full((3000, 2), 0.1))
     tally("fault", 2)

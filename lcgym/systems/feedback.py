@@ -9,9 +9,12 @@ A diagonal PID per axis, in the machine's axis order, with a first-order low-pas
   (``URDFPlant``, every machine given by a URDF or a machine file).
 
 Each plant implements its own place (and says so if handed the other); the sampled forms are in
-their docstrings. Units per axis: kp [input unit per rad or m], kd [input unit s per rad or m], ki
-[input unit per (rad s) or (m s)]; u_max [input unit]: the input limit where the gains carry it
-(the IX's amplifier; None: the plant's own).
+their docstrings. A URDF plant's gains for a bandwidth, and their stability check:
+``urdf_plant.tuned_gains``, ``urdf_plant.loop_stable``.
+
+Units per axis: kp [input unit per rad or m], kd [input unit s per rad or m], ki [input unit per
+(rad s) or (m s)]; u_max [input unit]: the input limit where the gains carry it (the IX's
+amplifier; None: the plant's own).
 """
 
 from __future__ import annotations
@@ -56,20 +59,6 @@ class FeedbackGains:
     @property
     def n_axes(self) -> int:
         return len(self.kp)
-
-    @classmethod
-    def tuned(cls, system, bandwidth: float = 10.0, damping: float = 0.7, integral_time: float | None = None,
-              fs: float = 1000.0, seed: int = 0) -> FeedbackGains:
-        """Gains of a URDF machine's plant for ``bandwidth`` [Hz] and ``damping`` (``urdf_plant.tuned_gains``)."""
-        from .urdf_plant import tuned_gains
-
-        return tuned_gains(system, bandwidth, damping, integral_time, fs, seed)
-
-    def stable(self, inertia, fs: float) -> np.ndarray:
-        """Per axis: the sampled loop around a rigid inertia is stable (``urdf_plant.loop_stable``)."""
-        from .urdf_plant import loop_stable
-
-        return loop_stable(self, inertia, fs)
 
     def require(self, filtered: str, plant: str) -> FeedbackGains:
         """These gains, or a ValueError when ``plant`` low-passes elsewhere than they say."""

@@ -12,7 +12,7 @@ gear), a feedback loop, encoders and input limits. Written as a machine file (TO
     fs = 1000.0                       # the controller's sample rate [Hz]
     description = "..."
 
-    [feedback]                        # a bandwidth to derive PD(+I) gains from (FeedbackGains.tuned) ...
+    [feedback]                        # a bandwidth to derive PD(+I) gains from (urdf_plant.tuned_gains) ...
     bandwidth = 10.0                  # Hz
     damping = 0.7
     integral_time = 0.5               # s; none by default
@@ -88,7 +88,7 @@ class ReferenceSettings:
 @dataclass(frozen=True)
 class FeedbackSettings:
     """The plant's feedback: gains derived from ``bandwidth`` [Hz], ``damping`` and ``integral_time``
-    [s] (``FeedbackGains.tuned``), or given per axis (``kp``, ``kd``, ``ki``; ``f_lp`` [Hz])."""
+    [s] (``urdf_plant.tuned_gains``), or given per axis (``kp``, ``kd``, ``ki``; ``f_lp`` [Hz])."""
 
     bandwidth: float = 10.0
     damping: float = 0.7
@@ -102,7 +102,9 @@ class FeedbackSettings:
         if self.kp is None:
             if self.kd is not None or self.ki is not None:
                 raise ValueError("feedback: give kp with kd (and ki), or a bandwidth")
-            return FeedbackGains.tuned(system, self.bandwidth, self.damping, self.integral_time, fs=fs)
+            from .urdf_plant import tuned_gains
+
+            return tuned_gains(system, self.bandwidth, self.damping, self.integral_time, fs=fs)
         return FeedbackGains(self.kp, self.kd if self.kd is not None else (0.0,) * len(self.kp), self.ki,
                              f_lp=self.f_lp or 10 * self.bandwidth, filtered="derivative")
 
@@ -188,7 +190,8 @@ def load_machine(path: str | Path, envs: Mapping | None = None) -> System:
     (a built-in machine's own; default ``MACHINE_ENV``)."""
     path = Path(path)
     try:
-        data = tomllib.loads(path.read_text())
+        with open(path, "rb") as fh:  # TOML: data only (tables, strings, numbers), nothing is executed
+            data = tomllib.load(fh)
     except FileNotFoundError:
         raise MachineFileError(f"machine file {path} not found") from None
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:

@@ -32,7 +32,7 @@ against the axis's inertia). ``substeps=None`` picks the number of RK4 steps per
 h times the fastest rate of the effects (velocity slope / inertia, plus sqrt(position slope /
 inertia)) stays at or below ``STEP_RATE``, at least ``MIN_SUBSTEPS``.
 
-Feedback: without given gains, ``tuned_gains`` (``FeedbackGains.tuned``) puts every axis at 10 Hz with damping
+Feedback: without given gains, ``tuned_gains`` puts every axis at 10 Hz with damping
 0.7 (PD, no integral action) for the geometric mean of its inertia over the workspace, lowered
 where the sampled loop would be unstable at the smallest or largest inertia.
 
