@@ -63,8 +63,6 @@ from .system import System
 MACHINE_ENV = "lcgym/Machine-v0"
 """The Gymnasium id of every machine given by a machine file or by ``benchmark_machine``."""
 
-ENV_ENTRY = {"entry_point": "lcgym.systems.machine_env:MachineEnv",
-             "vector_entry_point": "lcgym.systems.machine_env:MachineVectorEnv"}
 
 
 @dataclass(frozen=True)
@@ -162,7 +160,8 @@ def benchmark_machine(machine: System | str | Path, settings: MachineSettings | 
     hints = {**system.hints, **{k: dict(v) for k, v in settings.hints.items()}}
     made = dataclasses.replace(system, fs=settings.fs, bench=bench, hints=hints,
                                observation_error=slice(-system.n_axes, None),  # the env's error columns
-                               envs=envs or {MACHINE_ENV: {**ENV_ENTRY, "kwargs": {"machine": settings.source or system.name}}})
+                               # the id's entry points are registered once, in ``systems.ENVS``
+                               envs=envs or {MACHINE_ENV: {"kwargs": {"machine": settings.source or system.name}}})
     bench.system = made
     return made
 
@@ -267,9 +266,5 @@ def _hints(table) -> dict:
     return {"benchmark": table} if table else {}
 
 
-def is_machine_file(spec) -> bool:
-    return str(spec).lower().endswith(".toml")
-
-
 __all__ = ["MACHINE_ENV", "FeedbackSettings", "MachineFileError", "MachineSettings", "ReferenceSettings",
-           "benchmark_machine", "is_machine_file", "load_machine"]
+           "benchmark_machine", "load_machine"]
