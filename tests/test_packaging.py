@@ -49,6 +49,9 @@ def test_wheel_builds_without_warnings_and_carries_its_data(tmp_path):
     with zipfile.ZipFile(wheel) as z:
         names = z.namelist()
         metadata = z.read(next(n for n in names if n.endswith(".dist-info/METADATA"))).decode()
-    assert "lcgym/systems/examples/two_link.urdf" in names
+    # every machine description and machine file of the source tree travels with the wheel
+    data = sorted(str(f.relative_to(ROOT)) for pattern in ("*.urdf", "*.toml") for f in (ROOT / "lcgym").rglob(pattern))
+    assert "lcgym/systems/two_link/machine.toml" in data
+    assert [n for n in data if n not in names] == []
     assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names)
     assert "License-Expression: MIT" in metadata
