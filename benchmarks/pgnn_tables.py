@@ -165,7 +165,7 @@ def main() -> None:
     print(f"\nTables II/III: input residual eps = u - f [V] on validation runs recorded like the training data "
           f"(u filtered at {args.filter_hz} Hz)")
     print(f"{'':18s} {'axis':9s} {'MA':>7s} {'RMS':>7s} {'Inf':>7s} {'RMS(f^C)':>9s}")
-    oracle = plant.static_model()
+    oracle = plant.static_model(IX)
     for label, model in {**models, "static (oracle)": oracle}.items():
         eps = np.concatenate([lowpass_zero_phase(t.u, plant.fs, args.filter_hz) - model.predict(t) for t in val_data])
         fc = (np.concatenate([model.nn_contribution(t) for t in val_data]) if hasattr(model, "nn_contribution")

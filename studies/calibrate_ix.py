@@ -41,6 +41,7 @@ from tqdm import tqdm
 
 from lcgym.baselines import PhysicalFeedforward
 from lcgym.systems import SimulationDiverged
+from lcgym.systems.ix import IX
 from lcgym.systems.ix.plant import V1_GAINS, V1_SIZES, FeedbackGains, HiddenEffectSizes, IXPlant
 from lcgym.systems.ix.references import reference_set
 
@@ -91,7 +92,7 @@ def static_oracle(plant: IXPlant, seed: int = 0) -> np.ndarray:
     """RMS tracking error [deg] per axis on the validation references with the plant's own static
     feedforward (``IXPlant.static_model``): what a static function of the PGNN's inputs can reach."""
     validation = reference_set("validation", seed)
-    oracle = plant.static_model()
+    oracle = plant.static_model(IX)
     e = np.degrees(np.concatenate([t.error for t in plant.run(validation, [oracle.predict(r) for r in validation])]))
     return np.sqrt(np.mean(e * e, axis=0))
 

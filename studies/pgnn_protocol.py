@@ -23,6 +23,7 @@ import torch
 
 from lcgym.baselines import PhysicalFeedforward
 from lcgym.pgnn import PGNN, PGNNConfig
+from lcgym.systems.ix import IX
 from lcgym.systems.ix.plant import IXPlant
 from lcgym.systems.ix.references import reference_set
 
@@ -57,7 +58,7 @@ def main() -> None:
         return np.sqrt(np.mean(e * e, axis=0)), np.abs(e).max(axis=0)
 
     base, _ = tracking(physical.feedforward)
-    oracle, _ = tracking(plant.static_model().predict)
+    oracle, _ = tracking(plant.static_model(IX).predict)
     print(f"IX-{args.version}, seed {args.seed}: physical model RMS {base.round(4)} deg; the plant's static feedforward "
           f"RMS {oracle.round(4)} deg, physical / static {(base / oracle).round(2)}")
     for key in args.rows:

@@ -159,10 +159,7 @@ def _module_graph() -> dict[str, set[str]]:
     return graph
 
 
-# The one circle left: the IX's package holds its System, which names its bench class (bench ->
-# plant), and the plant finds the System again inside two methods. Issue 36 (the machine handed to
-# each cell) removes it; until then it is listed here, and any other circle fails.
-KNOWN_MODULE_CIRCLES = [["lcgym.systems.ix", "lcgym.systems.ix.bench", "lcgym.systems.ix.plant"]]
+KNOWN_MODULE_CIRCLES: list = []  # none: the IX plant is handed its System (static_model) instead of importing it
 
 
 def test_no_import_circle_between_modules():

@@ -110,6 +110,12 @@ def periodic_basis(q, period):
 
 
 @register_jitable
+def drape_basis(q):
+    """(sin q, cos q): the weight of a hanging cable on a revolute axis, one harmonic of period 2 pi."""
+    return np.sin(q), np.cos(q)
+
+
+@register_jitable
 def gear_harmonic_basis(q, qd, period, v_ref):
     """Gear-harmonic basis: (sin x, cos x, r sin x, r cos x, sin 2x, cos 2x), x = 2 pi q / period,
     r = |qd| / v_ref (amplitude growing with speed)."""
@@ -264,6 +270,17 @@ class Effect:
         c = np.asarray(coefficients, dtype=float)
         return bool(all(c[cls.linear.index(n)] > 0 for n in cls.positive))
 
+    def plant_parameters(self) -> tuple[float, ...]:
+        """The parameters a plant's compiled torque reads (``physics.plant_effects``): the linear
+        coefficients, then the nonlinear parameters, in the class's order."""
+        return tuple(float(getattr(self, n)) for n in self.linear + self.nonlinear)
+
+    def slopes(self, load: float = 0.0) -> tuple[float, float]:
+        """(largest |d torque / d qd|, largest |d torque / d q|) [input unit s/rad, input unit/rad, or
+        per m] over all states: the stiffness that sets a plant's integration step (``load``: the
+        largest gravity torque of the axis, for an effect that reads it)."""
+        raise NotImplementedError(f"{self.name} gives no slopes: it is no torque of q and qd a plant adds")
+
     def _columns(self, q, qd, qdd, loads):  # pragma: no cover - abstract
         raise NotImplementedError
 
@@ -283,6 +300,9 @@ class ViscousFriction(Effect):
     linear: ClassVar[tuple[str, ...]] = ("d",)
     positive: ClassVar[tuple[str, ...]] = ("d",)
 
+    def slopes(self, load: float = 0.0) -> tuple[float, float]:
+        return abs(self.d), 0.0
+
     def _columns(self, q, qd, qdd, loads):
         return (self._v(qd),)
 
@@ -297,6 +317,9 @@ class CoulombFriction(Effect):
     linear: ClassVar[tuple[str, ...]] = ("Fc",)
     positive: ClassVar[tuple[str, ...]] = ("Fc",)
     nonlinear: ClassVar[tuple[str, ...]] = ("eps",)
+
+    def slopes(self, load: float = 0.0) -> tuple[float, float]:
+        return (abs(self.Fc) / self.eps if self.Fc else 0.0), 0.0
 
     def _columns(self, q, qd, qdd, loads):
         return (smooth_sign(self._v(qd), self.eps),)
@@ -317,6 +340,10 @@ class StribeckFriction(Effect):
     linear: ClassVar[tuple[str, ...]] = ("dF",)
     positive: ClassVar[tuple[str, ...]] = ("dF",)
     nonlinear: ClassVar[tuple[str, ...]] = ("vs", "eps")
+
+    def slopes(self, load: float = 0.0) -> tuple[float, float]:
+        """dF / eps from the sign, at most 0.86 dF / vs from the bump."""
+        return (abs(self.dF) / self.eps + 0.86 * abs(self.dF) / self.vs if self.dF else 0.0), 0.0
 
     def _columns(self, q, qd, qdd, loads):
         v = self._v(qd)
@@ -346,6 +373,11 @@ class AsymmetricFriction(Effect):
     positive: ClassVar[tuple[str, ...]] = ("Fc_pos", "Fc_neg")
     nonlinear: ClassVar[tuple[str, ...]] = ("eps",)
 
+    def slopes(self, load: float = 0.0) -> tuple[float, float]:
+        """(Fc_pos + Fc_neg) / (2 eps) from the step, |dFv| from the |qd| term."""
+        step = 0.5 * (abs(self.Fc_pos) + abs(self.Fc_neg))
+        return (step / self.eps if step else 0.0) + abs(self.dFv), 0.0
+
     def _columns(self, q, qd, qdd, loads):
         return asymmetric_friction_basis(self._v(qd), self.eps)
 
@@ -370,6 +402,11 @@ class LoadFriction(Effect):
     positive: ClassVar[tuple[str, ...]] = ("mu",)
     nonlinear: ClassVar[tuple[str, ...]] = ("eps",)
     reads: ClassVar[tuple[str, ...]] = ("gravity",)
+
+    def slopes(self, load: float = 0.0) -> tuple[float, float]:
+        """(Fc + mu |g|) / eps, |g| at most ``load``."""
+        level = abs(self.Fc) + abs(self.mu) * abs(load)
+        return (level / self.eps if level else 0.0), 0.0
 
     def _columns(self, q, qd, qdd, loads):
         return load_friction_basis(self._v(qd), loads.gravity[..., self._i()], self.eps)
@@ -491,6 +528,9 @@ class Offset(Effect):
     name: ClassVar[str] = "offset"
     linear: ClassVar[tuple[str, ...]] = ("c",)
 
+    def slopes(self, load: float = 0.0) -> tuple[float, float]:
+        return 0.0, 0.0
+
     def _columns(self, q, qd, qdd, loads):
         return (np.ones_like(self._v(qd)),)
 
@@ -529,6 +569,9 @@ class CableSpring(Effect):
     linear: ClassVar[tuple[str, ...]] = ("k",)
     positive: ClassVar[tuple[str, ...]] = ("k",)
     nonlinear: ClassVar[tuple[str, ...]] = ("q0", "width", "side")
+
+    def slopes(self, load: float = 0.0) -> tuple[float, float]:
+        return 0.0, abs(self.k)
 
     def _columns(self, q, qd, qdd, loads):
         return (cable_spring_basis(self._q(q), self.q0, self.width, self.side),)
@@ -633,6 +676,12 @@ class GearHarmonic(Effect):
             a2 * math.cos(phase2), a2 * math.sin(phase2), period, v_ref,
         )
 
+    def slopes(self, load: float = 0.0) -> tuple[float, float]:
+        """Taken at speeds up to 2 v_ref: 2 pi / period times the amplitudes, and the velocity terms / v_ref."""
+        first = abs(self.s1) + abs(self.c1) + 2 * (abs(self.s1v) + abs(self.c1v))
+        second = 2 * (abs(self.s2) + abs(self.c2))
+        return (abs(self.s1v) + abs(self.c1v)) / self.v_ref, 2 * math.pi * (first + second) / self.period
+
     def _columns(self, q, qd, qdd, loads):
         return gear_harmonic_basis(self._q(q), self._v(qd), self.period, self.v_ref)
 
@@ -656,8 +705,11 @@ class CableDrape(Effect):
     def from_amplitude(cls, axis: str, amplitude: float, phase: float) -> CableDrape:
         return cls(axis, amplitude * math.cos(phase), amplitude * math.sin(phase))
 
+    def slopes(self, load: float = 0.0) -> tuple[float, float]:
+        return 0.0, math.hypot(self.s, self.c)
+
     def _columns(self, q, qd, qdd, loads):
-        return periodic_basis(self._q(q), 2 * math.pi)
+        return drape_basis(self._q(q))
 
 
 @dataclass(frozen=True)
@@ -716,6 +768,16 @@ class TabulatedForce(Effect):
         grid = np.linspace(lo, hi, points)
         return cls(axis, variable, lo, hi, tuple(float(v) for v in function(grid)))
 
+    def plant_parameters(self) -> tuple[float, ...]:
+        """(1 over position or 0 over velocity, lo, hi, values...) (``physics.plant_effects``)."""
+        return (float(self.variable == "position"), float(self.lo), float(self.hi), *map(float, self.values))
+
+    def slopes(self, load: float = 0.0) -> tuple[float, float]:
+        """The steepest segment of the curve, on its variable."""
+        values = np.asarray(self.values, dtype=float)
+        slope = float(np.max(np.abs(np.diff(values)))) / ((self.hi - self.lo) / (values.size - 1))
+        return (0.0, slope) if self.variable == "position" else (slope, 0.0)
+
     def force(self, x) -> np.ndarray:
         """The curve [input unit] at the values x of its variable (the plant's own formula)."""
         values = np.asarray(self.values, dtype=float)
@@ -740,14 +802,15 @@ def parse_key(key: str) -> tuple[str, str]:
     return name, axis
 
 
-def make_effect(key: str, **params) -> Effect:
-    """An effect of the library from its ``name@axis`` label, unbound, e.g.
-    ``make_effect("coulomb_friction@roll", Fc=0.05)`` (``System.effect`` also knows the machine's
-    own effects and binds it)."""
+def make_effect(key: str, own: Sequence[type[Effect]] = (), **params) -> Effect:
+    """An effect of the library, or of the classes ``own`` (a machine's own effects), from its
+    ``name@axis`` label, unbound, e.g. ``make_effect("coulomb_friction@roll", Fc=0.05)``
+    (``System.effect`` also knows the machine's own effects and binds it)."""
     name, axis = parse_key(key)
-    if name not in EFFECTS:
-        raise ValueError(f"unknown effect {name!r}; known: {', '.join(sorted(EFFECTS))}")
-    return EFFECTS[name](axis=axis, **params)
+    classes = {**EFFECTS, **{cls.name: cls for cls in own}}
+    if name not in classes:
+        raise ValueError(f"unknown effect {name!r}; known: {', '.join(sorted(classes))}")
+    return classes[name](axis=axis, **params)
 
 
 def effect_record(effect: Effect) -> dict:
@@ -756,13 +819,13 @@ def effect_record(effect: Effect) -> dict:
     return {"effect": effect.key, **{k: list(v) if isinstance(v, tuple) else v for k, v in params.items()}}
 
 
-def effect_from_record(record: dict, system=None) -> Effect:
+def effect_from_record(record: dict, system=None, own: Sequence[type[Effect]] = ()) -> Effect:
     """Inverse of ``effect_record``; with a ``system`` (``systems.System``) bound to its axes and
-    with the machine's own effects known."""
+    with the machine's own effects known, else unbound, knowing the classes ``own``."""
     params = {k: tuple(v) if isinstance(v, list) else v for k, v in record.items() if k != "effect"}
     if system is not None:
         return system.effect(record["effect"], **params)
-    return make_effect(record["effect"], **params)
+    return make_effect(record["effect"], own, **params)
 
 
 def check_unique(effects) -> None:

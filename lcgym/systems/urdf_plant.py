@@ -17,15 +17,14 @@ does, per sample k (Ts = 1 / fs):
    kinematics are best evaluated half a sample ahead, ``System.advance`` = 0.5) while the dynamics
    advance by ``substeps`` classical RK4 steps, the accelerations by pinocchio's ``aba``.
 
-The effects' formulas are the library's own (``register_jitable`` functions of ``physics.effects``,
-compiled with numba here); effects whose torque depends on q and qd alone act through them:
-viscous, Coulomb, Stribeck and asymmetric friction, offsets, cable springs and drapes, gear
-harmonics and tabulated forces over velocity or position. A load-dependent friction
-(``load_friction``) reads the plant's own gravity torque g(q) at each RK4 stage (pinocchio's
-``computeGeneralizedGravity``). A rotor inertia J (``rotor_inertia``)
-is added to pinocchio's ``armature`` of its joint, which ``aba`` adds to the diagonal of M(q).
-Effects with internal state or that need qdd or the input otherwise (stiction, drivetrain
-flexibility, cable inertia, torque ripple) are refused.
+The effects whose torque depends on q and qd (viscous, Coulomb, Stribeck and asymmetric friction,
+offsets, cable springs and drapes, gear harmonics, tabulated forces: ``physics.plant_effects.KINDS``)
+act through ``physics.plant_effects.axis_torque``, the one compiled torque every plant adds. A
+load-dependent friction (``load_friction``) reads the plant's own gravity torque g(q) at each RK4
+stage (pinocchio's ``computeGeneralizedGravity``). A rotor inertia J (``rotor_inertia``) is added to
+pinocchio's ``armature`` of its joint, which ``aba`` adds to the diagonal of M(q). Effects with
+internal state or that need qdd or the input otherwise (stiction, drivetrain flexibility, cable
+inertia, torque ripple) are refused.
 
 Step size: a smoothed Coulomb friction Fc tanh(qd / eps) is stiff near standstill (slope Fc / eps
 against the axis's inertia). ``substeps=None`` picks the number of RK4 steps per sample so that
@@ -43,6 +42,7 @@ a tracking error exceeds ``max_error``, the run stops with ``SimulationDiverged`
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 
@@ -52,6 +52,7 @@ import pinocchio as pin
 
 from ..data import Trial
 from ..physics import effects as fx
+from ..physics import plant_effects
 from ..physics.compiled import FASTMATH, cache_dir
 from ..physics.lti import rigid_axis
 from ..references import Reference, random_moves
@@ -65,68 +66,28 @@ STEP_RATE = 1.0  # h times the fastest effect rate (RK4's real-axis stability li
 INERTIA_SAMPLES = 64  # random configurations for the axis inertias (gains, step size)
 DEFAULT_MAX_ERROR = {"revolute": 30 * math.pi / 180, "prismatic": 0.1}  # rad, m
 
-SUPPORTED = (fx.ViscousFriction, fx.CoulombFriction, fx.StribeckFriction, fx.AsymmetricFriction, fx.Offset,
-             fx.CableSpring, fx.CableDrape, fx.GearHarmonic, fx.TabulatedForce, fx.RotorInertia, fx.LoadFriction)
-REFUSED = {
-    fx.Stiction: "has internal state (LuGre bristles)",
-    fx.DrivetrainFlexibility: "adds states (a motor inertia behind a spring)",
-    fx.CableInertia: "needs qdd (it adds inertia)",
-    fx.TorqueRipple: "scales the input (it needs the base torque)",
-}
-
-# effect parameter slots, one row per axis (in pinocchio's velocity order)
-(
-    VISC, FC, FC_EPS, ST_DF, ST_VS, ST_EPS, SP_K, SP_Q0, SP_W, SP_SIDE, DR_S, DR_C,
-    GH_S1, GH_C1, GH_S1V, GH_C1V, GH_S2, GH_C2, GH_PER, GH_VREF, TB_N, TB_LO, TB_HI, TB_POS,
-    AF_POS, AF_NEG, AF_DFV, AF_EPS, OFFSET, ROTOR, LF_FC, LF_MU, LF_EPS,
-) = range(33)
-N_SLOTS = 33
 # controller and mapping slots, one row per axis
 KP, KD, KI, ALPHA, UMAX, RES, MAXERR, IQ, CONT = range(9)
 N_CTRL = 9
-# workspace rows: state, input, stage state, pinocchio configuration, RK4 stage derivatives, controller state
-Q, V, U, VS, TAU, QPIN, W0, A0, EPREV, EDOT, INTEG = 0, 1, 2, 3, 4, 5, 6, 10, 14, 15, 16
-N_ROWS = 17
+# workspace rows: state, input, stage state, pinocchio configuration, RK4 stage derivatives, controller
+# state, stage position
+Q, V, U, VS, TAU, QPIN, W0, A0, EPREV, EDOT, INTEG, QS = 0, 1, 2, 3, 4, 5, 6, 10, 14, 15, 16, 17
+N_ROWS = 18
 # per-sample outputs: measured position, applied input, true position
 OUT_Y, OUT_U, OUT_Q = range(3)
 # control status
 OK, TOO_FAR, NOT_FINITE = range(3)
 
 _previous_cache_dir = numba.config.CACHE_DIR  # numba reads CACHE_DIR when a function is decorated
-numba.config.CACHE_DIR = cache_dir(__file__, fx.__file__)
+numba.config.CACHE_DIR = cache_dir(__file__, fx.__file__, plant_effects.__file__)
 
 
 @numba.njit(cache=True, fastmath=FASTMATH)
-def effect_torque(q, v, e, table):
-    """Torque [N m or N] of the hidden effects on one axis at position q and velocity v; e: the
-    axis's slot row, table: its tabulated force's values."""
-    tau = e[VISC] * v
-    if e[FC] != 0.0:
-        tau += e[FC] * fx.smooth_sign(v, e[FC_EPS])
-    if e[ST_DF] != 0.0:
-        tau += e[ST_DF] * fx.stribeck_shape(v, e[ST_VS]) * fx.smooth_sign(v, e[ST_EPS])
-    if e[SP_K] != 0.0:
-        tau += e[SP_K] * fx.cable_spring_basis(q, e[SP_Q0], e[SP_W], e[SP_SIDE])
-    if e[DR_S] != 0.0 or e[DR_C] != 0.0:
-        s, c = fx.periodic_basis(q, 2.0 * math.pi)
-        tau += e[DR_S] * s + e[DR_C] * c
-    if e[GH_PER] != 0.0:
-        b = fx.gear_harmonic_basis(q, v, e[GH_PER], e[GH_VREF])
-        tau += e[GH_S1] * b[0] + e[GH_C1] * b[1] + e[GH_S1V] * b[2] + e[GH_C1V] * b[3] + e[GH_S2] * b[4] + e[GH_C2] * b[5]
-    if e[TB_N] > 0.0:
-        x = q if e[TB_POS] > 0.0 else v
-        tau += fx.table_lookup(x, e[TB_LO], e[TB_HI], table[: int(e[TB_N])])
-    if e[AF_EPS] != 0.0:
-        b = fx.asymmetric_friction_basis(v, e[AF_EPS])
-        tau += e[AF_POS] * b[0] + e[AF_NEG] * b[1] + e[AF_DFV] * b[2]
-    return tau + e[OFFSET]
-
-
-@numba.njit(cache=True, fastmath=FASTMATH)
-def rk4_stage(k, a_prev, S, E, tables, C, h):
+def rk4_stage(k, a_prev, S, E, C, h):
     """Prepare RK4 stage k (0..3) of one step of size h [s]: store the previous stage's
-    acceleration a_prev, form the stage's velocity S[VS], pinocchio configuration S[QPIN] and net
-    torque S[TAU] = u - effects, for ``aba`` to evaluate."""
+    acceleration a_prev, form the stage's position S[QS], velocity S[VS], pinocchio configuration
+    S[QPIN] and net torque S[TAU] = u - effects (E: their records, ``physics.plant_effects``),
+    for ``aba`` to evaluate."""
     n = C.shape[0]
     if k > 0:
         S[A0 + k - 1, :n] = a_prev
@@ -138,13 +99,23 @@ def rk4_stage(k, a_prev, S, E, tables, C, h):
             vs += c * S[A0 + k - 1, i]
         S[W0 + k, i] = vs
         S[VS, i] = vs
+        S[QS, i] = qs
         iq = int(C[i, IQ])
         if C[i, CONT] > 0.0:
             S[QPIN, iq] = math.cos(qs)
             S[QPIN, iq + 1] = math.sin(qs)
         else:
             S[QPIN, iq] = qs
-        S[TAU, i] = S[U, i] - effect_torque(qs, vs, E[i], tables[i])
+        S[TAU, i] = S[U, i] - plant_effects.axis_torque(E[i], qs, vs, 0.0, 0.0)
+
+
+@numba.njit(cache=True, fastmath=FASTMATH)
+def subtract_load_effects(S, L, g):
+    """S[TAU] -= the torque of the load-dependent effects L (records per row) at the stage's
+    gravity torque g (pinocchio's velocity order)."""
+    for i in range(L.shape[0]):
+        if L[i, 0] != 0.0:
+            S[TAU, i] -= plant_effects.axis_torque(L[i], S[QS, i], S[VS, i], g[i], 0.0)
 
 
 @numba.njit(cache=True, fastmath=FASTMATH)
@@ -291,93 +262,36 @@ def inertia_range(robot: URDFRobot, model=None, seed: int = 0) -> tuple[np.ndarr
 # ---------------------------------------------------------------------------------------------
 
 
-def pack_effects(effects: Sequence[fx.Effect], system: System, robot: URDFRobot) -> tuple[np.ndarray, np.ndarray, list]:
-    """(E, tables, bound): the effects' parameters as slot rows (n_axes, N_SLOTS) and tabulated
-    values (n_axes, max_points) in pinocchio's velocity order, and the effects bound to the axes.
-    Refuses effects the plant cannot simulate (module docstring)."""
+def bind_effects(effects: Sequence[fx.Effect], system: System) -> list[fx.Effect]:
+    """``effects`` bound to the machine's axes; refuses effects the plant cannot simulate (module
+    docstring)."""
     fx.check_unique(effects)
-    n = robot.n_axes
-    E = np.zeros((n, N_SLOTS))
-    tables = np.zeros((n, fx.TabulatedForce.max_points))
     bound = []
     for effect in effects:
         if not isinstance(effect, fx.Effect):
             raise TypeError(f"hidden effects must be lcgym effects (physics.effects), got {type(effect).__name__}")
-        _check_supported(effect)
-        effect = system.effect(effect)  # checks the axis and binds it to the machine's axis order
-        bound.append(effect)
-        row = robot.v_index[effect.index]
-        _pack(effect, E[row], tables[row])
-    return E, tables, bound
+        if type(effect) not in plant_effects.KINDS and not isinstance(effect, fx.RotorInertia):
+            names = ", ".join([cls.name for cls in plant_effects.KINDS] + [fx.RotorInertia.name])
+            raise ValueError(f"{effect.key}: URDFPlant simulates effects whose torque depends on q and qd only "
+                             f"({names}); {effect.name} {plant_effects.refusal(type(effect))}")
+        if isinstance(effect, fx.RotorInertia) and effect.J < 0:
+            raise ValueError(f"{effect.key}: a rotor inertia must be >= 0, got {effect.J}")
+        bound.append(system.effect(effect))  # checks the axis and binds it to the machine's axis order
+    return bound
 
 
-def _check_supported(effect: fx.Effect) -> None:
-    if type(effect) in SUPPORTED:
-        return
-    reason = next((why for cls, why in REFUSED.items() if isinstance(effect, cls)), "is not one of them")
-    names = ", ".join(cls.name for cls in SUPPORTED)
-    raise ValueError(f"{effect.key}: URDFPlant simulates effects whose torque depends on q and qd only ({names}); "
-                     f"{effect.name} {reason}")
-
-
-def _pack(e: fx.Effect, row: np.ndarray, table: np.ndarray) -> None:
-    if isinstance(e, fx.ViscousFriction):
-        row[VISC] += e.d
-    elif isinstance(e, fx.CoulombFriction):
-        row[[FC, FC_EPS]] = e.Fc, e.eps
-    elif isinstance(e, fx.StribeckFriction):
-        row[[ST_DF, ST_VS, ST_EPS]] = e.dF, e.vs, e.eps
-    elif isinstance(e, fx.CableSpring):
-        row[[SP_K, SP_Q0, SP_W, SP_SIDE]] = e.k, e.q0, e.width, e.side
-    elif isinstance(e, fx.CableDrape):
-        row[[DR_S, DR_C]] = e.s, e.c
-    elif isinstance(e, fx.GearHarmonic):
-        row[GH_S1 : GH_VREF + 1] = e.s1, e.c1, e.s1v, e.c1v, e.s2, e.c2, e.period, e.v_ref
-    elif isinstance(e, fx.TabulatedForce):
-        values = np.asarray(e.values, dtype=float)
-        row[[TB_N, TB_LO, TB_HI, TB_POS]] = values.size, e.lo, e.hi, float(e.variable == "position")
-        table[: values.size] = values
-    elif isinstance(e, fx.AsymmetricFriction):
-        row[[AF_POS, AF_NEG, AF_DFV, AF_EPS]] = e.Fc_pos, e.Fc_neg, e.dFv, e.eps
-    elif isinstance(e, fx.Offset):
-        row[OFFSET] = e.c
-    elif isinstance(e, fx.RotorInertia):
-        if e.J < 0:
-            raise ValueError(f"{e.key}: a rotor inertia must be >= 0, got {e.J}")
-        row[ROTOR] = e.J  # goes into the model's armature (URDFPlant), not into effect_torque
-    elif isinstance(e, fx.LoadFriction):
-        row[[LF_FC, LF_MU, LF_EPS]] = e.Fc, e.mu, e.eps  # needs g(q): URDFPlant._load_friction, not effect_torque
-
-
-def effect_slopes(E: np.ndarray, tables: np.ndarray, load: np.ndarray | float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """Per slot row, the largest |d tau / d qd| [N m s/rad] and |d tau / d q| [N m/rad] of the
-    packed effects (a gear harmonic's taken at speeds up to 2 v_ref): what sets the step size.
-    ``load`` [N m or N]: per row, the largest gravity torque (a load-dependent friction's level)."""
-
-    def over(x, slot, gate):  # x / E[:, slot] where the effect is on, 0 elsewhere
-        return np.where(gate, x / np.where(gate, E[:, slot], 1.0), 0.0)
-
-    coulomb, stribeck, gear, asym = E[:, FC] != 0, E[:, ST_DF] != 0, E[:, GH_PER] != 0, E[:, AF_EPS] != 0
-    dv = np.abs(E[:, VISC]) + over(np.abs(E[:, FC]), FC_EPS, coulomb)
-    # the asymmetric friction: (Fc_pos + Fc_neg) / (2 eps) from the step, |dFv| from the |v| term
-    dv += over(0.5 * (np.abs(E[:, AF_POS]) + np.abs(E[:, AF_NEG])), AF_EPS, asym) + np.abs(E[:, AF_DFV])
-    # the Stribeck term: dF / eps from the sign, at most 0.86 dF / vs from the bump
-    dv += over(np.abs(E[:, ST_DF]), ST_EPS, stribeck) + over(0.86 * np.abs(E[:, ST_DF]), ST_VS, stribeck)
-    # the load-dependent friction: (Fc + mu |g|) / eps, with |g| at most ``load`` (the caller's bound of the gravity torque)
-    dv += over(np.abs(E[:, LF_FC]) + np.abs(E[:, LF_MU]) * load, LF_EPS, E[:, LF_EPS] != 0)
-    dq = np.abs(E[:, SP_K]) + np.hypot(E[:, DR_S], E[:, DR_C])
-    first = np.abs(E[:, GH_S1]) + np.abs(E[:, GH_C1]) + 2 * (np.abs(E[:, GH_S1V]) + np.abs(E[:, GH_C1V]))
-    second = 2 * (np.abs(E[:, GH_S2]) + np.abs(E[:, GH_C2]))
-    dq += over(2 * math.pi * (first + second), GH_PER, gear)
-    dv += over(np.abs(E[:, GH_S1V]) + np.abs(E[:, GH_C1V]), GH_VREF, gear)
-    for i in np.flatnonzero(E[:, TB_N] > 0):
-        n = int(E[i, TB_N])
-        slope = np.max(np.abs(np.diff(tables[i, :n]))) / ((E[i, TB_HI] - E[i, TB_LO]) / (n - 1))
-        if E[i, TB_POS] > 0:
-            dq[i] += slope
-        else:
-            dv[i] += slope
-    return dv, dq
+def with_viscous(bound: Sequence[fx.Effect], viscous: np.ndarray, system: System) -> list[fx.Effect]:
+    """``bound`` effects with the rigid body's true ``viscous`` coefficients (axis order) added to the
+    viscous friction of their axis (one made where there is none)."""
+    out = list(bound)
+    for i, d in enumerate(viscous):
+        if d != 0.0:
+            own = next((k for k, e in enumerate(out) if isinstance(e, fx.ViscousFriction) and e.index == i), None)
+            if own is None:
+                out.append(system.effect(fx.ViscousFriction(system.axis_names[i], d=float(d))))
+            else:
+                out[own] = dataclasses.replace(out[own], d=out[own].d + float(d))
+    return out
 
 
 # ---------------------------------------------------------------------------------------------
@@ -417,12 +331,22 @@ class URDFPlant:
         self.model, viscous = self._true_model(parameters)
         self.data = self.model.createData()
         self.effects = tuple(effects)
-        self._E, self._tables, self.bound_effects = pack_effects(self.effects, system, self.robot)
-        self._E[self.robot.v_index, VISC] += viscous
-        self._load_rows = np.flatnonzero(self._E[:, LF_EPS] != 0)  # rows (pinocchio order) with a load-dependent friction
-        if np.any(self._E[:, ROTOR] != 0):  # rotor inertias: on a copy, the system's model stays the URDF's
+        self.bound_effects = bind_effects(self.effects, system)
+        # the torques of q and qd, in records per row of pinocchio's velocity order; those that read the
+        # gravity torque (a load-dependent friction) apart, for the stage's g(q)
+        self._torques = with_viscous([e for e in self.bound_effects if not isinstance(e, fx.RotorInertia)], viscous, system)
+        reads_load = [isinstance(e, fx.LoadFriction) for e in self._torques]
+        self._E = plant_effects.pack([e for e, r in zip(self._torques, reads_load, strict=True) if not r], self.n_axes,
+                                     self.robot.v_index)
+        self._L = plant_effects.pack([e for e, r in zip(self._torques, reads_load, strict=True) if r], self.n_axes,
+                                     self.robot.v_index)
+        rotor = [e for e in self.bound_effects if isinstance(e, fx.RotorInertia)]
+        if rotor:  # rotor inertias: on a copy, the system's model stays the URDF's
             self.model = self.model.copy()
-            self.model.armature = self.model.armature + self._E[:, ROTOR]
+            armature = np.array(self.model.armature, dtype=float)
+            for e in rotor:
+                armature[self.robot.v_index[e.index]] += e.J
+            self.model.armature = armature
             self.data = self.model.createData()
         self.gains = (gains if gains is not None else tuned_gains(system, fs=fs)).require("derivative", "URDFPlant")
         if len(self.gains.kp) != self.n_axes:
@@ -503,9 +427,10 @@ class URDFPlant:
             if int(substeps) != substeps or substeps < 1:
                 raise ValueError(f"substeps must be an integer >= 1, got {substeps}")
             return int(substeps)
-        load = gravity_bound(self.robot, self.model, seed=self.seed) if self._load_rows.size else 0.0
-        dv, dq = effect_slopes(self._E, self._tables, load)
-        minv = 1.0 / inertia_range(self.robot, self.model, seed=self.seed)[0][np.argsort(self.robot.v_index)]
+        reads_load = any(isinstance(e, fx.LoadFriction) for e in self._torques)
+        load = gravity_bound(self.robot, self.model, seed=self.seed)[self.robot.v_index] if reads_load else 0.0
+        dv, dq = plant_effects.slopes(self._torques, self.n_axes, load)
+        minv = 1.0 / inertia_range(self.robot, self.model, seed=self.seed)[0]
         rate = float(np.max(dv * minv + np.sqrt(dq * minv)))
         n = max(MIN_SUBSTEPS, math.ceil(rate / self.fs / STEP_RATE))
         if n > MAX_SUBSTEPS:
@@ -597,34 +522,30 @@ class URDFPlant:
 
     def interval(self, S: np.ndarray, h: float, views: tuple) -> None:
         """One sample interval: ``substeps`` RK4 steps of size h with S[U] held; ``views``: ``views(S)``."""
-        model, data, aba, E, tables, C = self.model, self.data, pin.aba, self._E, self._tables, self._C
+        model, data, aba, E, C = self.model, self.data, pin.aba, self._E, self._C
         qpin, vs, tau = views
-        if self._load_rows.size:  # the slower path: a load-dependent friction reads g(q) at every stage
+        if self._L[:, 0].any():  # the slower path: a load-dependent friction reads g(q) at every stage
             self._interval_with_load(S, h, views)
             return
         for _ in range(self.substeps):
-            rk4_stage(0, vs, S, E, tables, C, h)
+            rk4_stage(0, vs, S, E, C, h)
             a = aba(model, data, qpin, vs, tau)
-            rk4_stage(1, a, S, E, tables, C, h)
+            rk4_stage(1, a, S, E, C, h)
             a = aba(model, data, qpin, vs, tau)
-            rk4_stage(2, a, S, E, tables, C, h)
+            rk4_stage(2, a, S, E, C, h)
             a = aba(model, data, qpin, vs, tau)
-            rk4_stage(3, a, S, E, tables, C, h)
+            rk4_stage(3, a, S, E, C, h)
             rk4_finish(aba(model, data, qpin, vs, tau), S, h)
 
     def _interval_with_load(self, S: np.ndarray, h: float, views: tuple) -> None:
-        """``interval`` with the load-dependent friction of ``_load_rows`` subtracted from each stage's
-        net torque: (Fc + mu |g(q)|) tanh(v / eps), g the plant's gravity torque at the stage."""
-        model, data, E, tables, C = self.model, self.data, self._E, self._tables, self._C
+        """``interval`` with the load-dependent effects (``_L``) subtracted from each stage's net
+        torque at g, the plant's gravity torque at the stage."""
+        model, data, E, L, C = self.model, self.data, self._E, self._L, self._C
         qpin, vs, tau = views
-        rows = self._load_rows
-        Fc, mu, eps = E[rows, LF_FC], E[rows, LF_MU], E[rows, LF_EPS]
 
         def stage(k, a):
-            rk4_stage(k, a, S, E, tables, C, h)
-            g = pin.computeGeneralizedGravity(model, data, qpin)
-            s, scaled = fx.load_friction_basis(vs[rows], g[rows], eps)
-            tau[rows] -= Fc * s + mu * scaled
+            rk4_stage(k, a, S, E, C, h)
+            subtract_load_effects(S, L, pin.computeGeneralizedGravity(model, data, qpin))
             return pin.aba(model, data, qpin, vs, tau)
 
         for _ in range(self.substeps):
@@ -759,5 +680,5 @@ def random_references(system: System, n: int = 1, duration: float = 20.0, fs: fl
                          accel_time, jerk_time) for i in range(n)]
 
 
-__all__ = ["ClosedLoopRun", "FeedbackGains", "URDFPlant", "inertia_range", "loop_stable", "pack_effects",
+__all__ = ["ClosedLoopRun", "FeedbackGains", "URDFPlant", "bind_effects", "inertia_range", "loop_stable",
            "random_references", "reference_speeds", "tuned_gains"]

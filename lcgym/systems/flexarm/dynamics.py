@@ -37,6 +37,8 @@ import numba
 import numpy as np
 from numba.extending import register_jitable
 
+from ...physics import effects as fx
+from ...physics import plant_effects
 from ...physics.compiled import cache_dir
 
 N_JOINTS = 6
@@ -126,6 +128,7 @@ class ArmParameters:
 
 
 DRIVE_FIELDS = ("N", "Jm", "Dm", "Fmc", "KJ", "DJ", "Dl", "Flc")
+DRIVE_ROWS = len(DRIVE_FIELDS)  # rows of ``DriveParameters.table()``; a plant's hidden effects follow
 
 
 @dataclass(frozen=True)
@@ -480,7 +483,7 @@ def energy(dh, pi, q, qd, gravity):
 # numba reads CACHE_DIR when a function is decorated: this module's kernels cache in a folder named
 # by a hash of the sources they call (``physics.compiled.cache_dir``), so an edited equation recompiles
 _previous_cache_dir = numba.config.CACHE_DIR
-numba.config.CACHE_DIR = cache_dir(__file__)
+numba.config.CACHE_DIR = cache_dir(__file__, fx.__file__, plant_effects.__file__)
 
 
 @numba.njit(cache=True)
@@ -539,7 +542,10 @@ def flexible_derivatives(dh, pi, drive, x, u, gravity, eps):
         J_m qdd_m + D_m qd_m + F_mc sgn(qd_m) = u - tau_J / N
         tau_J = K_J (q_m / N - q_l) + D_J (qd_m / N - qd_l)
 
-    sgn smoothed as tanh(v / eps) [rad/s]. ``drive`` is ``DriveParameters.table()``."""
+    sgn smoothed as tanh(v / eps) [rad/s]. ``drive`` is ``DriveParameters.table()``; rows beyond its
+    ``DRIVE_ROWS`` hold, per joint (column), hidden effects of the library in the records of
+    ``physics.plant_effects`` (``FlexArmPlant.drive_table``): torques of q_l and qd_l in motor N m
+    (the model's input unit), which act on the load as N times that."""
     n = N_JOINTS
     out = np.empty(4 * n)
     load = np.empty(n)
@@ -549,6 +555,8 @@ def flexible_derivatives(dh, pi, drive, x, u, gravity, eps):
         ql, qdl, qm, qdm = x[i], x[n + i], x[2 * n + i], x[3 * n + i]
         tau_j = KJ * (qm / N - ql) + DJ * (qdm / N - qdl)
         load[i] = tau_j - Dl * qdl - Flc * math.tanh(qdl / eps)
+        if drive.shape[0] > DRIVE_ROWS:
+            load[i] -= N * plant_effects.axis_torque(drive[DRIVE_ROWS:, i], ql, qdl, 0.0, 0.0)
         out[i] = qdl
         out[2 * n + i] = qdm
         out[3 * n + i] = (u[i] - Dm * qdm - Fmc * math.tanh(qdm / eps) - tau_j / N) / Jm

@@ -107,7 +107,7 @@ def observation_scales(action_bound: float) -> np.ndarray:
 def kernel_args(plant: F.FlexArmPlant) -> tuple:
     """The plant's arguments of ``plant.loop_sample`` after the per-sample ones: (DH table,
     inertial parameters, drive table, PID gains (3, 6), kernel config, accelerometer offset)."""
-    return (plant.true_arm.dh.table(), plant.true_arm.vector(), plant.true_drive.table(),
+    return (plant.true_arm.dh.table(), plant.true_arm.vector(), plant.drive_table(),
             np.array([plant.gains.kp, plant.gains.ki, plant.gains.kd], dtype=float), plant.kernel_config(),
             np.asarray(plant.accel_offset, dtype=float))
 

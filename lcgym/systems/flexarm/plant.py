@@ -67,6 +67,8 @@ import numba
 import numpy as np
 
 from ...data import Trial
+from ...physics import effects as fx
+from ...physics import plant_effects
 from ...physics.compiled import cache_dir
 from ...references import Reference
 from ..system import SimulationDiverged
@@ -143,7 +145,11 @@ class FlexArmPlant:
     from its reference before the run counts as diverged; friction_eps [rad/s]: the Coulomb
     frictions' sgn is tanh(v / friction_eps). A much smaller value makes the friction of the light
     wrist joints a stiff damper (Flc / eps over a small inertia) that RK4 at the default step
-    cannot integrate: the wrist then chatters."""
+    cannot integrate: the wrist then chatters. effects: hidden effects of the library on the joints
+    (axes j1-j6) whose torque depends on the load angle and velocity (``physics.plant_effects.KINDS``
+    but the load-dependent friction), in motor N m like the model's input; they act on the load side
+    (a bearing's friction, a cable's spring), N times their torque; the default step suits effects no
+    stiffer than the drives' own friction."""
 
     true_arm: arm.ArmParameters = field(default_factory=default_true_arm)
     true_drive: arm.DriveParameters = field(default_factory=default_true_drive)
@@ -160,6 +166,7 @@ class FlexArmPlant:
     friction_eps: float = 0.01
     seed: int = 0
     settled_start: bool = False
+    effects: tuple[fx.Effect, ...] = ()
 
     axes = arm.AXES
 
@@ -175,6 +182,23 @@ class FlexArmPlant:
         if self.substeps < 1 or self.fs <= 0 or self.encoder_counts < 0:
             raise ValueError(f"need substeps >= 1, fs > 0, encoder_counts >= 0 (got {self.substeps}, {self.fs}, "
                              f"{self.encoder_counts})")
+        self.effects = tuple(self.effects)
+        fx.check_unique(self.effects)
+        for e in self.effects:
+            if not isinstance(e, fx.Effect):
+                raise TypeError(f"hidden effects must be lcgym effects (physics.effects), got {type(e).__name__}")
+            if type(e) not in plant_effects.KINDS or isinstance(e, fx.LoadFriction):
+                why = ("reads the gravity torque, which the FlexArm's kernel does not compute apart"
+                       if isinstance(e, fx.LoadFriction) else plant_effects.refusal(type(e)))
+                raise ValueError(f"{e.key}: the FlexArm plant simulates effects of the joint angle and velocity only; "
+                                 f"{e.name} {why}")
+        self._records = plant_effects.pack([e.bound(self.axes) for e in self.effects], len(self.axes))
+
+    def drive_table(self) -> np.ndarray:
+        """What the kernel reads as the drives (``dynamics.flexible_derivatives``): the true drives'
+        table, with the hidden effects' records below it (one column per joint) when there are any."""
+        table = self.true_drive.table()
+        return np.vstack([table, self._records.T]) if self.effects else table
 
     def kernel_config(self) -> np.ndarray:
         """The kernel's settings: sample time, substeps, u_max, encoder resolution [rad], derivative
@@ -200,7 +224,7 @@ class FlexArmPlant:
         C = np.array([g.kp, g.ki, g.kd], dtype=float)
         cfg = self.kernel_config()
         sig = np.zeros((T, N_SIG))
-        fail = simulate(q_ref, ff, off, self.true_arm.dh.table(), self.true_arm.vector(), self.true_drive.table(), C, cfg,
+        fail = simulate(q_ref, ff, off, self.true_arm.dh.table(), self.true_arm.vector(), self.drive_table(), C, cfg,
                         np.asarray(self.accel_offset, dtype=float), sig)
         if fail >= 0:
             raise SimulationDiverged(f"{reference.name}: the FlexArm left its safe range at t = {fail / self.fs:.3f} s "
@@ -237,7 +261,7 @@ N_SIG = 24
 # numba reads CACHE_DIR when a function is decorated: this module's kernels cache in a folder named
 # by a hash of the sources they call (``physics.compiled.cache_dir``), so an edited equation recompiles
 _previous_cache_dir = numba.config.CACHE_DIR
-numba.config.CACHE_DIR = cache_dir(__file__, arm.__file__)
+numba.config.CACHE_DIR = cache_dir(__file__, arm.__file__, fx.__file__, plant_effects.__file__)
 
 
 @numba.njit(cache=True)

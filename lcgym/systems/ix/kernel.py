@@ -6,8 +6,12 @@ calls cost microseconds each, far over the 10 s budget. The equations are not re
 the kernel calls the same functions as the model (``systems.ix.dynamics.rigid_terms`` and the basis
 functions of ``physics.effects``), compiled by numba.
 
-Effect parameters arrive packed in a (2, N_SLOTS) array, one row per axis, laid out by the
-slot constants below (a zero amplitude switches an effect off); ``plant.py`` does the packing.
+Effect parameters arrive packed in a (2, STATIC + width) array, one row per axis: the IX's own
+friction law (Coulomb level, guidance friction, Stribeck rise, LuGre stiction) and the effects
+that change its equation's structure (cable inertia, torque ripple, two-mass drive) in the slots
+below (a zero amplitude switches an effect off), then from ``STATIC`` on the effects that add a
+torque of q and qd, in the records of ``physics.plant_effects`` (every plant's one formula);
+``plant.py`` does the packing.
 
 State of one plant, per axis i in (0 propeller, 1 roll): load angle and velocity q_i, qd_i,
 motor angle and velocity (equal to the load's without drivetrain flexibility) and the LuGre
@@ -22,24 +26,21 @@ import numba
 import numpy as np
 
 from ...physics import effects as fx
+from ...physics import plant_effects
 from ...physics.compiled import FASTMATH, cache_dir
 from . import dynamics as ix
 from . import effects as ix_effects
 
 # numba reads CACHE_DIR when a function is decorated: set it for this module's kernels only
 _previous_cache_dir = numba.config.CACHE_DIR
-numba.config.CACHE_DIR = cache_dir(__file__, ix.__file__, fx.__file__, ix_effects.__file__)
+numba.config.CACHE_DIR = cache_dir(__file__, ix.__file__, fx.__file__, ix_effects.__file__, plant_effects.__file__)
 
 # effect parameter slots (per axis row)
 (
-    FC, EPS, PD_COS, PD_COS_ROLL, PD_SIN, ST_DF, ST_VS, LG_S0, LG_S1, VISC,
-    SP_K, SP_Q0, SP_W, SP_SIDE, CI_DJ, CI_Q0, CI_W, RP_AS, RP_AC, RP_PER,
-    GH_S1, GH_C1, GH_S1V, GH_C1V, GH_S2, GH_C2, GH_PER, GH_VREF, DR_S, DR_C,
-    FX_K, FX_C, FX_JM, TV_N, TV_LO, TV_HI, TP_N, TP_LO, TP_HI, AF_POS, AF_NEG, AF_DFV, AF_EPS, OFFSET,
-) = range(44)
-N_TABLE = fx.TabulatedForce.max_points
-TV_VALUES, TP_VALUES = 44, 44 + N_TABLE  # tabulated forces over velocity and over position
-N_SLOTS = 44 + 2 * N_TABLE
+    FC, EPS, PD_COS, PD_COS_ROLL, PD_SIN, ST_DF, ST_VS, LG_S0, LG_S1,
+    CI_DJ, CI_Q0, CI_W, RP_AS, RP_AC, RP_PER, FX_K, FX_C, FX_JM,
+) = range(18)
+STATIC = 18  # the records of the effects of q and qd (physics.plant_effects) start here
 N_STATE = 10
 # controller slots (per axis row)
 KP, KD, ALPHA = range(3)
@@ -51,12 +52,9 @@ _rigid = ix.rigid_terms
 _sign = fx.smooth_sign
 _normal = ix_effects.normal_force_basis
 _stribeck = fx.stribeck_shape
-_spring = fx.cable_spring_basis
 _inertia = fx.cable_inertia_basis
 _periodic = fx.periodic_basis
-_gear = fx.gear_harmonic_basis
-_table = fx.table_lookup
-_asymmetric = fx.asymmetric_friction_basis
+_effects = plant_effects.axis_torque
 
 
 @numba.njit(cache=True, fastmath=FASTMATH)
@@ -103,35 +101,20 @@ def lugre_relax(s, trig, E, h):
 
 
 @numba.njit(cache=True, fastmath=FASTMATH)
-def axis_terms(s, i, u, e, nb, sin_q, cos_q):
+def axis_terms(s, i, u, e, nb):
     """Effects and drive of axis i: (added inertia, generalized force on the load, motor acc).
 
     The force excludes H and D of the rigid body; e is the axis's effect-parameter row and nb the
     normal-force basis of the current configuration.
     """
     q, v = s[i], s[2 + i]
-    tau = e[VISC] * v
+    tau = 0.0
     added_inertia = 0.0
     if e[CI_DJ] != 0.0:  # cable inertia: dJ shape(q) joins M, 1/2 dJ shape'(q) v^2 joins the force
         shape, centrifugal = _inertia(q, v, 0.0, e[CI_Q0], e[CI_W])
         added_inertia = e[CI_DJ] * shape
         tau += e[CI_DJ] * centrifugal
-    if e[SP_K] != 0.0:
-        tau += e[SP_K] * _spring(q, e[SP_Q0], e[SP_W], e[SP_SIDE])
-    if e[GH_PER] != 0.0:
-        b = _gear(q, v, e[GH_PER], e[GH_VREF])
-        tau += e[GH_S1] * b[0] + e[GH_C1] * b[1] + e[GH_S1V] * b[2] + e[GH_C1V] * b[3] + e[GH_S2] * b[4] + e[GH_C2] * b[5]
-    if e[DR_S] != 0.0 or e[DR_C] != 0.0:  # periodic_basis(q, 2 pi) is (sin q, cos q): reuse them
-        tau += e[DR_S] * sin_q + e[DR_C] * cos_q
-    if e[TV_N] > 0.0:
-        tau += _table(v, e[TV_LO], e[TV_HI], e[TV_VALUES : TV_VALUES + int(e[TV_N])])
-    if e[TP_N] > 0.0:
-        tau += _table(q, e[TP_LO], e[TP_HI], e[TP_VALUES : TP_VALUES + int(e[TP_N])])
-    if e[AF_EPS] != 0.0:
-        b = _asymmetric(v, e[AF_EPS])
-        tau += e[AF_POS] * b[0] + e[AF_NEG] * b[1] + e[AF_DFV] * b[2]
-    if e[OFFSET] != 0.0:
-        tau += e[OFFSET]
+    tau = _effects(e[STATIC:], q, v, 0.0, tau)  # the effects of q and qd (physics.plant_effects)
     # friction: level L(q), Stribeck increment, LuGre bristles or the static smooth-sign curve
     level, strib = friction_level(v, e, nb)
     if e[LG_S0] > 0.0 and level > 0.0:  # LuGre force; z itself is advanced by lugre_relax
@@ -160,8 +143,8 @@ def derivatives(s, trig, u, p, E, ds):
     s2, c2, s3, c3 = trig[0], trig[1], trig[2], trig[3]
     m22, m23, m33, h2, h3 = _rigid(p, s2, c2, s3, c3, s[2], s[3])
     nb = _normal(s2, c2, c3)
-    dm0, f0, acc0 = axis_terms(s, 0, u[0], E[0], nb, s2, c2)
-    dm1, f1, acc1 = axis_terms(s, 1, u[1], E[1], nb, s3, c3)
+    dm0, f0, acc0 = axis_terms(s, 0, u[0], E[0], nb)
+    dm1, f1, acc1 = axis_terms(s, 1, u[1], E[1], nb)
     ds[8], ds[9] = 0.0, 0.0  # bristle states: see lugre_relax
     m0, m1 = m22 + dm0, m33 + dm1
     r0 = f0 - h2 - p[ix.D2] * s[2]

@@ -42,6 +42,7 @@ import numpy as np
 
 from ...data import Trial
 from ...physics import effects as fx
+from ...physics import plant_effects
 from ...physics.lti import rigid_axis
 from ...references import Reference
 from ..feedback import FeedbackGains
@@ -162,20 +163,28 @@ VERSIONS = {
 
 
 def pack_effects(effects: Sequence[fx.Effect], rigid: ix.IXParameters) -> tuple[np.ndarray, np.ndarray]:
-    """Effect parameters as the kernel's (2, N_SLOTS) array, and the load's rigid parameters
-    (motor inertia of a flexible drive moved out of J2yy / J3xx)."""
-    E = np.zeros((2, K.N_SLOTS))
-    E[:, K.EPS] = 1e-3
-    p = rigid.to_vector()
+    """Effect parameters as the kernel's (2, STATIC + width) array, and the load's rigid parameters
+    (motor inertia of a flexible drive moved out of J2yy / J3xx). The IX's friction law, stiction
+    and the effects that change its equation go to the kernel's slots; the effects that add a torque
+    of q and qd to the records of ``physics.plant_effects``."""
     fx.check_unique(effects)
+    p = rigid.to_vector()
     for e in effects:
         if e.axis not in ix.AXES:
             raise ValueError(f"{e.key} is not an effect of the IX (axes {', '.join(ix.AXES)})")
-        e = e.bound(ix.AXES)
+        if isinstance(e, fx.LoadFriction):
+            raise ValueError(f"{e.key}: the IX plant does not simulate a load-dependent friction (its kernel does "
+                             "not compute the gravity torque apart)")
+    bound = [e.bound(ix.AXES) for e in effects]
+    kernel_own = [type(e) not in plant_effects.KINDS or isinstance(e, OWN_FRICTION_LAW) for e in bound]
+    own = [e for e, k in zip(bound, kernel_own, strict=True) if k]
+    records = plant_effects.pack([e for e, k in zip(bound, kernel_own, strict=True) if not k], 2)
+    E = np.zeros((2, K.STATIC + records.shape[1]))
+    E[:, K.EPS] = 1e-3
+    E[:, K.STATIC :] = records
+    for e in own:
         row = E[e.index]
-        if isinstance(e, fx.ViscousFriction):
-            row[K.VISC] = e.d
-        elif isinstance(e, fx.CoulombFriction):
+        if isinstance(e, fx.CoulombFriction):
             row[K.FC], row[K.EPS] = e.Fc, e.eps
         elif isinstance(e, PositionDependentFriction):
             row[K.PD_COS], row[K.PD_COS_ROLL], row[K.PD_SIN] = e.c_cos, e.c_cos_roll, e.c_sin
@@ -183,34 +192,26 @@ def pack_effects(effects: Sequence[fx.Effect], rigid: ix.IXParameters) -> tuple[
             row[K.ST_DF], row[K.ST_VS] = e.dF, e.vs
         elif isinstance(e, fx.Stiction):
             row[K.LG_S0], row[K.LG_S1] = e.sigma0, e.sigma1
-        elif isinstance(e, fx.CableSpring):
-            row[K.SP_K], row[K.SP_Q0], row[K.SP_W], row[K.SP_SIDE] = e.k, e.q0, e.width, e.side
         elif isinstance(e, fx.CableInertia):
             row[K.CI_DJ], row[K.CI_Q0], row[K.CI_W] = e.dJ, e.q0, e.width
         elif isinstance(e, fx.TorqueRipple):
             row[K.RP_AS], row[K.RP_AC], row[K.RP_PER] = e.a_sin, e.a_cos, e.period
-        elif isinstance(e, fx.GearHarmonic):
-            row[K.GH_S1 : K.GH_C2 + 1] = e.coefficients()
-            row[K.GH_PER], row[K.GH_VREF] = e.period, e.v_ref
-        elif isinstance(e, fx.CableDrape):
-            row[K.DR_S], row[K.DR_C] = e.s, e.c
         elif isinstance(e, fx.DrivetrainFlexibility):
             row[K.FX_K], row[K.FX_C], row[K.FX_JM] = e.k, e.c, e.Jm
             j = ix.J2YY if e.index == 0 else ix.J3XX
             if p[j] - e.Jm <= 0:
                 raise ValueError(f"{e.key}: motor inertia {e.Jm} exceeds the axis inertia {p[j]}")
             p[j] -= e.Jm
-        elif isinstance(e, fx.AsymmetricFriction):
-            row[K.AF_POS], row[K.AF_NEG], row[K.AF_DFV], row[K.AF_EPS] = e.Fc_pos, e.Fc_neg, e.dFv, e.eps
-        elif isinstance(e, fx.Offset):
-            row[K.OFFSET] = e.c
-        elif isinstance(e, fx.TabulatedForce):
-            n, lo, start = (K.TV_N, K.TV_LO, K.TV_VALUES) if e.variable == "velocity" else (K.TP_N, K.TP_LO, K.TP_VALUES)
-            row[n], row[lo], row[lo + 1] = len(e.values), e.lo, e.hi
-            row[start : start + len(e.values)] = e.values
         else:
-            raise TypeError(f"the IX plant has no model of effect {e.key} ({type(e).__name__})")
+            raise TypeError(f"the IX plant has no model of effect {e.key} ({type(e).__name__}): "
+                            f"{plant_effects.refusal(type(e))}")
     return E, p
+
+
+OWN_FRICTION_LAW = (fx.CoulombFriction, fx.StribeckFriction)
+"""Effects of ``physics.plant_effects``' kinds that the IX simulates in its own friction law instead:
+their level, with the guidance friction's, is what its LuGre stiction scales (``kernel.friction_level``;
+the Stribeck rise takes the Coulomb friction's smoothing)."""
 
 
 @dataclass
@@ -270,13 +271,12 @@ class IXPlant:
     @classmethod
     def from_record(cls, record: dict) -> IXPlant:
         """The plant that ``record`` describes."""
-        from . import IX
-
         # a record written before the gains named where they filter: the IX's place, its output
         gains = FeedbackGains(**{"filtered": "output", **{k: tuple(v) if isinstance(v, list) else v
                                                         for k, v in record["gains"].items()}})
-        return cls(rigid=ix.IXParameters.from_vector(np.asarray(record["rigid"], dtype=float)),
-                   effects=tuple(fx.effect_from_record(r, IX) for r in record["effects"]), gains=gains, fs=record["fs"],
+        effects = tuple(fx.effect_from_record(r, own=(PositionDependentFriction,)) for r in record["effects"])
+        return cls(rigid=ix.IXParameters.from_vector(np.asarray(record["rigid"], dtype=float)), effects=effects,
+                   gains=gains, fs=record["fs"],
                    substeps=record["substeps"], encoder_resolution=tuple(record["encoder_resolution"]),
                    preroll=record["preroll"], max_error=record["max_error"], max_velocity=record["max_velocity"])
 
@@ -284,16 +284,16 @@ class IXPlant:
     def preroll_samples(self) -> int:
         return int(round(self.preroll * self.fs))
 
-    def static_model(self):
-        """The plant's own static feedforward, a ``PhysicalModel`` with the true rigid body and the
+    def static_model(self, system):
+        """The plant's own static feedforward on ``system`` (the IX's ``System``, ``systems.ix.IX``),
+        a ``PhysicalModel`` with the true rigid body and the
         true sizes of every hidden effect that is a function of (theta, theta', theta'') (friction
         levels and Stribeck rise, spring, cable, gear harmonic, ripple), without the internal
         dynamics (LuGre bristles, drive flexibility). The best a static function of the PGNN's
         inputs can do (paper 000 eq. 11, the relay aside): the oracle the PGNN is reported against."""
         from ...physics.model import PhysicalModel
-        from . import IX
 
-        return PhysicalModel(IX, params=self.rigid, effects=tuple(e for e in self.effects if not e.plant_only),
+        return PhysicalModel(system, params=self.rigid, effects=tuple(e for e in self.effects if not e.plant_only),
                              fs=self.fs)
 
     def process_sensitivity(self, n: int, positions: np.ndarray, params: ix.IXParameters | None = None) -> np.ndarray:
