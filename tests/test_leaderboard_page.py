@@ -174,3 +174,24 @@ def test_ratio_colours_green_below_one_red_above_white_at_one():
     green, red = ratio_colour(0.1), ratio_colour(10.0)
     assert int(green[3:5], 16) > int(green[1:3], 16) and int(red[1:3], 16) > int(red[3:5], 16)
     assert ratio_colour(1e-6) == ratio_colour(1e-3)  # saturated beyond 10**-1.5
+
+
+def test_counts_read_as_integers_or_their_range_and_provenance_is_the_csvs(tmp_path):
+    """Plant-trial counts that differ between seeds show as "30–31", not as their mean 30.5; equal
+    ones as one integer. The header says the rows' lcgym version and commit are the CSV's (the rows
+    were written by lcgym 0.1.0 here) and names the lcgym that made the page."""
+    from lcgym.leaderboard.report import write_markdown
+    from lcgym.provenance import __version__
+
+    csv = _synthetic_csv(tmp_path / "results")
+    df = read_results(csv)
+    df.loc[(df["method"] == "alpha") & (df["seed"] == 1), "plant_trials"] = 5
+    page = write_html(df, tmp_path / "page.html", source=str(csv)).read_text()
+    text = write_markdown(df, tmp_path / "README.md", source=str(csv)).read_text()
+    for shown in (page, text):
+        assert "rows written by lcgym 0.1.0 at commit abc123def456, runs of 2026-12-02" in shown
+    assert ">4–5<" in page and ">4.5<" not in page  # the mean stays the cell's sort key (data-value)
+    assert "| 4–5 |" in text and "| 4.5 |" not in text
+    assert f"this page: lcgym {__version__}" in page and f"this page made by lcgym {__version__}" in text
+    beta_row = next(line for line in text.splitlines() if "| beta |" in line)
+    assert "| 4 |" in beta_row

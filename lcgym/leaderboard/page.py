@@ -36,7 +36,8 @@ import numpy as np
 import pandas as pd
 
 from ..data import atomic_write
-from .report import KEYS, REFERENCE_METHOD, bar_figures, failures, method_order, ranking, trace_figures
+from ..provenance import __version__
+from .report import KEYS, REFERENCE_METHOD, bar_figures, count_text, failures, method_order, provenance, ranking, trace_figures
 
 OVERVIEW_SIGNALS = ("tracking_error", "tcp_position_error")
 """Signals whose axes are the overview's columns (period ``all``): how well each method tracks."""
@@ -111,19 +112,16 @@ def _slug(text: str) -> str:
 
 
 def _provenance(df: pd.DataFrame, reference_set: str, source: str) -> str:
-    def joined(col: str) -> str:
-        values = sorted({str(v) for v in df[col].dropna()}) if col in df else []
-        return ", ".join(values) or "unknown"
-
     seeds = sorted({int(s) for s in df.loc[df["status"] == "ok", "seed"]}) if not df.empty else []
     stamps = pd.to_datetime(df["timestamp"], errors="coerce", utc=True).dropna() if not df.empty else pd.Series([])
     newest = f" · newest row {stamps.max():%Y-%m-%d %H:%M} UTC" if len(stamps) else ""
     name = Path(source).name if source else "(results frame, no file)"
     runs = df["run_id"].nunique() if not df.empty else 0
-    return (f"<b>{e(name)}</b> · configuration <code>{e(joined('config_hash'))}</code> · lcgym "
-            f"{e(joined('lcgym_version'))} · commit <code>{e(joined('git_commit'))}</code> · {runs} run(s), "
-            f"seeds {e(', '.join(map(str, seeds)) or 'none')}{newest} · {e(reference_set)} references · mean over "
-            f"seeds, ± sample std over seeds")
+    configs = ", ".join(sorted({str(v) for v in df["config_hash"].dropna()})) if "config_hash" in df else ""
+    return (f"<b>{e(name)}</b>: {e(provenance(df))} · configuration <code>{e(configs or 'unknown')}</code> · "
+            f"{runs} run(s), seeds {e(', '.join(map(str, seeds)) or 'none')}{newest} · {e(reference_set)} references · "
+            f"mean over seeds, ± sample std over seeds; counts over seeds as their range · this page: lcgym "
+            f"{e(__version__)}")
 
 
 def _ratios(values: pd.Series, reference: float | None) -> pd.Series:
@@ -152,7 +150,8 @@ def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str) -> str:
         ratios = [ratio_of[c].get(m, np.nan) for c in columns]
         finite = [r for r in ratios if np.isfinite(r) and r > 0]
         summary = float(np.exp(np.mean(np.log(finite)))) if len(finite) == len(columns) else np.nan
-        trials = part.loc[part["method"] == m, "plant_trials"].mean()
+        own = part[part["method"] == m]
+        trials = (own["plant_trials"].mean(), count_text(own["plant_trials_min"].min(), own["plant_trials_max"].max()))
         rows.append((m, ratios, summary, trials))
     rows.sort(key=lambda r: (not np.isfinite(r[2]), r[2] if np.isfinite(r[2]) else 0.0))
     ref_name = f"{REFERENCE_METHOD}" if has_reference else "the column's best"
@@ -166,8 +165,8 @@ def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str) -> str:
     n = len(columns)
     head.append(f"<th data-col='{n + 1}' scope='col' aria-sort='ascending' title='geometric mean over the columns of RMS / "
                 f"RMS of {e(ref_name)}'>× {e(REFERENCE_METHOD if has_reference else 'best')}<small>geo. mean</small></th>")
-    head.append(f"<th data-col='{n + 2}' scope='col' title='closed-loop plant runs the method learned from, mean over "
-                f"seeds'>trials<small>plant</small></th>")
+    head.append(f"<th data-col='{n + 2}' scope='col' title='closed-loop plant runs the method learned from, over "
+                f"seeds (their range where seeds differ)'>trials<small>plant</small></th>")
     body = []
     for m, ratios, summary, trials in rows:
         tds = [f"<th scope='row' class='method'>{e(str(m))}</th>"]
@@ -186,7 +185,7 @@ def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str) -> str:
                        f"{mark}{e(_pm(r['RMS'], r['RMS_std']))}</td>")
         times = "×" if np.isfinite(summary) else ""
         tds.append(f"<td data-value='{_value(summary)}' class='ratio'>{e(_num(summary))}{times}</td>")
-        tds.append(f"<td data-value='{_value(trials)}' class='count'>{e(_num(trials, count=True))}</td>")
+        tds.append(f"<td data-value='{_value(trials[0])}' class='count'>{e(trials[1])}</td>")
         body.append("<tr>" + "".join(tds) + "</tr>")
     failed = fails[fails["system"] == system]
     note = ""
@@ -249,9 +248,12 @@ def _details_table(part: pd.DataFrame, unit: str) -> str:
             tds.append(f"<td data-value='{_value(r['MA'])}'>{e(_num(r['MA']))}</td>")
             tds.append(f"<td data-value='{_value(r['Inf'])}'>{e(_num(r['Inf']))}</td>")
         first = part[part["method"] == m].iloc[0]
-        for v, count in ((first["seeds"], True), (first["plant_trials"], True), (first["env_steps"], True),
-                         (first["fit_seconds"], False)):
-            tds.append(f"<td data-value='{_value(float(v))}' class='count'>{e(_num(float(v), count))}</td>")
+        tds.append(f"<td data-value='{_value(float(first['seeds']))}' class='count'>{e(_num(float(first['seeds']), True))}</td>")
+        for c in ("plant_trials", "env_steps"):
+            text = count_text(first[f"{c}_min"], first[f"{c}_max"])
+            tds.append(f"<td data-value='{_value(float(first[c]))}' class='count'>{e(text)}</td>")
+        tds.append(f"<td data-value='{_value(float(first['fit_seconds']))}' class='count'>"
+                   f"{e(_num(float(first['fit_seconds'])))}</td>")
         body.append("<tr>" + "".join(tds) + "</tr>")
     return (f"<table class='sortable details'><thead><tr>{''.join(head1)}</tr><tr>{''.join(head2)}</tr></thead>"
             f"<tbody>{''.join(body)}</tbody></table>")

@@ -24,6 +24,7 @@ import pandas as pd
 
 from ..data import atomic_write
 from ..metrics import PERIODS
+from ..provenance import __version__
 from .store import SIGNALS
 
 SIGNAL_UNITS = {s: u for s, u in SIGNALS.items() if isinstance(u, str)}
@@ -62,14 +63,41 @@ def ranking(df: pd.DataFrame, reference_set: str = "validation") -> pd.DataFrame
     g = ok.groupby([*KEYS, "method"], sort=False)
     table = g.agg(MA=("MA", "mean"), RMS=("RMS", "mean"), RMS_std=("RMS", "std"), Inf=("Inf", "mean"),
                   unit=("unit", "first"), seeds=("seed", "nunique"), plant_trials=("plant_trials", "mean"),
-                  env_steps=("env_steps", "mean"), fit_seconds=("fit_seconds", "mean")).reset_index()
+                  plant_trials_min=("plant_trials", "min"), plant_trials_max=("plant_trials", "max"),
+                  env_steps=("env_steps", "mean"), env_steps_min=("env_steps", "min"),
+                  env_steps_max=("env_steps", "max"), fit_seconds=("fit_seconds", "mean")).reset_index()
     table["RMS_std"] = table["RMS_std"].fillna(0.0)
     table["rank"] = table.groupby(KEYS)["RMS"].rank(method="min").astype(int)
     order = {"signal": {s: i for i, s in enumerate(SIGNALS)}, "period": {p: i for i, p in enumerate(PERIODS)}}
     table = table.sort_values([*KEYS, "rank"], key=lambda c: c.map(order[c.name]) if c.name in order else c,
                               kind="stable")
     return table[[*KEYS, "rank", "method", "MA", "RMS", "RMS_std", "Inf", "unit", "seeds", "plant_trials",
-                  "env_steps", "fit_seconds"]].reset_index(drop=True)
+                  "env_steps", "fit_seconds", *COUNT_RANGES]].reset_index(drop=True)
+
+
+COUNT_RANGES = ("plant_trials_min", "plant_trials_max", "env_steps_min", "env_steps_max")
+"""``ranking``'s columns of the counts' least and greatest value over seeds (their mean, for sorting,
+is ``plant_trials`` and ``env_steps``)."""
+
+
+def count_text(low: float, high: float) -> str:
+    """A count over seeds as people read it: one integer, or the range "low-high" where seeds differ."""
+    if not (np.isfinite(low) and np.isfinite(high)):
+        return "–"
+    return f"{low:,.0f}" if low == high else f"{low:,.0f}–{high:,.0f}"
+
+
+def provenance(df: pd.DataFrame) -> str:
+    """Where the rows of a results frame come from, as the rows say (which may not be the lcgym
+    that reads them): the lcgym version(s) and commit(s) that wrote them and the dates of their runs."""
+    def joined(col: str) -> str:
+        values = sorted({str(v) for v in df[col].dropna()}) if col in df else []
+        return ", ".join(values) or "unknown"
+
+    stamps = pd.to_datetime(df["timestamp"], errors="coerce", utc=True).dropna() if "timestamp" in df else pd.Series([])
+    days = sorted({f"{t:%Y-%m-%d}" for t in stamps})
+    when = f", runs of {days[0]}" + (f" to {days[-1]}" if len(days) > 1 else "") if days else ""
+    return f"rows written by lcgym {joined('lcgym_version')} at commit {joined('git_commit')}{when}"
 
 
 def share_table(df: pd.DataFrame, of: str, base: str, reference_set: str = "validation") -> pd.DataFrame:
@@ -128,16 +156,23 @@ def _sections(table: pd.DataFrame):
 def format_text(df: pd.DataFrame, reference_set: str = "validation") -> str:
     """Plain-text leaderboard, one table per system, signal and axis."""
     table = ranking(df, reference_set)
-    out = [f"lcgym leaderboard ({reference_set} references; mean over seeds)"]
+    out = [f"lcgym leaderboard ({reference_set} references; mean over seeds, counts as their range over seeds)"]
     for (system, signal, axis), part in _sections(table):
         out.append(f"\n{system} / {signal} / {axis}")
-        out.append(part.to_string(index=False, float_format=lambda x: f"{x:.4g}"))
+        out.append(_with_counts(part).to_string(index=False, float_format=lambda x: f"{x:.4g}"))
     fails = failures(df)
     if not fails.empty:
         out.append("\nfailed cells:")
         out += [f"  {r['system']} / {r['method']} / seed {r['seed']}: {str(r['error'])[:160]}"
                 for r in fails.to_dict("records")]
     return "\n".join(out)
+
+
+def _with_counts(part: pd.DataFrame) -> pd.DataFrame:
+    """``ranking`` rows with the counts as ``count_text`` writes them, their ranges' columns dropped."""
+    counts = {c: [count_text(lo, hi) for lo, hi in zip(part[f"{c}_min"], part[f"{c}_max"], strict=True)]
+              for c in ("plant_trials", "env_steps")}
+    return part.drop(columns=list(COUNT_RANGES)).assign(**counts)
 
 
 REFERENCE_METHOD = "physical"
@@ -235,7 +270,7 @@ def write_markdown(df: pd.DataFrame, path: str | Path, reference_set: str = "val
         cols = ["rank", "method", "MA", "RMS", "RMS_std", "Inf", "unit", "seeds", "plant_trials", "env_steps", "fit_seconds"]
         lines.append("| " + " | ".join(cols) + " |")
         lines.append("|" + "---|" * len(cols))
-        for r in part.to_dict("records"):
+        for r in _with_counts(part).to_dict("records"):
             lines.append("| " + " | ".join(_cell(r[c]) for c in cols) + " |")
     lines.append("\n## Figures\n")
     lines += [f"![{p.stem}]({p.parent.name}/{p.name})" for p in figures]
@@ -248,12 +283,11 @@ def write_markdown(df: pd.DataFrame, path: str | Path, reference_set: str = "val
 
 
 def _provenance(df: pd.DataFrame, reference_set: str, source: str) -> str:
-    def joined(col):
-        return ", ".join(sorted(set(map(str, df[col]))))
-
+    configs = ", ".join(sorted(set(map(str, df["config_hash"]))))
     return (f"{reference_set.capitalize()} references; mean over seeds, +- is the sample standard deviation "
-            f"over seeds. {'From ' + source + ': ' if source else ''}configuration {joined('config_hash')}, "
-            f"{df['run_id'].nunique()} run(s), lcgym {joined('lcgym_version')}, commit {joined('git_commit')}.")
+            f"over seeds; counts are integers, or their range over seeds. {'From ' + source + ': ' if source else ''}"
+            f"configuration {configs}, {df['run_id'].nunique()} run(s), {provenance(df)}; this page made by lcgym "
+            f"{__version__}.")
 
 
 def _cell(v) -> str:
