@@ -32,7 +32,7 @@ def ix_data():
 
 def trained(ix_data, tmp_path, **config):
     bench, trials, val = ix_data
-    cfg = RLConfig(**{"total_steps": 2048, "cache_dir": str(tmp_path),
+    cfg = RLConfig(**{"total_steps": 2048, "cache_dir": str(tmp_path), "safeguard": False,
                       "hyperparameters": {"n_steps": 128, "batch_size": 256, "n_epochs": 2}, **config})
     return RLFeedforward(cfg, system=IX).fit(trials).learn(bench.plant, val[0])
 
@@ -191,3 +191,39 @@ def test_trains_under_a_callers_float64_and_threads_and_restores_them(ix_data, t
         assert np.all(np.isfinite(rl.feedforward(ix_data[2][0])))
     finally:
         torch.set_default_dtype(before[0])
+
+
+def _constant_policy(residual) -> PPO:
+    """A PPO agent whose deterministic action is the constant ``residual`` [V] (zero weights)."""
+    env = IXEnv(references="validation", base_feedforward="physical", n_references=1, duration=4.0)
+    model = PPO("MlpPolicy", env, seed=0, device="cpu", policy_kwargs=dict(net_arch=[8]))
+    with torch.no_grad():
+        model.policy.action_net.weight.zero_()
+        model.policy.action_net.bias.copy_(torch.tensor(residual, dtype=torch.float32))
+    return model
+
+
+def test_safeguard_drops_a_residual_that_raises_the_training_error(ix_data):
+    """A policy that adds 0.6 V to the propeller's feedforward raises its training error: the
+    safeguard drops it there, the base acts alone (the feedforward is the base's, exactly), the note
+    says so, and its rollouts are counted."""
+    bench, trials, val = ix_data
+    rl = RLFeedforward(RLConfig(cache=False), system=IX).fit(trials)
+    rl.model_ = _constant_policy([0.6, 0.0])
+    rl.learn(bench.plant, val[0])
+    assert not rl.kept_[0]
+    assert rl.safeguard_["policy"][0] > rl.safeguard_["base"][0]
+    assert "residual dropped on propeller" in rl.note_
+    np.testing.assert_array_equal(rl.feedforward(val[0]), rl.base_.predict(val[0].positions))
+    samples = sum(t.ref.shape[0] for t in trials)
+    assert rl.cost_.env_steps >= 2 * samples + val[0].n_samples  # base and policy on each training reference
+
+
+def test_safeguard_keeps_a_residual_that_does_not_raise_the_error(ix_data):
+    """The control: a policy whose residual is zero is no worse than the base, and is kept."""
+    bench, trials, val = ix_data
+    rl = RLFeedforward(RLConfig(cache=False), system=IX).fit(trials)
+    rl.model_ = _constant_policy([0.0, 0.0])
+    rl.learn(bench.plant, val[0])
+    assert rl.kept_.all() and rl.note_ == ""
+    assert rl.safeguard_["policy"] == rl.safeguard_["base"]

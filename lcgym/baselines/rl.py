@@ -31,6 +31,15 @@ cell's training references: one action per control sample, the feedback loop ins
   objects: ``RLFeedforward.load_model(path)`` loads another file only when asked, and only files
   from trusted sources should be given to it.
 
+* **Safeguard** (``RLConfig.safeguard``, on by default): a residual policy is kept only where it
+  lowers the tracking error on its own training references. After training, the policy's
+  deterministic rollouts on the training references are compared with the base feedforward's
+  alone, per scored axis (RMS over the references); where the policy is worse on an axis, its
+  action there is dropped (the base alone acts on that axis), and the masked policy is rolled out
+  again to check it; if it is still worse anywhere, the base acts alone on every axis. ``kept_``
+  says on which axes the residual acts, ``safeguard_`` the RMS figures, and ``note_`` (the
+  results row's ``note``) what was dropped. It costs 2-3 rollouts per training reference, counted.
+
 Cost (``cost_``): env steps of training (also when loaded from the cache: the model cost them)
 plus those of the rollouts that ran the plant; plant trials: training episodes begun plus those
 rollouts; ``cached_seconds``: the training wall time of a model loaded from the cache.
@@ -91,7 +100,8 @@ class RLConfig:
     point, both built-in machines'; else ``DummyVecEnv`` copies); hyperparameters: overrides of
     ``HYPERPARAMETERS[algorithm]``; seed: of the agent and its envs; cache: save trained models
     and reuse them (``cache_dir``, default ``default_cache_dir()``); progress: a progress bar of
-    the training (env steps, last episode's RMS tracking error).
+    the training (env steps, last episode's RMS tracking error); safeguard: keep a residual only
+    where it lowers the training references' tracking error (module docstring).
     """
 
     algorithm: str = "ppo"
@@ -105,6 +115,7 @@ class RLConfig:
     cache: bool = True
     cache_dir: str | None = None
     progress: bool = False
+    safeguard: bool = True
 
     def __post_init__(self):
         if self.algorithm not in ALGORITHMS:
@@ -154,8 +165,9 @@ class RLFeedforward(Controller):
     ``learn(plant, reference)`` trains (or loads from the cache) on the first call, then rolls the
     policy out deterministically on ``reference``; ``feedforward(reference)`` returns that
     rollout's feedforward. Learned: ``model_`` (the SB3 agent), ``curve_`` (training curve),
-    ``record_`` (steps, episodes, seconds, cache key), ``rollouts_`` (reference name -> the
-    rollout's ``Trial``), ``cost_``. ``system``: the machine (a ``System`` or a spec for
+    ``record_`` (steps, episodes, seconds, cache key), ``kept_`` (per action axis, whether the
+    residual acts there: the safeguard), ``safeguard_`` (its training RMS figures), ``note_``,
+    ``rollouts_`` (reference name -> the rollout's ``Trial``), ``cost_``. ``system``: the machine (a ``System`` or a spec for
     ``systems.get``, such as "ix")."""
 
     name = "rl"
@@ -203,7 +215,9 @@ class RLFeedforward(Controller):
             raise RuntimeError("rl: call fit(trials) before learn()")
         if not hasattr(self, "model_"):
             self._train_or_load(plant)
-        self.rollouts_[reference.name] = self._rollout(plant, reference)
+        if not hasattr(self, "kept_"):  # also for a model of the user's (``load_model``)
+            self._safeguard(plant)
+        self.rollouts_[reference.name] = self._rollout(plant, reference, self.kept_)
         return self
 
     def cache_key(self, plant) -> str:
@@ -211,7 +225,8 @@ class RLFeedforward(Controller):
         import stable_baselines3
         import torch
 
-        config = {k: v for k, v in asdict(self._config()).items() if k not in ("cache", "cache_dir", "progress")}
+        config = {k: v for k, v in asdict(self._config()).items()
+                  if k not in ("cache", "cache_dir", "progress", "safeguard")}
         h = hashlib.sha256()
         h.update(json.dumps({"config": config, "system": self.system_.name, "budget": self.budget(), "plant": repr(plant),
                              "lcgym": source_hash(), "sb3": stable_baselines3.__version__,
@@ -283,8 +298,57 @@ class RLFeedforward(Controller):
         return {"env_steps": int(model.num_timesteps), "episodes": len(rows) + venv.num_envs,
                 "seconds": round(seconds, 3), "algorithm": cfg.algorithm}
 
-    def _rollout(self, plant, reference):
-        """Deterministic rollout on ``reference``: its ``Trial`` (``ff``: the applied feedforward).
+    def _safeguard(self, plant) -> None:
+        """Keep the residual only on the axes where it lowers the training references' RMS tracking
+        error against the base alone (module docstring); sets ``kept_``, ``safeguard_``, ``note_``."""
+        n = self.model_.action_space.shape[0]
+        self.kept_ = np.ones(n, dtype=bool)
+        self.note_ = ""
+        if not (self._config().safeguard and self._config().residual):
+            return
+        base = self._training_rms(plant, np.zeros(n, dtype=bool))
+        full = self._training_rms(plant, self.kept_)
+        figures = {"base": base, "policy": full}
+        worse = full > base
+        if worse.any():
+            kept = self._action_axes(~worse)
+            figures["masked"] = masked = self._training_rms(plant, kept) if kept.any() and not worse.all() else full
+            self.kept_ = kept if kept.any() and not (masked > base).any() else np.zeros(n, dtype=bool)
+        self.safeguard_ = {k: np.degrees(v).round(6).tolist() for k, v in figures.items()}
+        names = list(self.training_[0].axes)
+        dropped = [names[i] for i in range(n) if not self.kept_[i]]
+        if dropped:
+            kept_names = [names[i] for i in range(n) if self.kept_[i]]
+            self.note_ = (f"rl: residual dropped on {', '.join(dropped)} (it raised the training references' "
+                          f"tracking error); the base acts alone there"
+                          + (f", the residual on {', '.join(kept_names)}" if kept_names else ""))
+
+    def _scored(self) -> list[int]:
+        """The axes (indices) the machine's benchmark scores: the safeguard compares those."""
+        scored = self.system_.bench.scored
+        return list(range(len(self.training_[0].axes))) if scored is None else list(scored)
+
+    def _action_axes(self, better) -> np.ndarray:
+        """Per action axis, whether to keep the residual: on scored axes where it was ``better``
+        (per scored axis), and on unscored ones where it was better on every scored one."""
+        kept = np.full(len(self.training_[0].axes), bool(np.all(better)))
+        kept[self._scored()] = better
+        return kept
+
+    def _training_rms(self, plant, kept: np.ndarray) -> np.ndarray:
+        """RMS tracking error [rad or m] per scored axis over the training references' rollouts with
+        the residual acting on the axes ``kept`` (none: the base alone)."""
+        square, samples = 0.0, 0
+        for reference in self.training_:
+            trial = self._rollout(plant, reference, kept)
+            error = self.system_.bench.tracking_error(trial)
+            square = square + np.sum(np.square(error[:, self._scored()]), axis=0)
+            samples += error.shape[0]
+        return np.sqrt(square / samples)
+
+    def _rollout(self, plant, reference, kept: np.ndarray):
+        """Deterministic rollout on ``reference`` with the residual acting on the axes ``kept``: its
+        ``Trial`` (``ff``: the applied feedforward).
 
         The residual of the first sample is zero: the env settles the plant at the start with the
         base feedforward, a replay (``plant.run``) with the feedforward's first sample; equal
@@ -298,12 +362,13 @@ class RLFeedforward(Controller):
         obs, _ = env.reset(seed=cfg.seed, options={"reference": 0})
         action = np.zeros(env.action_space.shape)  # at the first sample: the base alone, see below
         done = False
+        mask = np.asarray(kept, dtype=float)
         while not done:
             obs, _, terminated, truncated, info = env.step(action)
             done = terminated or truncated
             if not cfg.observe_error:
                 obs[hide] = 0.0
-            action = act(obs)
+            action = act(obs) * mask
         if terminated:
             raise RuntimeError(f"rl: the plant left its safe range in the rollout on {reference.name}")
         if cfg.observe_error:

@@ -37,7 +37,18 @@ import pandas as pd
 
 from ..data import atomic_write
 from ..provenance import __version__
-from .report import KEYS, REFERENCE_METHOD, bar_figures, count_text, failures, method_order, provenance, ranking, trace_figures
+from .report import (
+    KEYS,
+    REFERENCE_METHOD,
+    bar_figures,
+    count_text,
+    failures,
+    method_order,
+    notes,
+    provenance,
+    ranking,
+    trace_figures,
+)
 
 OVERVIEW_SIGNALS = ("tracking_error", "tcp_position_error")
 """Signals whose axes are the overview's columns (period ``all``): how well each method tracks."""
@@ -319,6 +330,12 @@ def render(df: pd.DataFrame, reference_set: str = "validation", source: str = ""
         if figs:
             out.append("<h3>Figures</h3><div class='figures'>" + "".join(figs) + "</div>")
         out.append("</section>")
+    said = notes(df)
+    if not said.empty:
+        out.append("<section id='notes'><h2>Notes of the methods</h2><ul>")
+        out += [f"<li>{e(str(r['system']))} / {e(str(r['method']))} / seed {e(str(r['seed']))}: {e(str(r['note']))}</li>"
+                for r in said.to_dict("records")]
+        out.append("</ul></section>")
     if not fails.empty:
         out.append("<section id='failed'><h2>Failed cells</h2><table class='failed'><thead><tr><th>system</th>"
                    "<th>method</th><th>seed</th><th>error</th></tr></thead><tbody>")

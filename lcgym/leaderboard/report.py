@@ -147,6 +147,14 @@ def failures(df: pd.DataFrame) -> pd.DataFrame:
     return bad[["system", "method", "seed", "error"]].drop_duplicates().reset_index(drop=True)
 
 
+def notes(df: pd.DataFrame) -> pd.DataFrame:
+    """What methods said of their cells (the ``note`` column), one row per system, method and seed."""
+    if "note" not in df:
+        return pd.DataFrame(columns=["system", "method", "seed", "note"])
+    said = df[(df["status"] == "ok") & df["note"].fillna("").astype(str).str.strip().ne("")]
+    return said[["system", "method", "seed", "note"]].drop_duplicates().reset_index(drop=True)
+
+
 def _sections(table: pd.DataFrame):
     """(system, signal, axis), part per section; a signal of one period is titled "signal (period)"."""
     for (system, signal, period, axis), part in table.groupby(KEYS, sort=False):
@@ -274,6 +282,10 @@ def write_markdown(df: pd.DataFrame, path: str | Path, reference_set: str = "val
             lines.append("| " + " | ".join(_cell(r[c]) for c in cols) + " |")
     lines.append("\n## Figures\n")
     lines += [f"![{p.stem}]({p.parent.name}/{p.name})" for p in figures]
+    said = notes(df)
+    if not said.empty:
+        lines.append("\n## Notes of the methods\n")
+        lines += [f"- {r['system']} / {r['method']} / seed {r['seed']}: {r['note']}" for r in said.to_dict("records")]
     fails = failures(df)
     if not fails.empty:
         lines.append("\n## Failed cells\n")

@@ -196,7 +196,8 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_th
             cost = getattr(controller, "cost_", Cost())
             for row in rows:
                 row.update(plant_trials=config.n_train + cost.plant_trials, env_steps=cost.env_steps,
-                           fit_seconds=round(learn_seconds + cost.cached_seconds, 3), status="ok", error="")
+                           fit_seconds=round(learn_seconds + cost.cached_seconds, 3), status="ok", error="",
+                           note=getattr(controller, "note_", ""))
             return rows, trace
     except Exception as exc:  # a method's failure is a result, not a crash of the benchmark
         return [{**key, "status": "failed", "error": _failure(exc, stage[0])[:500]}], None

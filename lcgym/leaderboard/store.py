@@ -10,7 +10,8 @@ from, the shared training runs included; ``env_steps``; ``fit_seconds``: wall ti
 learn, plus that of learning reused from a cache, ``Cost.cached_seconds``), ``nn_rms`` (RMS of
 a neural network's feedforward contribution, where the method has one), ``status`` (``ok`` or
 ``failed``) and ``error``, and provenance (``lcgym_version``, ``git_commit``, ``timestamp`` in
-UTC, ``config_hash`` of the benchmark's configuration).
+UTC, ``config_hash`` of the benchmark's configuration), and ``note``: what the method says of its
+cell (a method's ``note_``; the ``rl`` safeguard's dropped residual; older files read as empty).
 
 A failed cell is one row with ``status = failed``, its error message and empty metrics.
 
@@ -35,7 +36,7 @@ from ..metrics import PERIODS
 COLUMNS = (
     "run_id", "system", "method", "seed", "reference_set", "axis", "signal", "period", "MA", "RMS", "Inf", "unit",
     "plant_trials", "env_steps", "fit_seconds", "nn_rms", "status", "error",
-    "lcgym_version", "git_commit", "timestamp", "config_hash",
+    "lcgym_version", "git_commit", "timestamp", "config_hash", "note",
 )
 SYSTEMS = (*(f"{m}-{v}" for m, versions in systems.VERSIONS.items() for v in versions), *systems.BUILT_IN)
 """Versioned built-in machines ("ix-v1"), and the bare names of files written before versions (their v0).
@@ -89,11 +90,13 @@ def read_results(path: str | Path) -> pd.DataFrame:
     path = Path(path)
     try:
         df = pd.read_csv(path, keep_default_na=True, dtype={"error": str, "git_commit": str, "run_id": str,
-                                                           "config_hash": str})
+                                                           "config_hash": str, "note": str})
     except pd.errors.EmptyDataError:
         raise ResultsFileError(f"{path}: empty results file") from None
     if "period" not in df.columns and "signal" in df.columns:  # written before the column existed: all samples
         df.insert(int(df.columns.get_loc("signal")) + 1, "period", "all")
+    if "note" not in df.columns:  # written before the column existed: no method said anything
+        df["note"] = ""
     validate(df, str(path))
     return df
 

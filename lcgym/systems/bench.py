@@ -9,7 +9,9 @@ A bench machine (``systems/ix/bench.py``, ``systems/flexarm/bench.py``) has
 * ``tables(trials, feedforward, references=None)``: the norm tables (``metrics``) the cell stores
   (with the references, also any per-period rows the machine reports);
 * ``trace(trial)``: the tracking error of one trial to plot, per scored axis;
-* ``scored``: the indices of the axes it scores (None: all).
+* ``scored``: the indices of the axes it scores (None: all);
+* ``tracking_error(trial)``: a class-level function, the tracking error (T, n_axes) [rad or m] its
+  tables score (the encoders' on the IX and a URDF machine, the true load angles' on the FlexArm).
 """
 
 from __future__ import annotations

@@ -79,6 +79,11 @@ class URDFBench:
             raise ValueError(f"{self.system.name} has no reference-offset channel: reference_offset must return None")
         return self.plant.run(list(references), None if feedforward is None else list(feedforward))
 
+    @staticmethod
+    def tracking_error(trial) -> np.ndarray:
+        """Reference minus encoder [rad or m] (what ``tables`` scores)."""
+        return trial.error
+
     def tables(self, trials, feedforward, references=None) -> list[pd.DataFrame]:
         """The tracking error per axis [deg or mm] and the input residual u - f [input unit]."""
         parts = []

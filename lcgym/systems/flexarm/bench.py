@@ -55,6 +55,7 @@ class FlexArmBench:
             return list(pool.map(lambda job: self.plant.run(*job), jobs))
 
     load_error = staticmethod(load_error)
+    tracking_error = staticmethod(load_error)  # what ``tables`` scores: the true load angles' error
 
     def tcp_error(self, trial) -> np.ndarray:
         """|TCP - TCP of the reference| (T,) [mm]."""

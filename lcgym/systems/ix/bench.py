@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pandas as pd
 
 from ...metrics import input_residual_table, tracking_error_table
@@ -23,6 +24,11 @@ class IXBench:
         self.name = f"ix-{version}"
         self.plant = IXPlant.of_version(version)
         self.axes = self.plant.axes
+
+    @staticmethod
+    def tracking_error(trial) -> np.ndarray:
+        """Reference minus encoder [rad] (what ``tables`` scores)."""
+        return trial.error
 
     def references(self, set_name: str, seed: int, n: int, duration: float):
         return reference_set(set_name, seed, n, duration, self.plant.fs)
