@@ -82,3 +82,26 @@ def test_registered_ids_carry_their_version(env_id, version):
         assert venv.task.plant.gains == expected.gains
         venv.close()
     env.close()
+
+
+@pytest.mark.parametrize("env_id, kwargs", [("lcgym/IX-v1", {"n_references": 1, "duration": 2.0}),
+                                            ("lcgym/FlexArm-v1", {"n_references": 1}),
+                                            ("lcgym/TwoLink-v0", {"n_references": 1, "duration": 2.0})])
+def test_every_machine_resets_with_its_reference_and_renders_its_episode(env_id, kwargs):
+    """The same habits on every machine: the reset info names the reference, and
+    ``render_mode="rgb_array"`` draws the episode so far; rendering leaves the episode unchanged."""
+    env = gym.make(env_id, render_mode="rgb_array", **kwargs)
+    twin = gym.make(env_id, **kwargs)
+    _, info = env.reset(seed=0)
+    twin.reset(seed=0)
+    assert isinstance(info["reference"], str) and info["reference"]
+    for _ in range(20):
+        obs, *_ = env.step(np.zeros(env.action_space.shape, dtype=np.float32))
+        same, *_ = twin.step(np.zeros(twin.action_space.shape, dtype=np.float32))
+    image = env.render()
+    assert image.ndim == 3 and image.shape[2] == 3 and image.dtype == np.uint8 and image.std() > 0
+    obs, *_ = env.step(np.zeros(env.action_space.shape, dtype=np.float32))
+    same, *_ = twin.step(np.zeros(twin.action_space.shape, dtype=np.float32))
+    np.testing.assert_array_equal(obs, same)
+    env.close()
+    twin.close()

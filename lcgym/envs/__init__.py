@@ -1,7 +1,7 @@
 """Gymnasium glue shared by the machines' environments: action checks (``actions.py``), the
 stable-baselines3 adapters (``sb3.py``) and ``make_env``. The environments themselves live with
 their machines (``systems/ix/env.py``, ``systems/flexarm/env.py``) and are registered on import of
-lcgym (``systems.register_envs``): ``gym.make("lcgym/IX-v0")``.
+lcgym (``systems.register_envs``): ``gym.make("lcgym/IX-v1")``.
 """
 
 from __future__ import annotations

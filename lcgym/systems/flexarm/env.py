@@ -36,10 +36,15 @@ Info: per step ``u`` (motor torques [N m]) and ``clipped_actions``; at the episo
 
 Reset: the reference is drawn with the env's seeded generator from the set, or chosen with
     ``options={"reference": i}``; the plant starts in static balance, held for ``plant.preroll`` s.
+    The reset info holds the reference's name (``"reference"``), as on every lcgym env.
+
+Render: ``render_mode="rgb_array"``: the references and load-side tracking errors of joints 2, 3
+    and 5 in the episode so far, as an RGB array.
 
 Arguments: ``references`` (a set name or a list of ``Reference``), ``reference_seed``,
     ``n_references``, ``base_feedforward``, ``plant`` (a ``FlexArmPlant``; default the plant of
-    ``version``), ``version`` ("v1" or "v0": ``FlexArmPlant.of_version``; the registered ids set it).
+    ``version``), ``version`` ("v1" or "v0": ``FlexArmPlant.of_version``; the registered ids set it),
+    ``render_mode``.
 
 Vector env: ``gym.make_vec("lcgym/FlexArm-v1", num_envs=n, vectorization_mode="vector_entry_point")``
 is ``FlexArmVectorEnv``: n arms stepped in one compiled call (``systems/flexarm/vector.py``, the
@@ -73,6 +78,7 @@ from gymnasium.vector.utils import batch_space
 from ...data import Trial
 from ...envs.actions import checked_action
 from ...envs.batched import BatchedVectorEnv
+from ...envs.render import render_episode
 from ...references import Reference
 from . import plant as F
 from . import vector as V
@@ -128,10 +134,14 @@ def start_state(args: tuple, reference: Reference, ff: np.ndarray, off: np.ndarr
 class FlexArmEnv(gym.Env):
     """``lcgym/FlexArm-v1`` (and -v0); see the module docstring."""
 
-    metadata = {"render_modes": []}
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
 
     def __init__(self, references="train", reference_seed: int = 0, n_references: int | None = None,
-                 base_feedforward: str = "basic", plant: F.FlexArmPlant | None = None, version: str = "v1"):
+                 base_feedforward: str = "basic", plant: F.FlexArmPlant | None = None, version: str = "v1",
+                 render_mode: str | None = None):
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        self.render_mode = render_mode
         if base_feedforward not in ("basic", "none"):
             raise ValueError(f"base_feedforward must be 'basic' or 'none', got {base_feedforward!r}")
         self.plant = plant or F.FlexArmPlant.of_version(version)
@@ -170,7 +180,7 @@ class FlexArmEnv(gym.Env):
         self._sig = np.zeros((ref.n_samples, F.N_SIG))
         self._ff_applied = np.zeros((ref.n_samples, 6))
         self._clipped = 0
-        return self._observation(), {}
+        return self._observation(), {"reference": ref.name}
 
     def _observe(self) -> tuple[np.ndarray, np.ndarray]:
         """(observation at the current sample, encoder-side error e [rad] (6,))."""
@@ -209,6 +219,19 @@ class FlexArmEnv(gym.Env):
             info["trial"] = self._trial(self._k)
             info["tracking_rms"] = np.sqrt(np.mean(np.square(F.load_error(info["trial"]))[:, list(MOVING)], axis=0))
         return obs, reward, bool(bad), bool(truncated), info
+
+    def render(self):
+        """With ``render_mode="rgb_array"``: the references and load-side tracking errors of the
+        scored joints (2, 3, 5) in the episode so far, an RGB array."""
+        if self.render_mode != "rgb_array":
+            return None
+        trial = None
+        if self._st is not None and self._k > 0:  # its own noise generator: rendering leaves the episode's draws alone
+            trial = self.plant.trial_from_signals(self.references[self._idx], self._sig[: self._k], self._ff_applied,
+                                                  np.random.default_rng(0))
+        error = None if trial is None else F.load_error(trial)
+        return render_episode(trial, self.references[self._idx].name, [self.plant.axes[i] for i in MOVING],
+                              columns=list(MOVING), error=error)
 
     def _trial(self, n: int) -> Trial:
         return self.plant.trial_from_signals(self.references[self._idx], self._sig[:n], self._ff_applied, self.np_random)
