@@ -195,3 +195,17 @@ def test_counts_read_as_integers_or_their_range_and_provenance_is_the_csvs(tmp_p
     assert f"this page: lcgym {__version__}" in page and f"this page made by lcgym {__version__}" in text
     beta_row = next(line for line in text.splitlines() if "| beta |" in line)
     assert "| 4 |" in beta_row
+
+
+def test_a_methods_note_reaches_the_text_the_markdown_and_the_page(tmp_path):
+    """A note a method left on its cell (the rl safeguard's) is listed once per cell everywhere."""
+    from lcgym.leaderboard.report import format_text, write_markdown
+
+    csv = _synthetic_csv(tmp_path / "results")
+    df = read_results(csv)
+    note = "rl: residual dropped on roll (it raised the training references' tracking error)"
+    df.loc[(df["method"] == "alpha") & (df["seed"] == 0) & (df["status"] == "ok"), "note"] = note
+    page = write_html(df, tmp_path / "page.html", source=str(csv)).read_text()
+    text = write_markdown(df, tmp_path / "README.md", source=str(csv)).read_text()
+    for shown in (page, text, format_text(df)):
+        assert shown.count("alpha / seed 0: rl: residual dropped on roll") == 2  # ix-v1 and flexarm-v1

@@ -168,6 +168,10 @@ def format_text(df: pd.DataFrame, reference_set: str = "validation") -> str:
     for (system, signal, axis), part in _sections(table):
         out.append(f"\n{system} / {signal} / {axis}")
         out.append(_with_counts(part).to_string(index=False, float_format=lambda x: f"{x:.4g}"))
+    said = notes(df)
+    if not said.empty:
+        out.append("\nnotes of the methods:")
+        out += [f"  {r['system']} / {r['method']} / seed {r['seed']}: {r['note']}" for r in said.to_dict("records")]
     fails = failures(df)
     if not fails.empty:
         out.append("\nfailed cells:")
