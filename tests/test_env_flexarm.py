@@ -27,7 +27,7 @@ def test_check_env_gymnasium_and_sb3(refs, base):
 
 
 def test_zero_action_episode_is_the_plant_run_with_the_basic_feedforward(refs):
-    env = FlexArmEnv(references=refs)
+    env = FlexArmEnv(references=refs, episode_steps=None)
     env.reset(seed=0)
     done, steps, info = False, 0, {}
     while not done:
@@ -68,19 +68,31 @@ def _short_lines():
             for a, b in ((600, 1100), (700, 1000))]
 
 
-@pytest.mark.parametrize("num_envs, mode, base", [(3, AutoresetMode.NEXT_STEP, "basic"),
-                                                   (10, AutoresetMode.SAME_STEP, "basic"),
-                                                   (9, AutoresetMode.NEXT_STEP, "none")],
-                         ids=["serial-next-step", "parallel-same-step", "parallel-feedback-only"])
-def test_vector_env_is_n_single_envs_bit_for_bit(num_envs, mode, base):
+@pytest.mark.parametrize("num_envs, mode, base, steps", [(3, AutoresetMode.NEXT_STEP, "basic", None),
+                                                          (10, AutoresetMode.SAME_STEP, "basic", None),
+                                                          (9, AutoresetMode.NEXT_STEP, "none", None),
+                                                          (3, AutoresetMode.NEXT_STEP, "basic", 120),
+                                                          (10, AutoresetMode.SAME_STEP, "basic", 120)],
+                         ids=["serial-next-step", "parallel-same-step", "parallel-feedback-only",
+                              "windows-next-step", "windows-same-step"])
+def test_vector_env_is_n_single_envs_bit_for_bit(num_envs, mode, base, steps):
     """``FlexArmVectorEnv``: every sub-env's observation, reward, episode end and motor torque equal
     those of a single ``FlexArmEnv`` on the same reference with the same actions, bit for bit,
-    through episode ends and Gymnasium's autoreset (both modes); actions out of bounds included."""
+    through episode ends and Gymnasium's autoreset (both modes); actions out of bounds included.
+    With windows of 120 samples, a sub-env whose window ends goes on with its run as a single env
+    does at ``reset()`` (``envs.episodes``)."""
     lines = _short_lines()
     venv = gym.make_vec("lcgym/FlexArm-v1", num_envs=num_envs, vectorization_mode="vector_entry_point",
-                        references=lines, base_feedforward=base, autoreset_mode=mode)
+                        references=lines, base_feedforward=base, autoreset_mode=mode, episode_steps=steps)
     inner = venv.unwrapped if hasattr(venv, "unwrapped") else venv
-    singles = [FlexArmEnv(references=lines, base_feedforward=base) for _ in range(num_envs)]
+    singles = [FlexArmEnv(references=lines, base_feedforward=base, episode_steps=steps) for _ in range(num_envs)]
+
+    went_on = []
+
+    def single_reset(i, e):  # the open run goes on, or the reference the vector env drew starts
+        went_on.append(e._window.run_open)
+        return e.reset()[0] if e._window.run_open else e.reset(options={"reference": int(inner._ref_idx[i])})[0]
+
     obs, _ = venv.reset(seed=3)
     first = [e.reset(options={"reference": int(inner._ref_idx[i])})[0] for i, e in enumerate(singles)]
     np.testing.assert_array_equal(obs, np.array(first))
@@ -89,13 +101,13 @@ def test_vector_env_is_n_single_envs_bit_for_bit(num_envs, mode, base):
     pending = np.zeros(num_envs, dtype=bool)  # NEXT_STEP: the sub-env resets in this step
     ends = 0
     for t in range(700):
-        a = (rng.uniform(-1.2, 1.2, (num_envs, 6)) * bound).astype(np.float32)
+        a = (rng.uniform(-1.2, 1.2, (num_envs, 6)) * bound).astype(np.float32)  # bound 1: normalized
         obs, reward, terminated, truncated, info = venv.step(a)
         done = terminated | truncated
         for i, e in enumerate(singles):
             if pending[i]:  # reset by the vector env: the action was ignored
                 assert reward[i] == 0.0 and not done[i]
-                np.testing.assert_array_equal(obs[i], e.reset(options={"reference": int(inner._ref_idx[i])})[0])
+                np.testing.assert_array_equal(obs[i], single_reset(i, e))
                 continue
             o, r, term, trunc, single_info = e.step(a[i])
             assert (reward[i], terminated[i], truncated[i]) == (r, term, trunc), (t, i)
@@ -103,10 +115,11 @@ def test_vector_env_is_n_single_envs_bit_for_bit(num_envs, mode, base):
             last = info["final_obs"][i] if mode == AutoresetMode.SAME_STEP and done[i] else obs[i]
             np.testing.assert_array_equal(last, o)
             if done[i] and mode == AutoresetMode.SAME_STEP:
-                np.testing.assert_array_equal(obs[i], e.reset(options={"reference": int(inner._ref_idx[i])})[0])
+                np.testing.assert_array_equal(obs[i], single_reset(i, e))
         ends += int(done.sum())
         pending = done if mode == AutoresetMode.NEXT_STEP else pending
     assert ends >= num_envs and info["clipped_actions"].sum() > 0
+    assert any(went_on) == (steps is not None) and (steps is None or not all(went_on))  # both kinds of reset met
 
 
 def test_vector_env_refuses_nan_and_trains_sb3():

@@ -35,10 +35,15 @@ def test_check_env_gymnasium_and_sb3(env_id, base):
 
 def test_spaces_and_documented_bounds():
     env = gym.make("lcgym/IX-v0", **SHORT)
-    assert env.action_space.shape == (2,) and env.action_space.high[0] == 5.0
+    assert env.action_space.shape == (2,) and env.action_space.high[0] == 1.0  # normalized
+    assert env.unwrapped.action_scale.tolist() == [5.0, 5.0]  # V, the amplifier limit
+    _, info = env.reset(seed=0)
+    assert info["action_scale"].tolist() == [5.0, 5.0] and info["sample"] == 0
+    units = gym.make("lcgym/IX-v0", normalize_actions=False, **SHORT)
+    assert units.action_space.high[0] == 5.0 and units.unwrapped.action_scale.tolist() == [1.0, 1.0]
     assert env.observation_space.shape == (ix_env.N_OBS,) and env.observation_space.dtype == np.float32
     residual = gym.make("lcgym/IX-v0", base_feedforward="physical", **SHORT)
-    assert residual.action_space.high[0] == ix_env.RESIDUAL_BOUND
+    assert residual.unwrapped.action_scale.tolist() == [ix_env.RESIDUAL_BOUND] * 2
 
 
 def _rollout(env, seed, steps=300):
@@ -62,7 +67,7 @@ def test_same_seed_same_episode():
 
 def test_episode_matches_plant_run_and_ends_with_trial():
     """Zero actions with the physical base: the episode is the plant's run with that feedforward."""
-    env = gym.make("lcgym/IX-v0", base_feedforward="physical", **SHORT)
+    env = gym.make("lcgym/IX-v0", base_feedforward="physical", episode_steps=None, **SHORT)
     env.reset(seed=0, options={"reference": 1})
     task = env.unwrapped.task
     steps, done, info = 0, False, {}
@@ -103,7 +108,7 @@ def test_explicit_reference_list_and_render():
 
 def test_vector_env_matches_single_envs_and_autoresets():
     N = 3
-    venv = gym.make_vec("lcgym/IX-v0", num_envs=N, vectorization_mode="vector_entry_point",
+    venv = gym.make_vec("lcgym/IX-v0", num_envs=N, vectorization_mode="vector_entry_point", episode_steps=None,
                         references=[random_moves(f"r{i}", np.random.default_rng(i), duration=0.2) for i in range(2)])
     inner = venv.unwrapped if hasattr(venv, "unwrapped") else venv
     obs, _ = venv.reset(seed=0)
@@ -132,7 +137,7 @@ def test_vector_env_same_step_autoreset_gives_final_obs():
 
     refs = [random_moves("r", np.random.default_rng(0), duration=0.1)]
     venv = gym.make_vec("lcgym/IX-v0", num_envs=2, vectorization_mode="vector_entry_point", references=refs,
-                        autoreset_mode=AutoresetMode.SAME_STEP)
+                        autoreset_mode=AutoresetMode.SAME_STEP, episode_steps=None)
     inner = venv.unwrapped if hasattr(venv, "unwrapped") else venv
     venv.reset(seed=0)
     n = int(inner.task.lengths[0])

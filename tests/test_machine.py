@@ -132,9 +132,9 @@ def test_env_episode_is_the_plants_run(machine_file):
     """A zero action replays what the plant's own run gives, bit for bit; the checker passes."""
     bench = systems.make_bench(str(machine_file))
     ref = bench.references("validation", 1, 1, 3.0)[0]
-    env = gym.make("lcgym/Machine-v0", machine=str(machine_file), references=[ref])
+    env = gym.make("lcgym/Machine-v0", machine=str(machine_file), references=[ref], episode_steps=None)
     obs, info = env.reset(seed=0)
-    assert env.observation_space.contains(obs) and info == {"reference": ref.name}
+    assert env.observation_space.contains(obs) and info["reference"] == ref.name and info["sample"] == 0
     done, rewards = False, []
     while not done:
         obs, reward, terminated, truncated, info = env.step(np.zeros(2, dtype=np.float32))
@@ -150,8 +150,8 @@ def test_env_residual_on_the_physical_model_and_bad_actions(machine_file):
     env = gym.make("lcgym/Machine-v0", machine=str(machine_file), references="validation", n_references=1,
                    duration=2.0, base_feedforward="physical")
     env.reset(seed=0)
-    np.testing.assert_allclose(env.action_space.high, 0.2 * np.array([60.0, 40.0]))
-    _, _, _, _, info = env.step(np.array([100.0, 0.0], dtype=np.float32))
+    np.testing.assert_allclose(env.unwrapped.action_scale, 0.2 * np.array([60.0, 40.0]))
+    _, _, _, _, info = env.step(np.array([1.5, 0.0], dtype=np.float32))
     assert info["clipped_actions"] == 1 and info["ff"][0] != 0.0
     with pytest.raises(ValueError, match="NaN or inf"):
         env.step(np.array([np.nan, 0.0]))

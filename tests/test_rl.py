@@ -126,8 +126,8 @@ def test_error_blind_policy_is_a_pure_feedforward(ix_data, tmp_path):
 
 def test_sb3_adapter_reports_episode_rms_and_hides_error():
     refs = reference_set("train", 0, 1, 0.5)
-    venv = make_sb3_vec_env("lcgym/IX-v0", num_envs=1, references=refs)
-    env = IXEnv(references=refs, version="v0")
+    venv = make_sb3_vec_env("lcgym/IX-v0", num_envs=1, references=refs, episode_steps=None)
+    env = IXEnv(references=refs, version="v0", episode_steps=None)
     venv.reset()
     env.reset(options={"reference": 0})
     zero = np.zeros((1, 2), dtype=np.float32)
@@ -231,3 +231,23 @@ def test_safeguard_keeps_a_residual_that_does_not_raise_the_error(ix_data):
     rl.learn(bench.plant, val[0])
     assert rl.kept_.all() and rl.note_ == ""
     assert rl.safeguard_["policy"] == rl.safeguard_["base"]
+
+
+def test_safeguard_judges_each_training_reference(ix_data):
+    """A residual better over all training references but worse on one of them is dropped on that
+    axis (the per-reference rule: such a policy did not generalize on the IX); kept where it is
+    better on every reference. The rollouts are replaced by given RMS figures (references x axes)."""
+    bench, trials, val = ix_data
+    rl = RLFeedforward(RLConfig(cache=False), system=IX).fit(trials)
+    rl.model_ = _constant_policy([0.0, 0.0])
+    n = len(rl.training_)
+    base = np.ones((n, 2))
+    policy = np.full((n, 2), 0.5)
+    policy[-1, 0] = 1.01  # worse on the last reference only: over all of them, far better
+    figures = {(False, False): base, (True, True): policy, (False, True): np.where([[1, 0]], base, policy)}
+    rl._training_rms = lambda plant, kept: figures[tuple(bool(k) for k in kept)]
+    rl._safeguard(bench.plant)
+    assert rl.kept_.tolist() == [False, True]
+    assert rl.safeguard_["policy"][0] < rl.safeguard_["base"][0]  # better on the whole: dropped all the same
+    assert rl.safeguard_["references_worse"] == 1
+    assert f"residual dropped on propeller (it raised the tracking error on 1 of {n} training references)" in rl.note_

@@ -5,10 +5,17 @@ booleans, complex numbers or Python objects are refused before numpy would conve
 silently (a complex action would lose its imaginary part, ``True`` would become 1 V) or fail
 with a message that names neither the env nor the step. NaN and inf are checked by each env
 next to the physics (the IX kernel refuses them in its loop).
+
+Normalized actions (``action_space_of``): by default every lcgym env's action space is [-1, 1] per
+axis, the convention of stable-baselines3 (its ``check_env`` warns otherwise, and its Gaussian
+policies start with a unit standard deviation) and of most agents; the env multiplies the action
+by its ``action_scale`` (the bound in machine units: V, N m or N) before anything else.
+``normalize_actions=False`` gives the action in machine units, bounded by the same scale.
 """
 
 from __future__ import annotations
 
+import gymnasium as gym
 import numpy as np
 
 NUMERIC_KINDS = "fiu"  # float, signed and unsigned integer
@@ -33,3 +40,13 @@ def short_repr(value, width: int = 80) -> str:
     """``repr(value)`` on one line (numpy's line breaks folded) and at most ``width`` characters."""
     text = " ".join(repr(value).split())
     return text if len(text) <= width else text[: width - 3] + "..."
+
+
+def action_space_of(bound, n: int, normalize: bool) -> tuple[gym.spaces.Box, np.ndarray]:
+    """(action space, scale (n,)): [-1, 1]^n and the bound [machine units] per axis with
+    ``normalize``; else the bound itself as the space and a scale of ones (the action is applied
+    as given: ``action * scale`` is then the action, bit for bit)."""
+    bound = np.broadcast_to(np.asarray(bound, dtype=float), (n,)).copy()
+    if normalize:
+        return gym.spaces.Box(-1.0, 1.0, (n,), np.float32), bound
+    return gym.spaces.Box(-bound.astype(np.float32), bound.astype(np.float32), dtype=np.float32), np.ones(n)

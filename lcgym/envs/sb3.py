@@ -90,9 +90,10 @@ class SB3VecAdapter(VecEnv):
         return [False] * len(self._get_indices(indices))
 
 
-def make_sb3_vec_env(env_id: str = "lcgym/IX-v1", num_envs: int = 8, **kwargs) -> SB3VecAdapter:
+def make_sb3_vec_env(env_id: str = "lcgym/IX-v1", num_envs: int = 4, **kwargs) -> SB3VecAdapter:
     """``gym.make_vec(env_id, num_envs, vector_entry_point, same-step autoreset)`` for stable-baselines3
-    (default: the IX's newest version)."""
+    (default: the IX's newest version; 4 envs: with PPO's default 2048 steps per env, its first
+    rollout of 8192 steps already ends episodes of the default 1000 samples and logs them)."""
     venv = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point",
                         autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
     return SB3VecAdapter(venv)

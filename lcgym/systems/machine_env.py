@@ -10,10 +10,13 @@ and input limits; ``systems/machine.py``). The agent supplies the **feedforward*
 loop runs inside the environment. One env step is one control sample (1 / fs).
 
 Action (float32, shape (n,), n the machine's axes): the feedforward of each axis for the current
-    sample [N m or N]. ``base_feedforward="none"``: the action is the feedforward, bounds +-u_scale
-    (the input limit; 1 where the machine has none). ``"physical"``: the action is added to the
-    rigid-model feedforward (``PhysicalModel`` fitted on feedback-only runs of the training
-    references), bounds +-``RESIDUAL_FRACTION`` x u_scale. A fitted model (anything with
+    sample, normalized: the env applies ``action * action_scale`` [N m or N]
+    (``normalize_actions=True``, the default, bounds +-1; ``info["action_scale"]``,
+    ``env.action_scale``), or the action in machine units as given (``normalize_actions=False``,
+    bounds +-``action_scale``; ``envs.actions``). ``base_feedforward="none"``: the action is the
+    feedforward, scale u_scale (the input limit; 1 where the machine has none). ``"physical"``: the
+    action is added to the rigid-model feedforward (``PhysicalModel`` fitted on feedback-only runs
+    of the training references), scale ``RESIDUAL_FRACTION`` x u_scale. A fitted model (anything with
     ``predict(positions) -> (T, n)``) may be given instead: residual learning on that model.
     Out-of-bound actions are clipped and counted (``info["clipped_actions"]``); NaN, inf, a wrong
     shape or non-numbers raise ``ValueError`` naming the step, before the plant moves.
@@ -31,26 +34,36 @@ Reward: -1/2 sum over axes (e_i / ``REWARD_SCALE``)^2 (0.1 deg or 0.1 mm), e the
     measured at the next sample (the error the action helped to make); the step that leaves the
     safe range gets -1/2 n ``ERR_CLIP``^2.
 
-Episode end: ``truncated`` after the last sample of the reference; ``terminated`` when the plant
-    leaves its safe range (a tracking error over ``max_error`` or a non-finite state).
+Episode end: ``truncated`` after ``episode_steps`` samples (default ``EPISODE_STEPS`` = 1000;
+    the next reset goes on with the same run: ``envs.episodes``) or after the last sample of the
+    reference (``episode_steps=None``: one episode per reference, what the benchmark scores);
+    ``terminated`` when the plant leaves its safe range (a tracking error over ``max_error`` or a
+    non-finite state).
 
 Info: per step ``pos`` (encoder [rad or m]), ``u`` (total input), ``ff`` (applied feedforward),
-    ``error`` (reference - encoder), ``clipped_actions``; at the episode's end (single env)
-    ``trial``, the episode as a ``Trial``, and ``tracking_rms`` (RMS tracking error per axis).
+    ``error`` (reference - encoder), ``clipped_actions``; at the end of a reference run (single
+    env) ``trial``, the run as a ``Trial``, and ``tracking_rms`` (RMS tracking error per axis).
     The vector env gives the per-step keys as (N, ...) arrays with Gymnasium's ``_key`` masks.
 
 Reset: the reference is drawn with the env's seeded generator, or chosen with
     ``options={"reference": i}``; the plant starts settled (held at the first reference sample for
-    ``plant.preroll`` s, computed once per reference).
+    ``plant.preroll`` s, computed once per reference); or the open run goes on
+    (``envs.episodes``). Info: ``reference`` (its name), ``sample`` (where the episode starts),
+    ``action_scale``, as on every lcgym env.
+
+Render: ``render_mode="rgb_array"``: the references and tracking errors of the run so far, an RGB
+    array; ``"human"``: the same in a matplotlib window (``envs.render``).
 
 Arguments: ``machine`` (a machine file, a URDF, ``module:attr`` or a ``System``: what
     ``systems.benchmark`` takes; or give ``plant``), ``references`` ("train", "validation", "test",
     or a list of ``Reference`` / (T, n) position arrays), ``reference_seed``, ``n_references`` (8)
     and ``duration`` (20 s) of a generated set, ``base_feedforward``, ``plant`` (a ``URDFPlant``),
-    ``version`` ("v0", the only one), ``render_mode="rgb_array"``.
+    ``version`` ("v0", the only one), ``render_mode``, ``normalize_actions``, ``episode_steps``.
 
 Version History:
     - v0: the first release.
+    - v0, after lcgym 0.2.0: actions normalized and episodes of ``EPISODE_STEPS`` samples by default (the
+      plants unchanged); ``normalize_actions=False, episode_steps=None`` gives the earlier interface.
 """
 
 from __future__ import annotations
@@ -63,9 +76,10 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 from ..data import Trial
-from ..envs.actions import checked_action
+from ..envs.actions import action_space_of, checked_action
 from ..envs.batched import BatchedVectorEnv
-from ..envs.render import render_episode
+from ..envs.episodes import EPISODE_STEPS, Window, checked_episode_steps
+from ..envs.render import HumanWindow, checked_render_mode, human_frame_due, render_episode, rendered
 from ..physics.kinematics import reference_kinematics, reference_positions, relay
 from ..references import Reference
 from .urdf_plant import OK, ClosedLoopRun, URDFPlant
@@ -86,7 +100,7 @@ class MachineTask:
     features and base feedforward, each reference's settled start, and the scales."""
 
     def __init__(self, machine, references, base_feedforward, plant: URDFPlant | None, reference_seed: int,
-                 n_references: int | None, duration: float, version: str = "v0"):
+                 n_references: int | None, duration: float, version: str = "v0", normalize_actions: bool = True):
         from . import benchmark
 
         if plant is None and machine is None:
@@ -112,6 +126,7 @@ class MachineTask:
         limits = self.plant.u_max
         self.u_scale = np.where(np.isfinite(limits), limits, 1.0)
         self.bound = RESIDUAL_FRACTION * self.u_scale if model is not None else self.u_scale
+        self.action_space, self.action_scale = action_space_of(self.bound, n, normalize_actions)
         robot, settings = self.plant.robot, bench.settings.references
         lo = np.where(np.isfinite(robot.lower), robot.lower, -math.pi)
         hi = np.where(np.isfinite(robot.upper), robot.upper, math.pi)
@@ -162,9 +177,7 @@ class MachineTask:
         return len(self.names)
 
     def spaces(self) -> tuple[gym.spaces.Box, gym.spaces.Box]:
-        obs = gym.spaces.Box(-OBS_BOUND, OBS_BOUND, (self.n_obs,), np.float32)
-        act = gym.spaces.Box(-self.bound.astype(np.float32), self.bound.astype(np.float32), dtype=np.float32)
-        return obs, act
+        return gym.spaces.Box(-OBS_BOUND, OBS_BOUND, (self.n_obs,), np.float32), self.action_space
 
     def start(self, r: int) -> ClosedLoopRun:
         """A run of reference r, settled: the pre-roll computed once per reference, then copied."""
@@ -230,48 +243,72 @@ def _choose(rng: np.random.Generator, options: dict | None, n: int) -> int:
 class MachineEnv(gym.Env):
     """Tracking environment of a machine with a URDF plant, one plant; see the module docstring."""
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
+    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 4}
 
     def __init__(self, machine=None, references="train", base_feedforward="none", reference_seed: int = 0,
                  n_references: int | None = None, duration: float = DEFAULT_DURATION, plant: URDFPlant | None = None,
-                 render_mode: str | None = None, version: str = "v0"):
-        if render_mode not in (None, "rgb_array"):
-            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+                 render_mode: str | None = None, version: str = "v0", normalize_actions: bool = True,
+                 episode_steps: int | None = EPISODE_STEPS):
+        self.render_mode = checked_render_mode(render_mode)
+        self._window = Window(checked_episode_steps(episode_steps))
         self.task = MachineTask(machine, references, base_feedforward, plant, reference_seed, n_references, duration,
-                                version)
+                                version, normalize_actions)
         self.observation_space, self.action_space = self.task.spaces()
-        self.render_mode = render_mode
+        self.action_scale = self.task.action_scale
+        self._human = HumanWindow(self.metadata["render_fps"]) if render_mode == "human" else None
         self.label = f"{self.task.system.name} env"
-        self._episode: Episode | None = None
+        self._episode: Episode | None = None  # the run of the current reference
+        self._running = False
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
+        if self._window.continues(seed, options):  # the open run goes on in a new window
+            self._window.start, self._window.run_open, self._running = self._episode.k, False, True
+            return self._episode.obs.copy(), self._reset_info()
         r = _choose(self.np_random, options, self.task.n_references)
         self._episode = Episode(self.task, r)
-        return self._episode.obs.copy(), {"reference": self.task.names[r]}
+        self._window.start, self._window.run_open, self._running = 0, False, True
+        if human_frame_due(self.render_mode, 0, True):
+            self.render()
+        return self._episode.obs.copy(), self._reset_info()
+
+    def _reset_info(self) -> dict:
+        return {"reference": self.task.names[self._episode.r], "sample": self._episode.k,
+                "action_scale": self.action_scale.copy()}
 
     def step(self, action):
-        if self._episode is None:
+        if not self._running:
             raise RuntimeError(f"{self.label}: call reset() before step()")
         ep, n = self._episode, self.task.plant.n_axes
         a = checked_action(action, (n,), self.label, ep.k, self._what()).astype(float)
         if not np.all(np.isfinite(a)):
             raise ValueError(f"{self.label}: action {a.tolist()} at step {ep.k} is NaN or inf")
-        reward, terminated, truncated, info = ep.step(a)
-        if terminated or truncated:
+        reward, terminated, run_ended, info = ep.step(a * self.action_scale)
+        run_ended = run_ended or terminated
+        window_ended = not run_ended and self._window.ends(ep.k)
+        truncated = (run_ended or window_ended) and not terminated
+        if run_ended:
             info["trial"] = ep.trial()
             info["tracking_rms"] = np.sqrt(np.mean(np.square(info["trial"].error), axis=0))
-            self._episode = None
-            self._last_trial = info["trial"]
+        if run_ended or window_ended:
+            self._running, self._window.run_open = False, window_ended
+        if human_frame_due(self.render_mode, ep.k, run_ended or window_ended):
+            self.render()
         return ep.obs.copy(), reward, bool(terminated), bool(truncated), info
 
     def _what(self) -> str:
         return f"({', '.join(self.task.system.axis_names)}) feedforward in {self.task.system.input_unit}"
 
     def render(self):
-        if self.render_mode != "rgb_array":
-            return None
-        trial = self._episode.trial() if self._episode is not None and self._episode.k > 0 else getattr(self, "_last_trial", None)
+        """The references and tracking errors of the run so far (module docstring, Render)."""
+        return rendered(self.render_mode, self._human, self._picture)
+
+    def close(self):
+        if self._human is not None:
+            self._human.close()
+
+    def _picture(self) -> np.ndarray:
+        trial = self._episode.trial() if self._episode is not None and self._episode.k > 0 else None
         system = self.task.system
         return render_episode(trial, system.name, system.axis_names, [a.display for a in system.axes])
 
@@ -283,12 +320,14 @@ class MachineVectorEnv(BatchedVectorEnv):
     def __init__(self, num_envs: int = 1, machine=None, references="train", base_feedforward="none",
                  reference_seed: int = 0, n_references: int | None = None, duration: float = DEFAULT_DURATION,
                  plant: URDFPlant | None = None, render_mode: str | None = None,
-                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, version: str = "v0"):
-        self._init_batch(num_envs, autoreset_mode)
+                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, version: str = "v0",
+                 normalize_actions: bool = True, episode_steps: int | None = EPISODE_STEPS):
+        self._init_batch(num_envs, autoreset_mode, episode_steps)
         if render_mode is not None:
             raise ValueError("the machine's vector env does not render; use the single env")
         self.task = MachineTask(machine, references, base_feedforward, plant, reference_seed, n_references, duration,
-                                version)
+                                version, normalize_actions)
+        self.action_scale = self.task.action_scale
         self.label = f"{self.task.system.name} vector env"
         self.single_observation_space, self.single_action_space = self.task.spaces()
         self.observation_space = batch_space(self.single_observation_space, num_envs)
@@ -302,12 +341,16 @@ class MachineVectorEnv(BatchedVectorEnv):
             self._episodes[i] = Episode(self.task, int(self.np_random.integers(self.task.n_references)))
             self._obs[i], self._k[i] = self._episodes[i].obs, 0
 
+    def _reference_names(self) -> np.ndarray:
+        return np.array([self.task.names[ep.r] for ep in self._episodes], dtype=object)
+
     def step(self, actions):
         if not self._started:
             raise RuntimeError(f"{self.label}: call reset() before step()")
         n = self.task.plant.n_axes
         a = checked_action(actions, (self.num_envs, n), self.label, self._steps,
                            f"({', '.join(self.task.system.axis_names)}) feedforward, one row per sub-env").astype(float)
+        a = a * self.action_scale
         active = self._begin_step(a)
         N = self.num_envs
         reward = np.zeros(N)
@@ -322,5 +365,7 @@ class MachineVectorEnv(BatchedVectorEnv):
             self._obs[i], self._k[i] = ep.obs, ep.k
         for key in ("pos", "u", "ff", "error", "clipped_actions"):
             infos[f"_{key}"] = active
-        self._end_step(terminated | truncated, infos)
+        window = self._window_ends(active & ~terminated & ~truncated)
+        truncated |= window
+        self._end_step(terminated | truncated, infos, window)
         return self._obs.copy(), reward, terminated, truncated, infos

@@ -5,12 +5,15 @@ One episode tracks one TCP-line reference (``systems/flexarm/references.py``) on
 quantized motor encoders). The agent supplies the **nonlinear feedforward torque update**; the
 feedback loop runs inside the environment. One env step is one control sample (1 ms).
 
-Action (float32, shape (6,)): motor torque per joint [N m], added to the feedforward of the
-    sample. ``base_feedforward="basic"`` (default): the plant runs the nominal structure of
-    paper 002 Fig. 1 (motor reference with F1 and r_q,0, feedforward tau_ff,0;
-    ``systems/flexarm/nominal.py``) and the action is an update of tau_nl, bounds +-``ACTION_BOUND``
-    (2 N m; the largest nominal feedforward on the validation lines is about 7 N m).
-    ``base_feedforward="none"``: feedback only plus the action, bounds +-``plant.u_max``.
+Action (float32, shape (6,)): motor torque per joint, added to the feedforward of the sample,
+    normalized: the env applies ``action * action_scale`` [N m] (``normalize_actions=True``, the
+    default, bounds +-1; ``info["action_scale"]``, ``env.action_scale``), or the action in N m as
+    given (``normalize_actions=False``, bounds +-``action_scale``; ``envs.actions``).
+    ``base_feedforward="basic"`` (default): the plant runs the nominal structure of paper 002
+    Fig. 1 (motor reference with F1 and r_q,0, feedforward tau_ff,0; ``systems/flexarm/nominal.py``)
+    and the action is an update of tau_nl, scale ``ACTION_BOUND`` (2 N m; the largest
+    nominal feedforward on the validation lines is about 7 N m).
+    ``base_feedforward="none"``: feedback only plus the action, scale ``plant.u_max``.
     Out-of-bound actions are clipped and counted (``info["clipped_actions"]``); NaN, inf, a
     wrong shape or non-numbers raise ``ValueError`` naming the step, before the plant moves.
     The total torque is saturated at +-``plant.u_max``.
@@ -26,25 +29,29 @@ Observation (float32, shape (36,)), all O(1):
 
 Reward: -1/2 sum over joints (e_i / 0.01 deg)^2 with e the encoder-side error after the sample.
 
-Episode end: ``truncated`` after the last sample; ``terminated`` when the plant leaves its safe
-    range (a load angle 0.2 rad off its reference, or a non-finite state).
+Episode end: ``truncated`` after ``episode_steps`` samples (default ``EPISODE_STEPS`` = 1000,
+    1 s; the next reset goes on with the same run: ``envs.episodes``) or after the reference's last
+    sample (``episode_steps=None``: one episode per reference, what the benchmark scores);
+    ``terminated`` when the plant leaves its safe range (a load angle 0.2 rad off its reference,
+    or a non-finite state).
 
-Info: per step ``u`` (motor torques [N m]) and ``clipped_actions``; at the episode end ``trial``:
-    the whole episode as a ``Trial`` (motor angles, accelerometer, TCP and true load angles as
+Info: per step ``u`` (motor torques [N m]) and ``clipped_actions``; at the end of a reference run
+    ``trial``: the whole run as a ``Trial`` (motor angles, accelerometer, TCP and true load angles as
     extras, like ``FlexArmPlant.run``) and ``tracking_rms``: the RMS load-side tracking error [rad]
-    of the joints the benchmark scores (2, 3, 5) over the episode.
+    of the joints the benchmark scores (2, 3, 5) over the run.
 
 Reset: the reference is drawn with the env's seeded generator from the set, or chosen with
-    ``options={"reference": i}``; the plant starts in static balance, held for ``plant.preroll`` s.
-    The reset info holds the reference's name (``"reference"``), as on every lcgym env.
+    ``options={"reference": i}``; the plant starts in static balance, held for ``plant.preroll`` s;
+    or the open run goes on (``envs.episodes``). Info: ``reference`` (its name), ``sample`` (where
+    the episode starts), ``action_scale`` [N m], as on every lcgym env.
 
 Render: ``render_mode="rgb_array"``: the references and load-side tracking errors of joints 2, 3
-    and 5 in the episode so far, as an RGB array.
+    and 5 in the run so far, as an RGB array; ``"human"``: the same in a matplotlib window.
 
 Arguments: ``references`` (a set name or a list of ``Reference``), ``reference_seed``,
     ``n_references``, ``base_feedforward``, ``plant`` (a ``FlexArmPlant``; default the plant of
     ``version``), ``version`` ("v1" or "v0": ``FlexArmPlant.of_version``; the registered ids set it),
-    ``render_mode``.
+    ``render_mode``, ``normalize_actions``, ``episode_steps``.
 
 Vector env: ``gym.make_vec("lcgym/FlexArm-v1", num_envs=n, vectorization_mode="vector_entry_point")``
 is ``FlexArmVectorEnv``: n arms stepped in one compiled call (``systems/flexarm/vector.py``, the
@@ -64,6 +71,9 @@ Version History:
       nominal instead of 30 % above. Same observation, action and reward as v0.
     - v0: the first release (``FlexArmPlant()``'s defaults): the integrators start holding the whole
       gravity torque on top of the feedforward's.
+    - Both versions, after lcgym 0.2.0: actions normalized and episodes of ``EPISODE_STEPS`` samples by
+      default (the plants unchanged); ``normalize_actions=False, episode_steps=None`` gives the
+      earlier interface.
 """
 
 from __future__ import annotations
@@ -76,9 +86,10 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 from ...data import Trial
-from ...envs.actions import checked_action
+from ...envs.actions import action_space_of, checked_action
 from ...envs.batched import BatchedVectorEnv
-from ...envs.render import render_episode
+from ...envs.episodes import EPISODE_STEPS, Window, checked_episode_steps
+from ...envs.render import HumanWindow, checked_render_mode, human_frame_due, render_episode, rendered
 from ...references import Reference
 from . import plant as F
 from . import vector as V
@@ -134,14 +145,15 @@ def start_state(args: tuple, reference: Reference, ff: np.ndarray, off: np.ndarr
 class FlexArmEnv(gym.Env):
     """``lcgym/FlexArm-v1`` (and -v0); see the module docstring."""
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
+    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 4}
 
     def __init__(self, references="train", reference_seed: int = 0, n_references: int | None = None,
                  base_feedforward: str = "basic", plant: F.FlexArmPlant | None = None, version: str = "v1",
-                 render_mode: str | None = None):
-        if render_mode not in (None, *self.metadata["render_modes"]):
-            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
-        self.render_mode = render_mode
+                 render_mode: str | None = None, normalize_actions: bool = True,
+                 episode_steps: int | None = EPISODE_STEPS):
+        self.render_mode = checked_render_mode(render_mode)
+        self._human = HumanWindow(self.metadata["render_fps"]) if render_mode == "human" else None
+        self._window = Window(checked_episode_steps(episode_steps))
         if base_feedforward not in ("basic", "none"):
             raise ValueError(f"base_feedforward must be 'basic' or 'none', got {base_feedforward!r}")
         self.plant = plant or F.FlexArmPlant.of_version(version)
@@ -151,12 +163,12 @@ class FlexArmEnv(gym.Env):
         if not self.references:
             raise ValueError("FlexArmEnv: no references")
         self.base_feedforward = base_feedforward
-        bound = ACTION_BOUND if base_feedforward == "basic" else self.plant.u_max
-        self.action_space = gym.spaces.Box(-bound, bound, shape=(6,), dtype=np.float32)
+        self.bound = ACTION_BOUND if base_feedforward == "basic" else self.plant.u_max
+        self.action_space, self.action_scale = action_space_of(self.bound, 6, normalize_actions)
         self.observation_space = gym.spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(36,), dtype=np.float32)
-        self._scales = observation_scales(float(self.action_space.high[0]))
+        self._scales = observation_scales(float(np.float32(self.bound)))
         self._base: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-        self._idx, self._k, self._st = 0, 0, None
+        self._idx, self._k, self._st, self._running = 0, 0, None, False
 
     def _base_of(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         """(feedforward, motor offset) (T, 6) of reference i: the nominal structure or zeros."""
@@ -166,6 +178,9 @@ class FlexArmEnv(gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
+        if self._window.continues(seed, options):  # the open run goes on in a new window
+            self._window.start, self._window.run_open, self._running = self._k, False, True
+            return self._observation(), self._reset_info()
         n = len(self.references)
         i = (options or {}).get("reference")
         if i is None:
@@ -180,7 +195,13 @@ class FlexArmEnv(gym.Env):
         self._sig = np.zeros((ref.n_samples, F.N_SIG))
         self._ff_applied = np.zeros((ref.n_samples, 6))
         self._clipped = 0
-        return self._observation(), {"reference": ref.name}
+        self._window.start, self._window.run_open, self._running = 0, False, True
+        if human_frame_due(self.render_mode, 0, True):
+            self.render()
+        return self._observation(), self._reset_info()
+
+    def _reset_info(self) -> dict:
+        return {"reference": self.references[self._idx].name, "sample": self._k, "action_scale": self.action_scale.copy()}
 
     def _observe(self) -> tuple[np.ndarray, np.ndarray]:
         """(observation at the current sample, encoder-side error e [rad] (6,))."""
@@ -195,12 +216,13 @@ class FlexArmEnv(gym.Env):
         return self._observe()[0]
 
     def step(self, action):
-        if self._st is None:
+        if not self._running:
             raise RuntimeError("FlexArmEnv: call reset() before step()")
         a = checked_action(action, (6,), "FlexArmEnv", self._k, "one motor torque per joint in N m").astype(float)
         if not np.all(np.isfinite(a)):
             raise ValueError(f"FlexArmEnv: action at step {self._k} contains NaN or inf: {a.tolist()}")
-        bound = float(self.action_space.high[0])
+        a = a * self.action_scale
+        bound = float(np.float32(self.bound))
         if np.any(np.abs(a) > bound):
             self._clipped += 1
             a = np.clip(a, -bound, bound)
@@ -213,18 +235,29 @@ class FlexArmEnv(gym.Env):
         self._k = k + 1
         obs, e = self._observe()
         reward = float(V.reward_of(e, REWARD_SCALE))
-        truncated = self._k >= T and not bad
+        run_ended = bool(bad) or self._k >= T
+        window_ended = not run_ended and self._window.ends(self._k)
+        truncated = (run_ended or window_ended) and not bad
         info = {"u": self._sig[k, F.S_U : F.S_U + 6].copy(), "clipped_actions": self._clipped}
-        if bad or truncated:
+        if run_ended:
             info["trial"] = self._trial(self._k)
             info["tracking_rms"] = np.sqrt(np.mean(np.square(F.load_error(info["trial"]))[:, list(MOVING)], axis=0))
+        if run_ended or window_ended:
+            self._running, self._window.run_open = False, window_ended
+        if human_frame_due(self.render_mode, self._k, run_ended or window_ended):
+            self.render()
         return obs, reward, bool(bad), bool(truncated), info
 
     def render(self):
-        """With ``render_mode="rgb_array"``: the references and load-side tracking errors of the
-        scored joints (2, 3, 5) in the episode so far, an RGB array."""
-        if self.render_mode != "rgb_array":
-            return None
+        """The references and load-side tracking errors of the scored joints (2, 3, 5) in the run
+        so far (module docstring, Render)."""
+        return rendered(self.render_mode, self._human, self._picture)
+
+    def close(self):
+        if self._human is not None:
+            self._human.close()
+
+    def _picture(self) -> np.ndarray:
         trial = None
         if self._st is not None and self._k > 0:  # its own noise generator: rendering leaves the episode's draws alone
             trial = self.plant.trial_from_signals(self.references[self._idx], self._sig[: self._k], self._ff_applied,
@@ -260,11 +293,14 @@ class FlexArmVectorEnv(BatchedVectorEnv):
 
     def __init__(self, num_envs: int = 1, references="train", reference_seed: int = 0, n_references: int | None = None,
                  base_feedforward: str = "basic", plant: F.FlexArmPlant | None = None, version: str = "v1",
-                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP):
-        self._init_batch(num_envs, autoreset_mode)
-        one = FlexArmEnv(references, reference_seed, n_references, base_feedforward, plant, version)  # checks the arguments
+                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, normalize_actions: bool = True,
+                 episode_steps: int | None = EPISODE_STEPS):
+        self._init_batch(num_envs, autoreset_mode, episode_steps)
+        one = FlexArmEnv(references, reference_seed, n_references, base_feedforward, plant, version,
+                         normalize_actions=normalize_actions)  # checks the arguments
         self.plant, self.references, self.base_feedforward = one.plant, one.references, base_feedforward
         self.single_observation_space, self.single_action_space = one.observation_space, one.action_space
+        self.action_scale = one.action_scale
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self.action_space = batch_space(self.single_action_space, num_envs)
         self._args = kernel_args(self.plant)
@@ -304,6 +340,9 @@ class FlexArmVectorEnv(BatchedVectorEnv):
         self._st[idx] = self._start[r]
         self._obs[idx] = self._first_obs[r]
 
+    def _reference_names(self) -> np.ndarray:
+        return np.array([r.name for r in self.references], dtype=object)[self._ref_idx]
+
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         if seed is not None or self._rngs is None:  # sub-env i draws as a FlexArmEnv reset with seed + i
             self._rngs = [gym.utils.seeding.np_random(None if seed is None else seed + i)[0] for i in range(self.num_envs)]
@@ -313,18 +352,20 @@ class FlexArmVectorEnv(BatchedVectorEnv):
         if not self._started:
             raise RuntimeError("FlexArm vector env: call reset() before step()")
         a = checked_action(actions, (self.num_envs, 6), "FlexArm vector env", self._steps,
-                           "one motor torque per joint in N m, one row per sub-env").astype(np.float64)
+                           "one motor torque per joint in N m, one row per sub-env").astype(np.float64) * self.action_scale
         active = self._begin_step(a)
         self._kernel(active, self._st, *self._ref, self._lengths, self._ref_idx, self._k, a, self._scales, *self._args,
                      self._obs, self._reward, self._status, self._clipped, self._u, self._error)
         terminated = active & (self._status == V.ENV_DIVERGED)
         truncated = active & ~terminated & (self._k >= self._lengths[self._ref_idx])
+        window = self._window_ends(active & ~terminated & ~truncated)
+        truncated |= window
         reward = np.where(active, self._reward, 0.0)
         infos = {"u": self._u.copy(), "error": self._error[:, list(MOVING)], "clipped_actions": self._clipped.copy()}
         for key in ("u", "error", "clipped_actions"):  # Gymnasium's vector-info masks: which sub-envs stepped
             infos[f"_{key}"] = active
         done = terminated | truncated
-        for i in np.flatnonzero(done):  # the accelerometer noise the single env's episode trial draws
+        for i in np.flatnonzero(done & ~window):  # the accelerometer noise the single env's run trial draws
             self._rngs[i].standard_normal((int(self._k[i]), 3))
-        self._end_step(done, infos)
+        self._end_step(done, infos, window)
         return self._obs.copy(), reward, terminated, truncated, infos

@@ -5,11 +5,14 @@ One episode tracks one reference of a reference set on the closed-loop IX plant 
 agent supplies the **feedforward**; the feedback loop runs inside the environment. One env step
 is one control sample (2 ms).
 
-Action (float32, shape (2,)): feedforward input of (propeller, roll) for the current sample
-    [V]. ``base_feedforward="none"``: the action is the feedforward, bounds +-5 V (the amplifier
+Action (float32, shape (2,)): feedforward input of (propeller, roll) for the current sample,
+    normalized: the env applies ``action * action_scale`` [V] (``normalize_actions=True``, the
+    default, with bounds +-1; ``info["action_scale"]``, ``env.action_scale``), or the action in V
+    as given (``normalize_actions=False``, bounds +-``action_scale``; ``envs.actions``).
+    ``base_feedforward="none"``: the action is the feedforward, scale 5 V (the amplifier
     limit). ``base_feedforward="physical"``: the action is added to the rigid-model feedforward
     (``PhysicalModel`` fitted on feedback-only runs of the training references; residual
-    learning), bounds +-1 V (``RESIDUAL_BOUND``; the fitted model already supplies up to about
+    learning), scale 1 V (``RESIDUAL_BOUND``; the fitted model already supplies up to about
     3 V). A fitted model itself (anything with ``predict(positions) -> (T, 2)`` [V], e.g. a
     benchmark cell's ``PhysicalModel``) may be given instead of "physical": residual learning on
     that model. Out-of-bound actions are clipped and counted (``info["clipped_actions"]``, per episode);
@@ -29,18 +32,26 @@ Reward: -1/2 sum over axes (e_i / 0.1 deg)^2 with e the tracking error measured 
     sample, i.e. the error the action helped to make (about -0.25 per step at 0.05 deg on both
     axes, -25 at 0.5 deg).
 
-Episode end: ``truncated`` after the last sample of the reference; ``terminated`` only when the
-    plant leaves its safe range (tracking error over 30 deg, speed over 1 rad/s, or a non-finite
-    state; ``IXPlant.max_error`` / ``max_velocity``).
+Episode end: ``truncated`` after ``episode_steps`` samples (default ``EPISODE_STEPS`` = 1000,
+    2 s; the next reset goes on with the same run: ``envs.episodes``) or after the last sample of
+    the reference (``episode_steps=None``: one episode per reference, what the benchmark
+    scores); ``terminated`` only when the plant leaves its safe range (tracking error over 30 deg,
+    speed over 1 rad/s, or a non-finite state; ``IXPlant.max_error`` / ``max_velocity``).
 
 Info: per step the measured signals of the sample: ``pos`` (encoder reading [rad]), ``u``
     (total input [V]), ``ff`` (applied feedforward [V]), ``error`` (reference - encoder [rad]),
-    ``clipped_actions``; at episode end (single env) ``trial``: the whole episode as a ``Trial``.
-    The vector env gives the same per-step keys as (N, ...) arrays with Gymnasium's ``_key`` masks.
+    ``clipped_actions`` (in the reference run so far); at the end of a reference run (single env)
+    ``trial``: the whole run as a ``Trial``. The vector env gives the same per-step keys as
+    (N, ...) arrays with Gymnasium's ``_key`` masks.
 
 Reset: the reference is drawn with the env's seeded generator from the set, or chosen with
     ``options={"reference": i}``; the plant starts settled (held at the first reference sample
-    for ``plant.preroll`` s, computed once per reference).
+    for ``plant.preroll`` s, computed once per reference); or the open run goes on
+    (``envs.episodes``). Info: ``reference`` (its name), ``sample`` (where the episode starts),
+    ``action_scale`` [V], as on every lcgym env.
+
+Render: ``render_mode="rgb_array"``: the references and tracking errors of the run so far, an RGB
+    array; ``"human"``: the same in a matplotlib window (``envs.render``).
 
 Arguments: ``references`` ("train", "validation", "test", "calibration" or a list of
     ``Reference`` / (T, 2) position arrays [rad]), ``reference_seed`` and ``n_references`` /
@@ -57,6 +68,9 @@ Version History:
       paper 000's Tables II-V within 25 % (``studies/calibrate_ix.py``; ``plant.V1_SIZES``,
       ``plant.V1_GAINS``). Same effects, observation, action and reward as v0.
     - v0: the first release (``IXPlant()``'s defaults).
+    - Both versions, after lcgym 0.2.0: actions normalized and episodes of ``EPISODE_STEPS`` samples by
+      default (the plants unchanged); ``normalize_actions=False, episode_steps=None`` gives the
+      earlier interface.
 """
 
 from __future__ import annotations
@@ -70,9 +84,10 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 from ...data import Trial
-from ...envs.actions import checked_action
+from ...envs.actions import action_space_of, checked_action
 from ...envs.batched import BatchedVectorEnv
-from ...envs.render import render_episode
+from ...envs.episodes import EPISODE_STEPS, Window, checked_episode_steps
+from ...envs.render import HumanWindow, checked_render_mode, human_frame_due, render_episode, rendered
 from ...physics.kinematics import reference_kinematics, reference_positions, relay
 from ...physics.model import PhysicalModel
 from ...references import Reference
@@ -123,7 +138,7 @@ class IXTask:
     with their observation features and base feedforward, and each reference's settled start."""
 
     def __init__(self, references, base_feedforward, plant: IXPlant | None, reference_seed: int,
-                 n_references: int | None, duration: float, version: str = "v1"):
+                 n_references: int | None, duration: float, version: str = "v1", normalize_actions: bool = True):
         if isinstance(base_feedforward, str) and base_feedforward not in ("none", "physical"):
             raise ValueError(f"base_feedforward must be 'none', 'physical' or a fitted model, got {base_feedforward!r}")
         if not isinstance(base_feedforward, str) and not callable(getattr(base_feedforward, "predict", None)):
@@ -154,6 +169,7 @@ class IXTask:
         else:
             model, self.base_feedforward = base_feedforward, "physical (given model)"
         self.bound = RESIDUAL_BOUND if model is not None else self.plant.gains.u_max
+        self.action_space, self.action_scale = action_space_of(self.bound, 2, normalize_actions)
         R, T = len(positions), max(x.shape[0] for x in positions)
         self.lengths = np.array([x.shape[0] for x in positions], dtype=np.int64)
         self.ref_pos = np.zeros((R, T, 2))
@@ -183,9 +199,7 @@ class IXTask:
         return len(self.names)
 
     def spaces(self) -> tuple[gym.spaces.Box, gym.spaces.Box]:
-        obs = gym.spaces.Box(-OBS_BOUND, OBS_BOUND, (N_OBS,), np.float32)
-        act = gym.spaces.Box(-self.bound, self.bound, (2,), np.float32)
-        return obs, act
+        return gym.spaces.Box(-OBS_BOUND, OBS_BOUND, (N_OBS,), np.float32), self.action_space
 
     def first_observation(self, r: int) -> np.ndarray:
         return np.concatenate([self.feats[r, 0], self.start_error[r]])
@@ -194,16 +208,19 @@ class IXTask:
 class IXEnv(gym.Env):
     """IX tracking environment, one plant; see the module docstring for spaces, reward and ends."""
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
+    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 4}
 
     def __init__(self, references="train", base_feedforward="none", reference_seed: int = 0,
                  n_references: int | None = None, duration: float = 40.0, plant: IXPlant | None = None,
-                 render_mode: str | None = None, version: str = "v1"):
-        if render_mode not in (None, "rgb_array"):
-            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
-        self.task = IXTask(references, base_feedforward, plant, reference_seed, n_references, duration, version)
+                 render_mode: str | None = None, version: str = "v1", normalize_actions: bool = True,
+                 episode_steps: int | None = EPISODE_STEPS):
+        self.render_mode = checked_render_mode(render_mode)
+        self._window = Window(checked_episode_steps(episode_steps))
+        self.task = IXTask(references, base_feedforward, plant, reference_seed, n_references, duration, version,
+                           normalize_actions)
         self.observation_space, self.action_space = self.task.spaces()
-        self.render_mode = render_mode
+        self.action_scale = self.task.action_scale
+        self._human = HumanWindow(self.metadata["render_fps"]) if render_mode == "human" else None
         T = self.task.ref_pos.shape[1]
         self._st = np.zeros((1, K.N_LOOP))
         self._work = np.zeros((1, K.N_WORK, K.N_STATE))
@@ -221,6 +238,9 @@ class IXEnv(gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
+        if self._window.continues(seed, options):  # the open run goes on in a new window
+            self._window.start, self._window.run_open, self._started = int(self._k[0]), False, True
+            return self._obs[0].copy(), self._reset_info()
         r = (options or {}).get("reference")
         if r is None:
             r = int(self.np_random.integers(self.task.n_references))
@@ -229,15 +249,22 @@ class IXEnv(gym.Env):
         r = int(r)
         self._ref_idx[0], self._k[0], self._clipped[0] = r, 0, 0
         self._st[0] = self.task.start[r]
-        self._started = True
-        return self.task.first_observation(r), {"reference": self.task.names[r]}
+        self._obs[0] = self.task.first_observation(r)
+        self._window.start, self._window.run_open, self._started = 0, False, True
+        if human_frame_due(self.render_mode, 0, True):
+            self.render()
+        return self._obs[0].copy(), self._reset_info()
+
+    def _reset_info(self) -> dict:
+        return {"reference": self.task.names[int(self._ref_idx[0])], "sample": int(self._k[0]),
+                "action_scale": self.action_scale.copy()}
 
     def step(self, action):
         if not self._started:
             raise RuntimeError("IX env: call reset() before step()")
         t = self.task
         k = int(self._k[0])
-        self._action[0] = checked_action(action, (2,), "IX env", k, IX_ACTION)
+        self._action[0] = checked_action(action, (2,), "IX env", k, IX_ACTION) * t.action_scale
         K.env_step_serial(self._active, self._st, self._work, t.ref_pos, t.feats, t.base_ff, t.lengths, self._ref_idx,
                           self._k, self._action, t.scales, *t.kernel_args, self._obs, self._reward, self._status,
                           self._clipped, self._sig)
@@ -247,7 +274,9 @@ class IXEnv(gym.Env):
         sig = self._sig[0].copy()  # the info's arrays are views of this fresh copy
         self._record[k] = sig
         terminated = status == K.ENV_DIVERGED
-        truncated = k + 1 >= t.lengths[self._ref_idx[0]] and not terminated
+        run_ended = terminated or k + 1 >= t.lengths[self._ref_idx[0]]
+        window_ended = not run_ended and self._window.ends(k + 1)
+        truncated = (run_ended or window_ended) and not terminated
         info = {
             "pos": sig[K.SIG_Y : K.SIG_Y + 2],
             "u": sig[K.SIG_U : K.SIG_U + 2],
@@ -255,9 +284,12 @@ class IXEnv(gym.Env):
             "error": sig[K.SIG_ERR : K.SIG_ERR + 2],
             "clipped_actions": int(self._clipped[0]),
         }
-        if terminated or truncated:
+        if run_ended:
             info["trial"] = self.episode_trial()
-            self._started = False
+        if run_ended or window_ended:
+            self._started, self._window.run_open = False, window_ended
+        if human_frame_due(self.render_mode, k + 1, run_ended or window_ended):
+            self.render()
         return self._obs[0].copy(), float(self._reward[0]), bool(terminated), bool(truncated), info
 
     def episode_trial(self) -> Trial:
@@ -273,10 +305,13 @@ class IXEnv(gym.Env):
         )
 
     def render(self):
-        if self.render_mode != "rgb_array":
-            return None
-        return render_episode(self.episode_trial() if self._k[0] > 0 else None, self.task.names[int(self._ref_idx[0])],
-                              self.task.plant.axes)
+        """The references and tracking errors of the run so far (module docstring, Render)."""
+        return rendered(self.render_mode, self._human, lambda: render_episode(
+            self.episode_trial() if self._k[0] > 0 else None, self.task.names[int(self._ref_idx[0])], self.task.plant.axes))
+
+    def close(self):
+        if self._human is not None:
+            self._human.close()
 
 
 class IXVectorEnv(BatchedVectorEnv):
@@ -288,12 +323,15 @@ class IXVectorEnv(BatchedVectorEnv):
     def __init__(self, num_envs: int = 1, references="train", base_feedforward="none",
                  reference_seed: int = 0, n_references: int | None = None, duration: float = 40.0,
                  plant: IXPlant | None = None, render_mode: str | None = None,
-                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, version: str = "v1"):
-        self._init_batch(num_envs, autoreset_mode)
+                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, version: str = "v1",
+                 normalize_actions: bool = True, episode_steps: int | None = EPISODE_STEPS):
+        self._init_batch(num_envs, autoreset_mode, episode_steps)
         if render_mode is not None:
             raise ValueError("the IX vector env does not render; use the single env")
-        self.task = IXTask(references, base_feedforward, plant, reference_seed, n_references, duration, version)
+        self.task = IXTask(references, base_feedforward, plant, reference_seed, n_references, duration, version,
+                           normalize_actions)
         self.single_observation_space, self.single_action_space = self.task.spaces()
+        self.action_scale = self.task.action_scale
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self.action_space = batch_space(self.single_action_space, num_envs)
         N = num_envs
@@ -316,18 +354,23 @@ class IXVectorEnv(BatchedVectorEnv):
         self._obs[idx, :-2] = self.task.feats[r, 0]
         self._obs[idx, -2:] = self.task.start_error[r]
 
+    def _reference_names(self) -> np.ndarray:
+        return np.array(self.task.names, dtype=object)[self._ref_idx]
+
     def step(self, actions):
         if not self._started:
             raise RuntimeError("IX vector env: call reset() before step()")
         a = checked_action(actions, (self.num_envs, 2), "IX vector env", self._steps,
                            f"{IX_ACTION}, one row per sub-env")
-        a = a.astype(np.float64, copy=False)
+        a = a.astype(np.float64, copy=False) * self.task.action_scale
         active = self._begin_step(a)
         t = self.task
         self._kernel(active, self._st, self._work, t.ref_pos, t.feats, t.base_ff, t.lengths, self._ref_idx, self._k,
                      a, t.scales, *t.kernel_args, self._obs, self._reward, self._status, self._clipped, self._sig)
         terminated = active & (self._status == K.ENV_DIVERGED)
         truncated = active & ~terminated & (self._k >= t.lengths[self._ref_idx])
+        window = self._window_ends(active & ~terminated & ~truncated)
+        truncated |= window
         reward = np.where(active, self._reward, 0.0)
         infos = {
             "pos": self._sig[:, K.SIG_Y : K.SIG_Y + 2].copy(),
@@ -338,5 +381,5 @@ class IXVectorEnv(BatchedVectorEnv):
         }
         for key in ("pos", "u", "ff", "error", "clipped_actions"):  # Gymnasium's vector-info masks: which sub-envs stepped
             infos[f"_{key}"] = active
-        self._end_step(terminated | truncated, infos)
+        self._end_step(terminated | truncated, infos, window)
         return self._obs.copy(), reward, terminated, truncated, infos

@@ -1,0 +1,158 @@
+"""The reinforcement-learning recipe of docs/environments.md, run on every machine: PPO and SAC of
+stable-baselines3 with their default settings on each machine's vector env (``make_sb3_vec_env``,
+4 envs, episodes of 1000 samples, normalized actions), residual on the machine's base feedforward.
+It records each algorithm's learning curves: the mean return of the training episodes ended in
+each tenth of the budget, and the return of the deterministic policy on one whole validation
+reference, ten times over training, against the base feedforward alone's (zero action); it prints
+when the first episodes were logged, and plots the curves.
+
+    .venv/bin/python studies/rl_recipe.py --out results/rl_recipe.png             # about 15 min here
+    .venv/bin/python studies/rl_recipe.py --ppo-steps 20000 --sac-steps 4000 --machines IX-v1
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+from tqdm.auto import tqdm
+
+MACHINES = {"IX-v1": "physical", "FlexArm-v1": "basic", "TwoLink-v0": "physical"}
+SHORT = {"IX-v1": dict(n_references=4, duration=20.0), "FlexArm-v1": dict(n_references=4),
+         "TwoLink-v0": dict(n_references=4, duration=10.0)}
+
+
+def recipe(env_id: str, algorithm: str, steps: int, seed: int = 0, evaluations: int = 10, **env_kwargs):
+    """The recipe of docs/environments.md: trains ``algorithm`` for ``steps`` env steps and every
+    ``steps / evaluations`` steps scores its deterministic policy on one whole validation reference.
+    Returns (model, finished training episodes as (env step, return), evaluations as (env step,
+    return))."""
+    import torch
+    from stable_baselines3 import PPO, SAC
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    from lcgym.envs.sb3 import make_sb3_vec_env
+
+    torch.set_num_threads(1)  # small networks: one thread is fastest, and it does not stall a busy machine
+    venv = make_sb3_vec_env(env_id, **env_kwargs)  # 4 envs, actions in [-1, 1], episodes of 1000 samples
+    check = validation_env(env_id, **env_kwargs)
+    episodes: list[tuple[int, float]] = []
+    scores: list[tuple[int, float]] = [(0, evaluate(None, check))]
+
+    class Record(BaseCallback):
+        def _on_step(self) -> bool:
+            episodes.extend((self.num_timesteps, info["episode"]["r"]) for info in self.locals["infos"] if "episode" in info)
+            if self.num_timesteps // (steps // evaluations) > len(scores) - 1:
+                scores.append((self.num_timesteps, evaluate(self.model, check)))
+            return True
+
+    Agent = {"ppo": PPO, "sac": SAC}[algorithm]
+    model = Agent("MlpPolicy", venv, seed=seed, device="cpu")  # SB3's default settings
+    model.learn(steps, callback=Record())
+    venv.close()
+    return model, episodes, scores
+
+
+def validation_env(env_id: str, **env_kwargs):
+    """One whole validation reference as a single episode (``episode_steps=None``)."""
+    import gymnasium as gym
+
+    kwargs = {k: v for k, v in env_kwargs.items() if k != "n_references"}
+    return gym.make(env_id, references="validation", n_references=1, episode_steps=None, **kwargs)
+
+
+def evaluate(model, env) -> float:
+    """Return of one deterministic episode of ``model`` on ``env`` (None: the base alone, zero action)."""
+    obs, _ = env.reset(seed=0, options={"reference": 0})
+    total, done = 0.0, False
+    while not done:
+        action = np.zeros(env.action_space.shape, dtype=np.float32) if model is None else \
+            model.predict(obs, deterministic=True)[0]
+        obs, reward, terminated, truncated, _ = env.step(action)
+        total, done = total + reward, terminated or truncated
+    return total
+
+
+def blocks(episodes: list[tuple[int, float]], total: int, n: int = 10) -> list[tuple[int, float]]:
+    """Mean return of the episodes that ended in each of ``n`` equal blocks of env steps."""
+    edges = np.linspace(0, total, n + 1)
+    steps = np.array([s for s, _ in episodes])
+    returns = np.array([r for _, r in episodes])
+    out = []
+    for lo, hi in zip(edges[:-1], edges[1:], strict=True):
+        inside = (steps > lo) & (steps <= hi)
+        if inside.any():
+            out.append((int(hi), float(returns[inside].mean())))
+    return out
+
+
+def plot(curves: dict, path: Path) -> None:
+    """Per machine: the training episodes' returns (mean per block of steps, per step of the
+    episode) and the deterministic policy's validation return against the base alone's."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axs = plt.subplots(2, len(curves), figsize=(4.6 * len(curves), 6.4), squeeze=False)
+    for col, (machine, runs) in enumerate(curves.items()):
+        top, bottom = axs[0, col], axs[1, col]
+        for algorithm, (episodes, scores) in runs.items():
+            color = {"ppo": "C0", "sac": "C1"}[algorithm]
+            b = blocks(episodes, max((s for s, _ in episodes), default=1))
+            top.plot([x for x, _ in b], [y for _, y in b], "-o", ms=3, color=color, label=algorithm.upper())
+            base = abs(scores[0][1])
+            bottom.plot([s for s, _ in scores], [v / base for _, v in scores], "-o", ms=3, color=color,
+                        label=algorithm.upper())
+        bottom.axhline(-1.0, color="k", ls="--", lw=1, label="base alone")
+        top.set_title(f"lcgym/{machine}", fontsize=10)
+        top.set_ylabel("training episode return\n(mean per tenth of the steps)", fontsize=8)
+        bottom.set_ylabel("validation return / |base alone's|\n(higher is better)", fontsize=8)
+        bottom.set_xlabel("env steps")
+        top.legend(fontsize=7)
+        bottom.legend(fontsize=7)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp.png")
+    fig.savefig(tmp, dpi=110)
+    tmp.replace(path)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--machines", default=",".join(MACHINES))
+    parser.add_argument("--ppo-steps", type=int, default=65_536)
+    parser.add_argument("--sac-steps", type=int, default=12_000)
+    parser.add_argument("--out", default="results/rl_recipe.png")
+    args = parser.parse_args()
+    import lcgym  # noqa: F401
+
+    machines = args.machines.split(",")
+    curves: dict = {m: {} for m in machines}
+    summary = {}
+    jobs = [(m, a, args.ppo_steps if a == "ppo" else args.sac_steps) for m in machines for a in ("ppo", "sac")]
+    for machine, algorithm, steps in tqdm(jobs, desc="recipe"):
+        kwargs = dict(base_feedforward=MACHINES[machine], **SHORT[machine])
+        t0 = time.perf_counter()
+        _, episodes, scores = recipe(f"lcgym/{machine}", algorithm, steps, **kwargs)
+        curves[machine][algorithm] = (episodes, scores)
+        b = blocks(episodes, steps)
+        summary[f"{machine} {algorithm}"] = {
+            "steps": steps, "seconds": round(time.perf_counter() - t0, 1), "episodes": len(episodes),
+            "first_episode_at_step": episodes[0][0] if episodes else None,
+            "episodes_logged_by_10000": sum(1 for s, _ in episodes if s <= 10_000),
+            "training_return_first_last_block": [round(b[0][1], 1), round(b[-1][1], 1)] if b else None,
+            "validation_return_base_alone": round(scores[0][1], 1),
+            "validation_return_by_step": [(s, round(v, 1)) for s, v in scores[1:]],
+        }
+        tqdm.write(json.dumps(summary[f"{machine} {algorithm}"]))
+    plot(curves, Path(args.out))
+    print(json.dumps(summary, indent=1))
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
