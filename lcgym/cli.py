@@ -167,8 +167,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="run methods on systems over seeds; append MA/RMS/Inf to a results CSV")
     bench.add_argument("--systems", type=_names, help="comma-separated machines: built-in ones with their version, "
                        "ix-v0, or without it: the newest (default: every built-in machine's newest, ix-v1,flexarm-v1,"
-                       "two_link-v0); a machine file (my_arm.toml: a URDF with its hidden effects, feedback, sensors), a "
-                       "URDF or module:attr")
+                       "two_link-v0,emps_sim-v0); a machine file (my_arm.toml: a URDF with its hidden effects, feedback, "
+                       "sensors), a URDF or module:attr")
     bench.add_argument("--methods", type=_names,
                        help="comma-separated method ids or module:Class (default: every registered method)")
     bench.add_argument("--seeds", type=_seeds, help="comma-separated seeds (default 0,1,2; --quick: 0)")

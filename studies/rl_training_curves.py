@@ -20,7 +20,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
 MACHINES = {frozenset(("propeller", "roll")): "ix-v1", frozenset(("j2", "j3", "j5")): "flexarm-v1",
-            frozenset(("elbow", "shoulder")): "two_link-v0"}
+            frozenset(("elbow", "shoulder")): "two_link-v0", frozenset(("x",)): "emps_sim-v0"}
 
 
 def main() -> None:

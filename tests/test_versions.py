@@ -19,7 +19,7 @@ from lcgym.systems.ix.plant import IX_GAINS, V1_GAINS, V1_SIZES, HiddenEffectSiz
 
 def test_names_resolve_to_the_newest_version():
     assert systems.benchmark_name("ix") == "ix-v1" and systems.benchmark_name("ix-v0") == "ix-v0"
-    assert systems.newest_benchmarks() == ("ix-v1", "flexarm-v1", "two_link-v0")
+    assert systems.newest_benchmarks() == ("ix-v1", "flexarm-v1", "two_link-v0", "emps_sim-v0")
     assert BenchConfig(systems=("ix", "flexarm-v0", "ix-v1")).systems == ("ix-v1", "flexarm-v0")
     assert systems.get("ix-v0") is systems.get("ix")  # one machine (its model), versions of its plant
     for bad in ("ix-v7", "crane", "ix-"):

@@ -136,8 +136,10 @@ def format_shares(df: pd.DataFrame, of: str, base: str, reference_set: str = "va
     table = share_table(df, of, base, reference_set)
     out = [f"\nshare of what {of} changed against {base} (paper 002 Table 6: |RMS - RMS_{base}| / "
            f"|RMS_{of} - RMS_{base}|; signed: whether the method moved the error the way {of} did)"]
+    units = df.groupby(["system", "signal"])["unit"].first().to_dict() if "unit" in df else {}
     for (system, signal), part in table.groupby(["system", "signal"], sort=False):
-        out.append(f"\n{system} / {signal} [{SIGNAL_UNITS.get(signal, '')}] (RMS over its axes together)")
+        unit = units.get((system, signal), SIGNAL_UNITS.get(signal, ""))
+        out.append(f"\n{system} / {signal} [{unit}] (RMS over its axes together)")
         out.append(part.drop(columns=["system", "signal"]).to_string(index=False, float_format=lambda x: f"{x:.4g}"))
     return "\n".join(out)
 

@@ -51,6 +51,9 @@ SIGNALS = {
     "tcp_position_error": "mm",
 }
 STATUS = ("ok", "failed")
+TRACKING_UNITS = {name: {axis.display[1] for axis in systems.get(name).axes} for name in SYSTEMS}
+"""The units a built-in machine's tracking-error rows may carry: its axes' display units (deg on a
+revolute axis, mm on a prismatic one: the EMPS)."""
 
 
 class ResultsFileError(ValueError):
@@ -131,6 +134,8 @@ def _unit(signal: str, system: str, unit: str):
     """The unit a row of ``signal`` on ``system`` must carry (``unit``, the row's, where it may be its own:
     a user machine's input residual; a prismatic axis's tracking error in mm)."""
     expected = SIGNALS.get(signal)
+    if signal == "tracking_error" and system in SYSTEMS and unit in TRACKING_UNITS[system]:
+        return unit
     if system not in SYSTEMS:
         if signal == "input_residual" and isinstance(unit, str) and unit.strip():
             return unit

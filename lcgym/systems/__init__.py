@@ -54,6 +54,7 @@ BUILT_IN = {
     "flexarm": BuiltIn("lcgym.systems.flexarm", "FLEXARM", ("v0", "v1"), "FlexArm", "lcgym.systems.flexarm.env:FlexArmEnv",
                        "lcgym.systems.flexarm.env:FlexArmVectorEnv"),
     "two_link": BuiltIn("lcgym.systems.two_link", "TWO_LINK", ("v0",), "TwoLink", *_MACHINE_ENV, (("machine", "two_link"),)),
+    "emps_sim": BuiltIn("lcgym.systems.emps_sim", "EMPS_SIM", ("v0",), "EMPS", *_MACHINE_ENV, (("machine", "emps_sim"),)),
 }
 """The built-in benchmark machines, one folder each (``systems/<name>/``): one line here registers one."""
 

@@ -17,6 +17,7 @@ gear), a feedback loop, encoders and input limits. Written as a machine file (TO
     damping = 0.7
     integral_time = 0.5               # s; none by default
     # ... or the gains themselves, one value per axis: kp, kd, ki and f_lp [Hz]
+    derivative = "error"              # or "measurement" (-kd dy/dt), "measurement_fir2" (the EMPS's)
 
     [sensors]
     encoder_resolution = 1e-4         # rad or m per count, one value or one per axis (0: exact)
@@ -86,7 +87,9 @@ class ReferenceSettings:
 @dataclass(frozen=True)
 class FeedbackSettings:
     """The plant's feedback: gains derived from ``bandwidth`` [Hz], ``damping`` and ``integral_time``
-    [s] (``urdf_plant.tuned_gains``), or given per axis (``kp``, ``kd``, ``ki``; ``f_lp`` [Hz])."""
+    [s] (``urdf_plant.tuned_gains``), or given per axis (``kp``, ``kd``, ``ki``; ``f_lp`` [Hz]);
+    ``derivative``: what the derivative term differentiates (``FeedbackGains.derivative``: "error",
+    "measurement", "measurement_fir2")."""
 
     bandwidth: float = 10.0
     damping: float = 0.7
@@ -95,6 +98,7 @@ class FeedbackSettings:
     kd: tuple[float, ...] | None = None
     ki: tuple[float, ...] | None = None
     f_lp: float | None = None
+    derivative: str = "error"
 
     def gains(self, system: System, fs: float) -> FeedbackGains:
         if self.kp is None:
@@ -102,9 +106,10 @@ class FeedbackSettings:
                 raise ValueError("feedback: give kp with kd (and ki), or a bandwidth")
             from .urdf_plant import tuned_gains
 
-            return tuned_gains(system, self.bandwidth, self.damping, self.integral_time, fs=fs)
+            tuned = tuned_gains(system, self.bandwidth, self.damping, self.integral_time, fs=fs)
+            return tuned if self.derivative == "error" else dataclasses.replace(tuned, derivative=self.derivative)
         return FeedbackGains(self.kp, self.kd if self.kd is not None else (0.0,) * len(self.kp), self.ki,
-                             f_lp=self.f_lp or 10 * self.bandwidth, filtered="derivative")
+                             f_lp=self.f_lp or 10 * self.bandwidth, filtered="derivative", derivative=self.derivative)
 
 
 @dataclass(frozen=True)

@@ -197,7 +197,8 @@ class URDFRobot:
         pin.computeJointJacobians(self.model, data, pin.neutral(self.model))
         out = np.empty((self.n_axes, 3))
         for k, (jid, iv, kind) in enumerate(zip(self.joint_ids, self.v_index, self.kinds, strict=True)):
-            column = pin.getJointJacobian(self.model, data, int(jid), pin.LOCAL_WORLD_ALIGNED)[:, iv]
+            jacobian = np.asarray(pin.getJointJacobian(self.model, data, int(jid), pin.LOCAL_WORLD_ALIGNED))
+            column = jacobian.reshape(6, -1)[:, iv]  # pinocchio gives a model of one velocity a (6,) vector
             axis = column[:3] if kind == "prismatic" else column[3:]
             out[k] = axis / np.linalg.norm(axis)
         return out

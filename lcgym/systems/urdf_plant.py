@@ -11,8 +11,10 @@ does, per sample k (Ts = 1 / fs):
 1. The encoders read the axis positions y[k], quantized to ``encoder_resolution`` and with white
    ``noise_rms`` (seeded) added.
 2. The PID of each axis (``FeedbackGains``) acts on e[k] = ref[k] - y[k]; its derivative is
-   the backward difference low-passed at ``f_lp`` Hz (first order); the integrator stops while the
-   input saturates. u[k] = sat(ff[k] + fb[k], +-``u_max``).
+   the backward difference of e (or of -y, ``FeedbackGains.derivative="measurement"``) low-passed
+   at ``f_lp`` Hz (first order), or -(y[k] - y[k-2]) / (2 Ts) (``"measurement_fir2"``, the EMPS's
+   controller); the integrator stops while the input saturates. u[k] = sat(ff[k] + fb[k],
+   +-``u_max``).
 3. u[k] is held over [t_k, t_{k+1}) (zero-order hold, no computation delay: the feedforward's
    kinematics are best evaluated half a sample ahead, ``System.advance`` = 0.5) while the dynamics
    advance by ``substeps`` classical RK4 steps, the accelerations by pinocchio's ``aba``.
@@ -67,12 +69,14 @@ INERTIA_SAMPLES = 64  # random configurations for the axis inertias (gains, step
 DEFAULT_MAX_ERROR = {"revolute": 30 * math.pi / 180, "prismatic": 0.1}  # rad, m
 
 # controller and mapping slots, one row per axis
-KP, KD, KI, ALPHA, UMAX, RES, MAXERR, IQ, CONT = range(9)
-N_CTRL = 9
+KP, KD, KI, ALPHA, UMAX, RES, MAXERR, IQ, CONT, DERIV = range(10)
+N_CTRL = 10
 # workspace rows: state, input, stage state, pinocchio configuration, RK4 stage derivatives, controller
 # state, stage position
-Q, V, U, VS, TAU, QPIN, W0, A0, EPREV, EDOT, INTEG, QS = 0, 1, 2, 3, 4, 5, 6, 10, 14, 15, 16, 17
-N_ROWS = 18
+Q, V, U, VS, TAU, QPIN, W0, A0, EPREV, EDOT, INTEG, QS, EPREV2 = 0, 1, 2, 3, 4, 5, 6, 10, 14, 15, 16, 17, 18
+N_ROWS = 19
+# what the derivative term differentiates (FeedbackGains.derivative), slot DERIV
+D_ERROR, D_MEASUREMENT, D_FIR2 = 0.0, 1.0, 2.0
 # per-sample outputs: measured position, applied input, true position
 OUT_Y, OUT_U, OUT_Q = range(3)
 # control status
@@ -147,10 +151,16 @@ def control(k, S, C, ref, ff, noise, out, ts):
             return NOT_FINITE
         y = encoder(q, C[i, RES], noise[k, i])
         e = ref[k, i] - y
+        x = e if C[i, DERIV] == D_ERROR else -y  # what the derivative term differentiates
         if k == 0:
-            S[EPREV, i] = e
-        S[EDOT, i] = C[i, ALPHA] * S[EDOT, i] + (1.0 - C[i, ALPHA]) * (e - S[EPREV, i]) / ts
-        S[EPREV, i] = e
+            S[EPREV, i] = x
+            S[EPREV2, i] = x
+        if C[i, DERIV] == D_FIR2:
+            S[EDOT, i] = (x - S[EPREV2, i]) / (2.0 * ts)
+            S[EPREV2, i] = S[EPREV, i]
+        else:
+            S[EDOT, i] = C[i, ALPHA] * S[EDOT, i] + (1.0 - C[i, ALPHA]) * (x - S[EPREV, i]) / ts
+        S[EPREV, i] = x
         raw = ff[k, i] + C[i, KP] * e + C[i, KD] * S[EDOT, i] + C[i, KI] * S[INTEG, i]
         u = min(max(raw, -C[i, UMAX]), C[i, UMAX])
         if u == raw:  # conditional integration: no wind-up while saturated
@@ -206,7 +216,7 @@ def _stable_axis(J, lo, hi, bandwidth, damping, integral_time, fs) -> tuple[floa
 
 
 def loop_stable(gains: FeedbackGains, inertia, fs: float) -> np.ndarray:
-    """Per axis: whether the sampled loop (``gains``' PID with its low-passed derivative, ``control``,
+    """Per axis: whether the sampled loop (``gains``' PID with its low-passed or two-sample derivative, ``control``,
     at ``fs`` Hz, the input held over a sample) around a rigid inertia J (``inertia`` [kg m^2 or
     kg], per axis) is stable: the roots of its characteristic polynomial lie inside the unit circle.
     The plant 1 / (J s^2) behind a zero-order hold is Ts^2 / (2 J) (z + 1) / (z - 1)^2."""
@@ -218,8 +228,11 @@ def loop_stable(gains: FeedbackGains, inertia, fs: float) -> np.ndarray:
     for i, (kp, kd, ki, f_lp) in enumerate(zip(gains.kp, gains.kd, gains.ki, gains.f_lp, strict=True)):
         alpha = math.exp(-2 * math.pi * f_lp / fs)
         z_a, z_1 = np.array([-alpha, 1.0]), np.array([-1.0, 1.0])
-        num = P.polyadd(kp * z_a, kd * (1 - alpha) / ts * z_1)
-        den = z_a
+        if gains.derivative == "measurement_fir2":  # kp + kd (z^2 - 1) / (2 Ts z^2)
+            z_a = np.array([0.0, 0.0, 1.0])
+            num, den = P.polyadd(kp * z_a, kd / (2 * ts) * np.array([-1.0, 0.0, 1.0])), z_a
+        else:  # kp + kd (1 - alpha) (z - 1) / (Ts (z - alpha))
+            num, den = P.polyadd(kp * z_a, kd * (1 - alpha) / ts * z_1), z_a
         if ki > 0:  # the integrator sums e up to the previous sample: Ts / (z - 1)
             num, den = P.polyadd(P.polymul(num, z_1), ki * ts * z_a), P.polymul(z_a, z_1)
         plant_num, plant_den = ts**2 / (2 * J[i]) * np.array([1.0, 1.0]), P.polymul(z_1, z_1)
@@ -385,7 +398,9 @@ class URDFPlant:
         axis on the rfft grid of n samples (what plant-inversion ILC inverts, ``baselines.ilc``):
         each axis a rigid inertia J, the diagonal of the nominal (URDF) mass matrix at the mean pose of
         ``positions`` (T, n_axes), behind a zero-order hold without computation delay
-        (``physics.lti.rigid_axis``), and this plant's PID with its low-passed derivative (``control``)."""
+        (``physics.lti.rigid_axis``), and this plant's PID with its low-passed derivative, or its
+        two-sample one (``control``; whether it differentiates e or -y, the input's way to y is the
+        same)."""
         p = self.system.nominal_params().to_vector()
         q_mean = np.asarray(positions, dtype=float).mean(axis=0)
         J = np.diag(self.system.mass_matrix(p, q_mean[None, :])[0])
@@ -395,7 +410,10 @@ class URDFPlant:
         for a in range(self.n_axes):
             alpha = math.exp(-2 * math.pi * g.f_lp[a] / self.fs)
             pn, pd = rigid_axis(J[a], 0.0, self.fs, z)
-            c = g.kp[a] + g.kd[a] * (1 - alpha) * (1 - 1 / z) / ts / (1 - alpha / z)
+            if g.derivative == "measurement_fir2":
+                c = g.kp[a] + g.kd[a] * (1 - z**-2) / (2 * ts)
+            else:
+                c = g.kp[a] + g.kd[a] * (1 - alpha) * (1 - 1 / z) / ts / (1 - alpha / z)
             with np.errstate(divide="ignore", invalid="ignore"):  # the integrator's pole at z = 1 (bin 0)
                 c = c + g.ki[a] * ts / (z - 1) if g.ki[a] > 0 else c
                 out[:, a] = pn / (pd + pn * c)  # P / (1 + P C), finite at z = 1 without an integrator
@@ -445,7 +463,8 @@ class URDFPlant:
         for k, row in enumerate(r.v_index):
             alpha = math.exp(-2 * math.pi * g.f_lp[k] / self.fs)
             C[row] = (g.kp[k], g.kd[k], g.ki[k], alpha, self.u_max[k], self.encoder_resolution[k], self.max_error[k],
-                      r.q_index[k], float(r.continuous[k]))
+                      r.q_index[k], float(r.continuous[k]),
+                      {"error": D_ERROR, "measurement": D_MEASUREMENT, "measurement_fir2": D_FIR2}[g.derivative])
         return C
 
     # ------------------------------------------------------------------ simulation
