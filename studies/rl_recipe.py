@@ -115,10 +115,10 @@ def plot(curves: dict, path: Path) -> None:
         top.legend(fontsize=7)
         bottom.legend(fontsize=7)
     fig.tight_layout()
+    from lcgym.data import atomic_write
+
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp.png")
-    fig.savefig(tmp, dpi=110)
-    tmp.replace(path)
+    atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
 
 
 def main() -> None:

@@ -9,7 +9,8 @@ The rules, by the fence's language:
   folder, not run itself; a later ``bash`` block of the page runs or imports it (checked).
 - ``bash``: the whole block runs as one ``bash -euo pipefail`` script in the page's folder, with
   ``.venv/bin/`` rewritten to the bin folder of the Python running the tests (also first on
-  ``PATH``) and repository paths that exist (``lcgym/...``, ``results/...``) made absolute; its
+  ``PATH``) and repository paths that exist (``lcgym/...``, ``results/...``, ``studies/...``, ``scripts/...``,
+  ``benchmarks/...``) made absolute; its
   exit status must be 0. Exceptions: the set-up and install commands (``python3 -m venv``,
   ``pip install``) are not run (they would rebuild the venv): each of their ``&&`` parts must be a
   command of ``.ci/run``, which CI runs (CI's ``-q`` and ``--site-dir DIR`` aside), except the main
@@ -59,7 +60,7 @@ LANGUAGES = {"python", "bash", "text"}
 MARK = re.compile(r"^<!-- docs-test: ([\w-]+)(?: \(.*\))? -->$")
 FILE_BLOCK = re.compile(r"^# (\w+\.py)\b")
 NUMBER = re.compile(r"[-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?")
-REPO_PATH = re.compile(r"(?<![\w./-])((?:lcgym|results)/[\w./-]+)")
+REPO_PATH = re.compile(r"(?<![\w./-])((?:lcgym|results|studies|scripts|benchmarks)/[\w./-]+)")
 
 
 @dataclass
