@@ -6,7 +6,7 @@ each tenth of the budget, and the return of the deterministic policy on one whol
 reference, ten times over training, against the base feedforward alone's (zero action); it prints
 when the first episodes were logged, and plots the curves.
 
-    .venv/bin/python studies/rl_recipe.py --out results/rl_recipe.png             # about 15 min here
+    .venv/bin/python studies/rl_recipe.py                  # docs/img/rl_recipe.png, about 20 min here
     .venv/bin/python studies/rl_recipe.py --ppo-steps 20000 --sac-steps 4000 --machines IX-v1
 """
 
@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 from tqdm.auto import tqdm
 
-MACHINES = {"IX-v1": "physical", "FlexArm-v1": "basic", "TwoLink-v0": "physical"}
+MACHINES = {"IX-v1": "physical", "FlexArm-v1": "basic", "TwoLink-v0": "physical", "EMPS-v0": "physical"}
 SHORT = {"IX-v1": dict(n_references=4, duration=20.0), "FlexArm-v1": dict(n_references=4),
-         "TwoLink-v0": dict(n_references=4, duration=10.0)}
+         "TwoLink-v0": dict(n_references=4, duration=10.0), "EMPS-v0": dict(n_references=4, duration=10.0)}
 
 
 def recipe(env_id: str, algorithm: str, steps: int, seed: int = 0, evaluations: int = 10, **env_kwargs):
@@ -89,6 +89,10 @@ def blocks(episodes: list[tuple[int, float]], total: int, n: int = 10) -> list[t
     return out
 
 
+FLOOR = 3.0
+"""The validation panels show returns down to -FLOOR times the base alone's."""
+
+
 def plot(curves: dict, path: Path) -> None:
     """Per machine: the training episodes' returns (mean per block of steps, per step of the
     episode) and the deterministic policy's validation return against the base alone's."""
@@ -108,6 +112,12 @@ def plot(curves: dict, path: Path) -> None:
             bottom.plot([s for s, _ in scores], [v / base for _, v in scores], "-o", ms=3, color=color,
                         label=algorithm.upper())
         bottom.axhline(-1.0, color="k", ls="--", lw=1, label="base alone")
+        ratios = [v / abs(scores[0][1]) for _, scores in runs.values() for _, v in scores]
+        low = min(ratios)
+        if low < -FLOOR:  # a diverging run would hide the others: clip, and say so
+            top_of = max(max(ratios), -1.0)
+            bottom.set_ylim(-FLOOR, top_of + 0.05 * (top_of + FLOOR))
+            bottom.text(0.02, 0.02, f"clipped at -{FLOOR:g}; lowest {low:.3g}", transform=bottom.transAxes, fontsize=7)
         top.set_title(f"lcgym/{machine}", fontsize=10)
         top.set_ylabel("training episode return\n(mean per tenth of the steps)", fontsize=8)
         bottom.set_ylabel("validation return / |base alone's|\n(higher is better)", fontsize=8)
@@ -126,8 +136,12 @@ def main() -> None:
     parser.add_argument("--machines", default=",".join(MACHINES))
     parser.add_argument("--ppo-steps", type=int, default=65_536)
     parser.add_argument("--sac-steps", type=int, default=12_000)
-    parser.add_argument("--out", default="results/rl_recipe.png")
+    parser.add_argument("--out", default="docs/img/rl_recipe.png")
+    parser.add_argument("--replot", type=Path, help="draw --out from a run's JSON record instead of training")
     args = parser.parse_args()
+    if args.replot:
+        plot(json.loads(args.replot.read_text())["curves"], Path(args.out))
+        return
     import lcgym  # noqa: F401
 
     machines = args.machines.split(",")
@@ -150,8 +164,12 @@ def main() -> None:
         }
         tqdm.write(json.dumps(summary[f"{machine} {algorithm}"]))
     plot(curves, Path(args.out))
+    from lcgym.data import atomic_write
+
+    record = Path(args.out).with_suffix(".json")  # the figures, and the curves to redraw them with --replot
+    atomic_write(record, lambda tmp: Path(tmp).write_text(json.dumps({"summary": summary, "curves": curves})))
     print(json.dumps(summary, indent=1))
-    print(f"wrote {args.out}")
+    print(f"wrote {args.out} and {record}")
 
 
 if __name__ == "__main__":

@@ -5,7 +5,7 @@ beside it (``<key>.csv``: per training episode, run with the exploring policy, t
 error per scored axis). This draws them all, one shade per cell, the machine told by its axes.
 
 Run:  LCGYM_CACHE=/tmp/cache lcgym bench --out /tmp/run.csv
-      .venv/bin/python studies/rl_training_curves.py /tmp/cache/rl results/rl_training_curves.png
+      .venv/bin/python studies/rl_training_curves.py /tmp/cache/rl docs/img/rl_training_curves.png
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ def main() -> None:
     curves: dict[str, list[pd.DataFrame]] = {}
     for csv in sorted(args.cache.glob("*.csv"), key=lambda p: p.stat().st_mtime):
         c = pd.read_csv(csv)
-        axes = frozenset(col.removeprefix("rms_").removesuffix("_deg") for col in c.columns if col.startswith("rms_"))
+        axes = frozenset(col.removeprefix("rms_").rsplit("_", 1)[0] for col in c.columns if col.startswith("rms_"))
         if axes in MACHINES and len(c):
             curves.setdefault(MACHINES[axes], []).append(c)
     if not curves:
@@ -40,11 +40,12 @@ def main() -> None:
     for ax, (name, runs) in zip(panels[0], curves.items(), strict=True):
         for k, c in enumerate(runs):
             for i, col in enumerate([x for x in c.columns if x.startswith("rms_")]):
-                label = col.removeprefix("rms_").removesuffix("_deg") if k == 0 else None
+                label = col.removeprefix("rms_").rsplit("_", 1)[0] if k == 0 else None
                 ax.plot(c["env_steps"], c[col], "o", ms=3, color=f"C{i}", alpha=0.9 - 0.25 * k, label=label)
         ax.set_title(f"rl (PPO, default budget) on {name}: {len(runs)} cells", fontsize=9)
         ax.set_xlabel("env steps")
-        ax.set_ylabel("training episode RMS [deg]")
+        units = sorted({col.rsplit("_", 1)[1] for c in runs for col in c.columns if col.startswith("rms_")})
+        ax.set_ylabel(f"training episode RMS [{', '.join(units)}]")
         ax.set_yscale("log")
         ax.ticklabel_format(axis="x", style="sci", scilimits=(0, 0))
         ax.legend(fontsize=8)

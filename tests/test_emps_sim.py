@@ -110,3 +110,21 @@ def test_sim_to_real_study_on_files_of_the_benchmark_layout(plant, tmp_path):
     for f in figures[:2]:
         assert f["force_rms_difference_relative"] < 1e-6 and f["error_rms_difference_relative"] < 1e-6
     assert figures[2]["pulses_as"] == "N" and figures[2]["force_rms_difference_relative"] > 0.01
+
+
+def test_rl_reports_a_prismatic_axis_in_mm(tmp_path):
+    """The rl method's training curve and safeguard figures carry the axis's display unit: mm on the
+    EMPS's carriage (the RMS in metres times 1000, not read as radians)."""
+    from lcgym.baselines.rl import RLConfig, RLFeedforward
+
+    machine = systems.get("emps_sim")
+    bench = systems.make_bench("emps_sim")
+    refs = bench.references("train", 0, n=1, duration=2.0)
+    trials = bench.run(refs)
+    rl = RLFeedforward(RLConfig(total_steps=2 * refs[0].n_samples + 512, num_envs=1, cache_dir=str(tmp_path),
+                                hyperparameters={"n_steps": 512, "batch_size": 512, "n_epochs": 1}), system=machine)
+    rl.fit(trials).learn(bench.plant, refs[0])
+    assert list(rl.curve_.columns) == ["env_steps", "return", "rms_x_mm"] and len(rl.curve_) >= 1
+    base_m = rl._training_rms(bench.plant, np.zeros(1, dtype=bool))[0, 0]  # the base alone [m]
+    assert rl.safeguard_["base"][0] == pytest.approx(1000.0 * base_m, rel=1e-4, abs=1e-6)
+    assert 0.01 < rl.safeguard_["base"][0] < 5.0  # mm: the carriage lags by tenths of a millimetre

@@ -267,24 +267,26 @@ class RLFeedforward(Controller):
         algorithm = _algorithm_class(cfg.algorithm)
         venv = _vec_env(self.system_, self.training_, plant, self._base(), cfg)
         rows: list[dict] = []
-        scored = self.system_.bench.scored
-        axes = tuple(a for i, a in enumerate(self.training_[0].axes) if scored is None or i in scored)
+        # per scored axis: (column name, factor from rad or m to the axis's display unit, deg or mm)
+        shown = [(f"rms_{self.training_[0].axes[i]}_{self.system_.axes[i].display[1]}", self.system_.axes[i].display[0])
+                 for i in self._scored()]
 
         bar = tqdm(total=self.budget(), desc=f"rl {cfg.algorithm} on {self.system_.name}", unit="step",
                    disable=not cfg.progress, leave=False)
 
         class TrainingCurve(BaseCallback):
-            """One row per finished episode: env steps so far, return, RMS tracking error [deg]."""
+            """One row per finished episode: env steps so far, return, RMS tracking error per scored
+            axis [deg or mm]."""
 
             def _on_step(self) -> bool:
                 bar.update(self.training_env.num_envs)
                 for info in self.locals["infos"]:
                     if "tracking_rms" in info:
                         rows.append({"env_steps": self.num_timesteps, "return": info["episode"]["r"],
-                                     **{f"rms_{a}_deg": float(np.degrees(v))
-                                        for a, v in zip(axes, info["tracking_rms"], strict=True)}})
-                        bar.set_postfix_str("episode RMS " + " / ".join(f"{v:.4f}" for v in list(rows[-1].values())[2:])
-                                            + " deg")
+                                     **{name: float(factor * v)
+                                        for (name, factor), v in zip(shown, info["tracking_rms"], strict=True)}})
+                        bar.set_postfix_str("episode RMS " + " / ".join(
+                            f"{v:.4f} {name.rsplit('_', 1)[1]}" for v, (name, _) in zip(list(rows[-1].values())[2:], shown, strict=True)))
                 return True
 
         try:
@@ -297,7 +299,7 @@ class RLFeedforward(Controller):
             bar.close()
         venv.close()
         self.model_ = model
-        self.curve_ = pd.DataFrame(rows, columns=["env_steps", "return", *[f"rms_{a}_deg" for a in axes]])
+        self.curve_ = pd.DataFrame(rows, columns=["env_steps", "return", *[name for name, _ in shown]])
         return {"env_steps": int(model.num_timesteps), "episodes": len(rows) + venv.num_envs,
                 "seconds": round(seconds, 3), "algorithm": cfg.algorithm}
 
@@ -318,8 +320,9 @@ class RLFeedforward(Controller):
             figures["masked"] = masked = self._training_rms(plant, kept) if kept.any() and not worse.all() else full
             self.kept_ = kept if kept.any() and not (masked > base).any() else np.zeros(n, dtype=bool)
         samples = [r.n_samples for r in self.training_]
-        self.safeguard_ = {k: np.degrees(np.sqrt(np.average(np.square(v), axis=0, weights=samples))).round(6).tolist()
-                           for k, v in figures.items()}  # RMS over all training samples
+        factor = np.array([self.system_.axes[i].display[0] for i in self._scored()])  # to deg or mm
+        self.safeguard_ = {k: (factor * np.sqrt(np.average(np.square(v), axis=0, weights=samples))).round(6).tolist()
+                           for k, v in figures.items()}  # RMS over all training samples [deg or mm]
         self.safeguard_["references_worse"] = int((full > base).any(axis=1).sum())
         names = list(self.training_[0].axes)
         dropped = [names[i] for i in range(n) if not self.kept_[i]]
@@ -473,7 +476,7 @@ def _algorithm_class(name: str):
 
 
 def plot_training_curve(curve: pd.DataFrame, path: str | Path, title: str = "") -> Path:
-    """Episode RMS tracking error [deg] per axis against env steps (points: training episodes,
+    """Episode RMS tracking error [deg or mm] per axis against env steps (points: training episodes,
     run with the exploring policy; line: the mean of the last 16), written atomically."""
     import matplotlib
 
@@ -487,9 +490,9 @@ def plot_training_curve(curve: pd.DataFrame, path: str | Path, title: str = "") 
     for i, c in enumerate(cols):
         ax.plot(curve["env_steps"], curve[c], ".", ms=3, color=f"C{i}", alpha=0.4)
         ax.plot(curve["env_steps"], curve[c].rolling(16, min_periods=1).mean(), color=f"C{i}",
-                label=c.removeprefix("rms_").removesuffix("_deg"))
+                label=c.removeprefix("rms_").rsplit("_", 1)[0])
     ax.set_xlabel("env steps")
-    ax.set_ylabel("episode RMS tracking error [deg]")
+    ax.set_ylabel(f"episode RMS tracking error [{', '.join(sorted({c.rsplit('_', 1)[1] for c in cols}))}]")
     ax.set_title(title)
     ax.legend()
     fig.tight_layout()
