@@ -8,6 +8,7 @@ when the first episodes were logged, and plots the curves.
 
     .venv/bin/python studies/rl_recipe.py                  # docs/img/rl_recipe.png, about 20 min here
     .venv/bin/python studies/rl_recipe.py --ppo-steps 20000 --sac-steps 4000 --machines IX-v1
+    .venv/bin/python studies/rl_recipe.py --machines IX-v1 --algorithms ppo --set learning_rate=1e-3 --out /tmp/ix.png
 """
 
 from __future__ import annotations
@@ -25,11 +26,12 @@ SHORT = {"IX-v1": dict(n_references=4, duration=20.0), "FlexArm-v1": dict(n_refe
          "TwoLink-v0": dict(n_references=4, duration=10.0), "EMPS-v0": dict(n_references=4, duration=10.0)}
 
 
-def recipe(env_id: str, algorithm: str, steps: int, seed: int = 0, evaluations: int = 10, **env_kwargs):
+def recipe(env_id: str, algorithm: str, steps: int, seed: int = 0, evaluations: int = 10,
+           agent_kwargs: dict | None = None, **env_kwargs):
     """The recipe of docs/environments.md: trains ``algorithm`` for ``steps`` env steps and every
     ``steps / evaluations`` steps scores its deterministic policy on one whole validation reference.
-    Returns (model, finished training episodes as (env step, return), evaluations as (env step,
-    return))."""
+    ``agent_kwargs``: settings other than SB3's defaults, passed to the agent. Returns (model,
+    finished training episodes as (env step, return), evaluations as (env step, return))."""
     import torch
     from stable_baselines3 import PPO, SAC
     from stable_baselines3.common.callbacks import BaseCallback
@@ -50,7 +52,7 @@ def recipe(env_id: str, algorithm: str, steps: int, seed: int = 0, evaluations: 
             return True
 
     Agent = {"ppo": PPO, "sac": SAC}[algorithm]
-    model = Agent("MlpPolicy", venv, seed=seed, device="cpu")  # SB3's default settings
+    model = Agent("MlpPolicy", venv, seed=seed, device="cpu", **(agent_kwargs or {}))  # SB3's defaults unless given
     model.learn(steps, callback=Record())
     venv.close()
     return model, episodes, scores
@@ -137,6 +139,9 @@ def main() -> None:
     parser.add_argument("--ppo-steps", type=int, default=65_536)
     parser.add_argument("--sac-steps", type=int, default=12_000)
     parser.add_argument("--out", default="docs/img/rl_recipe.png")
+    parser.add_argument("--algorithms", default="ppo,sac")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="a setting other than SB3's default, for every agent (a number: learning_rate=1e-3)")
     parser.add_argument("--replot", type=Path, help="draw --out from a run's JSON record instead of training")
     args = parser.parse_args()
     if args.replot:
@@ -147,11 +152,12 @@ def main() -> None:
     machines = args.machines.split(",")
     curves: dict = {m: {} for m in machines}
     summary = {}
-    jobs = [(m, a, args.ppo_steps if a == "ppo" else args.sac_steps) for m in machines for a in ("ppo", "sac")]
+    agent_kwargs = {key: float(value) for key, value in (item.split("=", 1) for item in args.set)}
+    jobs = [(m, a, args.ppo_steps if a == "ppo" else args.sac_steps) for m in machines for a in args.algorithms.split(",")]
     for machine, algorithm, steps in tqdm(jobs, desc="recipe"):
         kwargs = dict(base_feedforward=MACHINES[machine], **SHORT[machine])
         t0 = time.perf_counter()
-        _, episodes, scores = recipe(f"lcgym/{machine}", algorithm, steps, **kwargs)
+        _, episodes, scores = recipe(f"lcgym/{machine}", algorithm, steps, agent_kwargs=agent_kwargs, **kwargs)
         curves[machine][algorithm] = (episodes, scores)
         b = blocks(episodes, steps)
         summary[f"{machine} {algorithm}"] = {

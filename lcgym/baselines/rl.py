@@ -285,8 +285,9 @@ class RLFeedforward(Controller):
                         rows.append({"env_steps": self.num_timesteps, "return": info["episode"]["r"],
                                      **{name: float(factor * v)
                                         for (name, factor), v in zip(shown, info["tracking_rms"], strict=True)}})
+                        last = list(rows[-1].values())[2:]
                         bar.set_postfix_str("episode RMS " + " / ".join(
-                            f"{v:.4f} {name.rsplit('_', 1)[1]}" for v, (name, _) in zip(list(rows[-1].values())[2:], shown, strict=True)))
+                            f"{v:.4f} {name.rsplit('_', 1)[1]}" for v, (name, _) in zip(last, shown, strict=True)))
                 return True
 
         try:
