@@ -133,6 +133,14 @@ def plot(curves: dict, path: Path) -> None:
     atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
 
 
+def number(text: str) -> int | float:
+    """A --set value: an integer where it reads as one (n_steps=512), else a float (1e-3)."""
+    try:
+        return int(text)
+    except ValueError:
+        return float(text)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--machines", default=",".join(MACHINES))
@@ -141,7 +149,7 @@ def main() -> None:
     parser.add_argument("--out", default="docs/img/rl_recipe.png")
     parser.add_argument("--algorithms", default="ppo,sac")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                        help="a setting other than SB3's default, for every agent (a number: learning_rate=1e-3)")
+                        help="a setting other than SB3's default, for every agent (a number: learning_rate=1e-3, n_steps=512)")
     parser.add_argument("--replot", type=Path, help="draw --out from a run's JSON record instead of training")
     args = parser.parse_args()
     if args.replot:
@@ -152,7 +160,7 @@ def main() -> None:
     machines = args.machines.split(",")
     curves: dict = {m: {} for m in machines}
     summary = {}
-    agent_kwargs = {key: float(value) for key, value in (item.split("=", 1) for item in args.set)}
+    agent_kwargs = {key: number(value) for key, value in (item.split("=", 1) for item in args.set)}
     jobs = [(m, a, args.ppo_steps if a == "ppo" else args.sac_steps) for m in machines for a in args.algorithms.split(",")]
     for machine, algorithm, steps in tqdm(jobs, desc="recipe"):
         kwargs = dict(base_feedforward=MACHINES[machine], **SHORT[machine])
