@@ -51,9 +51,9 @@ def main() -> None:
         ax.legend(fontsize=8)
     fig.tight_layout()
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = args.out.with_suffix(".tmp.png")
-    fig.savefig(tmp, dpi=90)
-    tmp.replace(args.out)
+    from lcgym.data import atomic_write
+
+    atomic_write(args.out, lambda tmp: fig.savefig(tmp, dpi=90, format="png"))
     print(args.out, {k: len(v) for k, v in curves.items()})
 
 

@@ -267,9 +267,8 @@ class RLFeedforward(Controller):
         algorithm = _algorithm_class(cfg.algorithm)
         venv = _vec_env(self.system_, self.training_, plant, self._base(), cfg)
         rows: list[dict] = []
-        # per scored axis: (column name, factor from rad or m to the axis's display unit, deg or mm)
-        shown = [(f"rms_{self.training_[0].axes[i]}_{self.system_.axes[i].display[1]}", self.system_.axes[i].display[0])
-                 for i in self._scored()]
+        shown = [(f"rms_{self.training_[0].axes[i]}_{unit}", factor)
+                 for i, (factor, unit) in zip(self._scored(), self._display(), strict=True)]
 
         bar = tqdm(total=self.budget(), desc=f"rl {cfg.algorithm} on {self.system_.name}", unit="step",
                    disable=not cfg.progress, leave=False)
@@ -321,7 +320,7 @@ class RLFeedforward(Controller):
             figures["masked"] = masked = self._training_rms(plant, kept) if kept.any() and not worse.all() else full
             self.kept_ = kept if kept.any() and not (masked > base).any() else np.zeros(n, dtype=bool)
         samples = [r.n_samples for r in self.training_]
-        factor = np.array([self.system_.axes[i].display[0] for i in self._scored()])  # to deg or mm
+        factor = np.array([f for f, _ in self._display()])  # to deg or mm
         self.safeguard_ = {k: (factor * np.sqrt(np.average(np.square(v), axis=0, weights=samples))).round(6).tolist()
                            for k, v in figures.items()}  # RMS over all training samples [deg or mm]
         self.safeguard_["references_worse"] = int((full > base).any(axis=1).sum())
@@ -338,6 +337,10 @@ class RLFeedforward(Controller):
         """The axes (indices) the machine's benchmark scores: the safeguard compares those."""
         scored = self.system_.bench.scored
         return list(range(len(self.training_[0].axes))) if scored is None else list(scored)
+
+    def _display(self) -> list[tuple[float, str]]:
+        """Per scored axis, (factor from rad or m, unit) of the figures it reports: deg or mm."""
+        return [self.system_.axes[i].display for i in self._scored()]
 
     def _action_axes(self, better) -> np.ndarray:
         """Per action axis, whether to keep the residual: on scored axes where it was ``better``
