@@ -379,7 +379,7 @@ code{font:12px ui-monospace,SFMono-Regular,Menlo,Consolas,monospace}
 .legend{font-size:12.5px;color:var(--muted);margin:4px 0 8px}
 .swatches span{display:inline-block;padding:0 5px;font-size:11px;color:var(--fg);border:1px solid var(--line);margin-left:-1px}
 .best{color:#0b5d1e;font-size:11px;margin-right:3px}
-.machines{display:flex;flex-wrap:wrap;gap:10px 26px;align-items:flex-start}
+.machines{display:flex;flex-wrap:wrap;gap:8px 18px;align-items:flex-start}
 table{border-collapse:collapse;font-variant-numeric:tabular-nums}
 th,td{border:1px solid var(--line);padding:2px 7px;text-align:right;white-space:nowrap}
 thead th{background:var(--head);font-weight:600;vertical-align:bottom}
@@ -392,7 +392,8 @@ th.method,td.method{text-align:left}
 tbody th{font-weight:500}
 td.top{font-weight:700}
 td.ratio,td.count{color:var(--muted)}
-table.overview{font-size:13px}
+table.overview{font-size:12.5px}
+table.overview th,table.overview td{padding:1px 5px}
 table.details{font-size:12.5px;margin:4px 0 10px}
 details{margin:4px 0}
 summary{cursor:pointer;font-weight:600;padding:2px 0}
