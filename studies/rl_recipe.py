@@ -1,6 +1,8 @@
 """The reinforcement-learning recipe of docs/environments.md, run on every machine: PPO and SAC of
 stable-baselines3 with their default settings on each machine's vector env (``make_sb3_vec_env``,
-4 envs, episodes of 1000 samples, normalized actions), residual on the machine's base feedforward.
+4 envs, episodes of 1000 samples, normalized actions), residual on the machine's base feedforward,
+the agent acting at ``AGENT_RATES`` (``envs.hold``: each action held for several samples; steps are
+agent steps); ``--agent-rate HZ`` sets one rate for all, 0 acts on every sample.
 It records each algorithm's learning curves: the mean return of the training episodes ended in
 each tenth of the budget, and the return of the deterministic policy on one whole validation
 reference, ten times over training, against the base feedforward alone's (zero action); it prints
@@ -9,6 +11,7 @@ when the first episodes were logged, and plots the curves.
     .venv/bin/python studies/rl_recipe.py                  # docs/img/rl_recipe.png, about 20 min here
     .venv/bin/python studies/rl_recipe.py --ppo-steps 20000 --sac-steps 4000 --machines IX-v1
     .venv/bin/python studies/rl_recipe.py --machines IX-v1 --algorithms ppo --set learning_rate=1e-3 --out /tmp/ix.png
+    .venv/bin/python studies/rl_recipe.py --machines IX-v1 --algorithms ppo --agent-rate 0 --out /tmp/ix_every_sample.png
 """
 
 from __future__ import annotations
@@ -21,17 +24,26 @@ from pathlib import Path
 import numpy as np
 from tqdm.auto import tqdm
 
+from lcgym.envs.hold import AGENT_RATE, HoldAction, hold_samples
+
 MACHINES = {"IX-v1": "physical", "FlexArm-v1": "basic", "TwoLink-v0": "physical", "EMPS-v0": "physical"}
+AGENT_RATES = {"IX-v1": AGENT_RATE, "FlexArm-v1": None, "TwoLink-v0": AGENT_RATE, "EMPS-v0": AGENT_RATE}
+"""Hz at which the recipe's agents act (None: every sample). 50 Hz (each action held 10 samples on
+the IX, 20 on the 1 kHz machines) on the rigid machines, whose feedforward is as smooth as their
+references; every sample (1 kHz) on the FlexArm, whose residual shapes joint resonances at 10-15 Hz
+that a 50 Hz hold cannot (measured, docs/environments.md: held 20 samples, its exploration excites
+them, episodes end ``terminated`` and PPO's policy does not move)."""
 SHORT = {"IX-v1": dict(n_references=4, duration=20.0), "FlexArm-v1": dict(n_references=4),
          "TwoLink-v0": dict(n_references=4, duration=10.0), "EMPS-v0": dict(n_references=4, duration=10.0)}
 
 
 def recipe(env_id: str, algorithm: str, steps: int, seed: int = 0, evaluations: int = 10,
-           agent_kwargs: dict | None = None, **env_kwargs):
-    """The recipe of docs/environments.md: trains ``algorithm`` for ``steps`` env steps and every
+           agent_kwargs: dict | None = None, agent_rate: float | None = AGENT_RATE, **env_kwargs):
+    """The recipe of docs/environments.md: trains ``algorithm`` for ``steps`` agent steps and every
     ``steps / evaluations`` steps scores its deterministic policy on one whole validation reference.
-    ``agent_kwargs``: settings other than SB3's defaults, passed to the agent. Returns (model,
-    finished training episodes as (env step, return), evaluations as (env step, return))."""
+    ``agent_kwargs``: settings other than SB3's defaults, passed to the agent; ``agent_rate`` [Hz]:
+    how often the agent acts (``envs.hold``; None: every sample). Returns (model, finished
+    training episodes as (agent step, return), evaluations as (agent step, return))."""
     import torch
     from stable_baselines3 import PPO, SAC
     from stable_baselines3.common.callbacks import BaseCallback
@@ -39,8 +51,8 @@ def recipe(env_id: str, algorithm: str, steps: int, seed: int = 0, evaluations: 
     from lcgym.envs.sb3 import make_sb3_vec_env
 
     torch.set_num_threads(1)  # small networks: one thread is fastest, and it does not stall a busy machine
-    venv = make_sb3_vec_env(env_id, **env_kwargs)  # 4 envs, actions in [-1, 1], episodes of 1000 samples
-    check = validation_env(env_id, **env_kwargs)
+    venv = make_sb3_vec_env(env_id, agent_rate=agent_rate, **env_kwargs)  # 4 envs, actions in [-1, 1], episodes of 1000 samples
+    check = validation_env(env_id, agent_rate, **env_kwargs)
     episodes: list[tuple[int, float]] = []
     scores: list[tuple[int, float]] = [(0, evaluate(None, check))]
 
@@ -58,12 +70,14 @@ def recipe(env_id: str, algorithm: str, steps: int, seed: int = 0, evaluations: 
     return model, episodes, scores
 
 
-def validation_env(env_id: str, **env_kwargs):
-    """One whole validation reference as a single episode (``episode_steps=None``)."""
+def validation_env(env_id: str, agent_rate: float | None = AGENT_RATE, **env_kwargs):
+    """One whole validation reference as a single episode (``episode_steps=None``), its actions
+    held like the training envs'."""
     import gymnasium as gym
 
     kwargs = {k: v for k, v in env_kwargs.items() if k != "n_references"}
-    return gym.make(env_id, references="validation", n_references=1, episode_steps=None, **kwargs)
+    env = gym.make(env_id, references="validation", n_references=1, episode_steps=None, **kwargs)
+    return HoldAction(env, hold_samples(env, agent_rate))
 
 
 def evaluate(model, env) -> float:
@@ -123,7 +137,7 @@ def plot(curves: dict, path: Path) -> None:
         top.set_title(f"lcgym/{machine}", fontsize=10)
         top.set_ylabel("training episode return\n(mean per tenth of the steps)", fontsize=8)
         bottom.set_ylabel("validation return / |base alone's|\n(higher is better)", fontsize=8)
-        bottom.set_xlabel("env steps")
+        bottom.set_xlabel("agent steps")
         top.legend(fontsize=7)
         bottom.legend(fontsize=7)
     fig.tight_layout()
@@ -150,6 +164,9 @@ def main() -> None:
     parser.add_argument("--algorithms", default="ppo,sac")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="a setting other than SB3's default, for every agent (a number: learning_rate=1e-3, n_steps=512)")
+    parser.add_argument("--agent-rate", type=float, default=None,
+                        help="Hz at which every agent acts, each action held for the samples between "
+                             "(0: every sample; default: AGENT_RATES, per machine)")
     parser.add_argument("--replot", type=Path, help="draw --out from a run's JSON record instead of training")
     args = parser.parse_args()
     if args.replot:
@@ -164,12 +181,14 @@ def main() -> None:
     jobs = [(m, a, args.ppo_steps if a == "ppo" else args.sac_steps) for m in machines for a in args.algorithms.split(",")]
     for machine, algorithm, steps in tqdm(jobs, desc="recipe"):
         kwargs = dict(base_feedforward=MACHINES[machine], **SHORT[machine])
+        rate = AGENT_RATES[machine] if args.agent_rate is None else (args.agent_rate or None)
         t0 = time.perf_counter()
-        _, episodes, scores = recipe(f"lcgym/{machine}", algorithm, steps, agent_kwargs=agent_kwargs, **kwargs)
+        _, episodes, scores = recipe(f"lcgym/{machine}", algorithm, steps, agent_kwargs=agent_kwargs,
+                                     agent_rate=rate, **kwargs)
         curves[machine][algorithm] = (episodes, scores)
         b = blocks(episodes, steps)
         summary[f"{machine} {algorithm}"] = {
-            "steps": steps, "seconds": round(time.perf_counter() - t0, 1), "episodes": len(episodes),
+            "steps": steps, "agent_rate_hz": rate, "seconds": round(time.perf_counter() - t0, 1), "episodes": len(episodes),
             "first_episode_at_step": episodes[0][0] if episodes else None,
             "episodes_logged_by_10000": sum(1 for s, _ in episodes if s <= 10_000),
             "training_return_first_last_block": [round(b[0][1], 1), round(b[-1][1], 1)] if b else None,

@@ -162,6 +162,24 @@ def test_config_errors():
         RLConfig(passes=0.0)
     with pytest.raises(ValueError, match="total_steps"):
         RLConfig(total_steps=0)
+    for rate in (-50.0, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="agent_rate"):
+            RLConfig(agent_rate=rate)
+
+
+def test_the_agent_rate_is_the_machines_unless_given():
+    """The IX's agent acts at 50 Hz (its hints): 10 samples of 2 ms per action; 0 or a rate above
+    the plant's acts on every sample; the FlexArm, which sets none, on every sample."""
+    from lcgym.systems.flexarm import FLEXARM
+
+    def hold(config, system):
+        rl = RLFeedforward(config, system=system)
+        rl.system_ = system
+        return rl.hold()
+
+    assert hold(RLConfig(), IX) == 10 and hold(RLConfig(agent_rate=100.0), IX) == 5
+    assert hold(RLConfig(agent_rate=0.0), IX) == 1 and hold(RLConfig(agent_rate=1e4), IX) == 1
+    assert hold(RLConfig(), FLEXARM) == 1
     with pytest.raises(RuntimeError, match="fit"):
         RLFeedforward(system=IX).learn(IXPlant(), reference_set("validation", 0, 1, 4.0)[0])
 
@@ -175,8 +193,14 @@ def test_bench_cell_counts_env_steps(monkeypatch, tmp_path):
     bench = IX.bench()
     train, val = (bench.references(s, 0, 1, 2.0)[0].n_samples for s in ("train", "validation"))
     budget = round(RLConfig().setting("passes", IX) * train)
-    batch = 8 * HYPERPARAMETERS["ppo"]["n_steps"]  # PPO trains in whole rollouts of 8 envs x n_steps
-    trained_steps = -(-budget // batch) * batch
+    # the IX's agent acts at 50 Hz: each action held 10 samples, and the last of an episode's holds
+    # shorter (the reference's samples are not a multiple of 10); PPO trains in whole rollouts of
+    # n_steps agent steps per env, 8 envs, which run their episodes in step
+    hold, n_steps = 10, HYPERPARAMETERS["ppo"]["n_steps"]
+    agent_steps = -(-budget // hold)  # the budget counts samples, rounded up to whole holds
+    per_env = -(-agent_steps // (8 * n_steps)) * n_steps  # agent steps per env
+    per_episode = -(-train // hold)
+    trained_steps = 8 * (per_env * hold - (per_env // per_episode) * (per_episode * hold - train))
     # training; the safeguard's rollouts on the training reference (base alone, the policy, and the
     # policy masked where it was worse, if it was on one axis only); one rollout per evaluated reference
     guard = steps.pop() - (trained_steps + train + val)

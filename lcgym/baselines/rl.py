@@ -1,7 +1,10 @@
 """Method ``rl``: a stable-baselines3 agent that learns the feedforward on the plant.
 
 The agent acts in the system's Gymnasium env (``lcgym/IX-v0``, ``lcgym/FlexArm-v0``) over the
-cell's training references: one action per control sample, the feedback loop inside the env.
+cell's training references, the feedback loop inside the env: one action per control sample, or
+each action held for several samples (``RLConfig.agent_rate``, else the machine's
+``System.hints["benchmark"]["rl"]["agent_rate"]``: 50 Hz on the IX, the two-link arm and the
+EMPS, ``envs.hold``; every sample on the FlexArm, whose residual shapes 10-15 Hz resonances).
 
 * **Residual** (default, ``RLConfig.residual``): the action is added to the machine's starting
   feedforward, bounded: its nominal structure where it has one (``System.nominal``: the FlexArm's
@@ -72,14 +75,15 @@ PASSES = 1.0  # env steps per training sample on a machine that sets none (Syste
 NUM_ENVS = 4  # parallel envs on a machine that sets none
 
 # One documented place for the hyperparameters (stable-baselines3 keyword arguments).
-# PPO: 8 envs x 1024 steps per update (one update per 8192 samples, 16 s of IX motion), 10 epochs;
-# learning rate 1e-3 (SB3's default 3e-4 learned the IX's propeller too slowly: docs/methods/rl.md);
-# a small initial exploration noise (std e^-2 of the action's unit: 0.14 V on the IX)
-# because the residual's useful size is a fraction of the bound. SAC and TD3: SB3's defaults with
-# the same network size and a buffer of about a full pass over the IX's training data; not tuned.
+# PPO: SB3's defaults, written out (2048 agent steps per env and update, minibatches of 64, 10
+# epochs, learning rate 3e-4, initial exploration std 1 of the action's unit). Acting on every
+# sample, tuned settings (learning rate 1e-3, std e^-2) did better; with the agent at 50 Hz
+# (``agent_rate``) the defaults do better still: on the IX, seed 0, 3 passes, 0.0419 / 0.0360 deg
+# against 0.0767 / 0.0981 deg (docs/methods/rl.md). SAC and TD3: SB3's defaults with the same
+# network size and a buffer of about a full pass over the IX's training data; not tuned.
 HYPERPARAMETERS: dict[str, dict] = {
-    "ppo": dict(n_steps=1024, batch_size=1024, n_epochs=10, learning_rate=1e-3, gamma=0.99, gae_lambda=0.95,
-                policy_kwargs=dict(net_arch=[64, 64], log_std_init=-2.0)),
+    "ppo": dict(n_steps=2048, batch_size=64, n_epochs=10, learning_rate=3e-4, gamma=0.99, gae_lambda=0.95,
+                policy_kwargs=dict(net_arch=[64, 64], log_std_init=0.0)),
     "sac": dict(learning_rate=3e-4, buffer_size=300_000, batch_size=256, learning_starts=5_000, gamma=0.99,
                 train_freq=1, gradient_steps=1, policy_kwargs=dict(net_arch=[64, 64])),
     "td3": dict(learning_rate=1e-3, buffer_size=300_000, batch_size=256, learning_starts=5_000, gamma=0.99,
@@ -104,7 +108,9 @@ class RLConfig:
     ``HYPERPARAMETERS[algorithm]``; seed: of the agent and its envs; cache: save trained models
     and reuse them (``cache_dir``, default ``default_cache_dir()``); progress: a progress bar of
     the training (env steps, last episode's RMS tracking error); safeguard: keep a residual only
-    where it lowers the training references' tracking error (module docstring).
+    where it lowers the training references' tracking error (module docstring); agent_rate [Hz]:
+    how often the agent acts, each action held for the samples between (``envs.hold``; None: the
+    machine's, else every sample; 0: every sample). Budgets count control samples either way.
     """
 
     algorithm: str = "ppo"
@@ -119,6 +125,7 @@ class RLConfig:
     cache_dir: str | None = None
     progress: bool = False
     safeguard: bool = True
+    agent_rate: float | None = None
 
     def __post_init__(self):
         if self.algorithm not in ALGORITHMS:
@@ -129,28 +136,34 @@ class RLConfig:
             raise ValueError(f"RLConfig.passes must be > 0, got {self.passes}")
         if self.num_envs is not None and self.num_envs < 1:
             raise ValueError(f"RLConfig.num_envs must be >= 1, got {self.num_envs}")
+        if self.agent_rate is not None and not (np.isfinite(self.agent_rate) and self.agent_rate >= 0):
+            raise ValueError(f"RLConfig.agent_rate must be a rate >= 0 in Hz (0: every sample), got {self.agent_rate}")
 
     def setting(self, name: str, system: systems.System):
-        """``passes`` or ``num_envs`` on ``system``: this configuration's, else the machine's
-        (``System.hints["benchmark"]["rl"]``), else the module's default (``PASSES``, ``NUM_ENVS``)."""
+        """``passes``, ``num_envs`` or ``agent_rate`` on ``system``: this configuration's, else the
+        machine's (``System.hints["benchmark"]["rl"]``), else the module's default (``PASSES``,
+        ``NUM_ENVS``, 0: every sample)."""
         own = getattr(self, name)
         if own is not None:
             return own
-        return system.hints.get("benchmark", {}).get("rl", {}).get(name, {"passes": PASSES, "num_envs": NUM_ENVS}[name])
+        defaults = {"passes": PASSES, "num_envs": NUM_ENVS, "agent_rate": 0.0}
+        return system.hints.get("benchmark", {}).get("rl", {}).get(name, defaults[name])
 
     def agent_kwargs(self) -> dict:
         """The algorithm's keyword arguments: the defaults updated by ``hyperparameters``."""
         return {**HYPERPARAMETERS[self.algorithm], **self.hyperparameters}
 
 
-def _vec_env(system: systems.System, references, plant, base, config: RLConfig):
+def _vec_env(system: systems.System, references, plant, base, config: RLConfig, hold: int):
     """The stable-baselines3 vector env of the training references: the env's own compiled batch
-    where it has a vector entry point, else copies of the env in SB3's ``DummyVecEnv``."""
+    where it has a vector entry point, else copies of the env in SB3's ``DummyVecEnv``; each action
+    held for ``hold`` samples."""
     import gymnasium as gym
     from stable_baselines3.common.monitor import Monitor
     from stable_baselines3.common.vec_env import DummyVecEnv
 
     from ..envs import make_env
+    from ..envs.hold import VecHoldAction
     from ..envs.sb3 import HideError, make_sb3_vec_env
 
     env_id, n = system.env_id, config.setting("num_envs", system)
@@ -159,6 +172,8 @@ def _vec_env(system: systems.System, references, plant, base, config: RLConfig):
         venv = make_sb3_vec_env(env_id, num_envs=n, **kwargs)
     else:
         venv = DummyVecEnv([lambda: Monitor(make_env(env_id, **kwargs))] * n)
+    if hold > 1:
+        venv = VecHoldAction(venv, hold)
     return venv if config.observe_error else HideError(venv, system.observation_error)
 
 
@@ -205,8 +220,15 @@ class RLFeedforward(Controller):
             return "none"
         return self.base_ if self.system_.nominal is None else self.system_.nominal.name
 
+    def hold(self) -> int:
+        """Control samples per agent action (``RLConfig.agent_rate`` on the machine's rate)."""
+        from ..envs.hold import samples_per_action
+
+        rate = self._config().setting("agent_rate", self.system_)
+        return samples_per_action(self.system_.fs, rate) if rate and self.system_.fs else 1
+
     def budget(self) -> int:
-        """Env steps of training: ``total_steps`` or passes x training samples."""
+        """Env steps (control samples) of training: ``total_steps`` or passes x training samples."""
         cfg = self._config()
         if cfg.total_steps is not None:
             return int(cfg.total_steps)
@@ -231,7 +253,8 @@ class RLFeedforward(Controller):
         config = {k: v for k, v in asdict(self._config()).items()
                   if k not in ("cache", "cache_dir", "progress", "safeguard")}
         h = hashlib.sha256()
-        h.update(json.dumps({"config": config, "system": self.system_.name, "budget": self.budget(), "plant": repr(plant),
+        h.update(json.dumps({"config": config, "system": self.system_.name, "budget": self.budget(), "hold": self.hold(),
+                             "plant": repr(plant),
                              "lcgym": source_hash(), "sb3": stable_baselines3.__version__,
                              "torch": torch.__version__}, sort_keys=True, default=str).encode())
         for r in self.training_:  # the references, and the base feedforward the residual adds to
@@ -265,7 +288,8 @@ class RLFeedforward(Controller):
 
         cfg = self._config()
         algorithm = _algorithm_class(cfg.algorithm)
-        venv = _vec_env(self.system_, self.training_, plant, self._base(), cfg)
+        hold = self.hold()
+        venv = _vec_env(self.system_, self.training_, plant, self._base(), cfg, hold)
         rows: list[dict] = []
         shown = [(f"rms_{self.training_[0].axes[i]}_{unit}", factor)
                  for i, (factor, unit) in zip(self._scored(), self._display(), strict=True)]
@@ -274,14 +298,14 @@ class RLFeedforward(Controller):
                    disable=not cfg.progress, leave=False)
 
         class TrainingCurve(BaseCallback):
-            """One row per finished episode: env steps so far, return, RMS tracking error per scored
-            axis [deg or mm]."""
+            """One row per finished episode: env steps (control samples) so far, return, RMS tracking
+            error per scored axis [deg or mm]."""
 
             def _on_step(self) -> bool:
-                bar.update(self.training_env.num_envs)
+                bar.update(self.training_env.num_envs * hold)
                 for info in self.locals["infos"]:
                     if "tracking_rms" in info:
-                        rows.append({"env_steps": self.num_timesteps, "return": info["episode"]["r"],
+                        rows.append({"env_steps": self.num_timesteps * hold, "return": info["episode"]["r"],
                                      **{name: float(factor * v)
                                         for (name, factor), v in zip(shown, info["tracking_rms"], strict=True)}})
                         last = list(rows[-1].values())[2:]
@@ -293,14 +317,15 @@ class RLFeedforward(Controller):
             with torch_settings():
                 model = algorithm("MlpPolicy", venv, seed=cfg.seed, device="cpu", verbose=0, **cfg.agent_kwargs())
                 t0 = time.perf_counter()
-                model.learn(self.budget(), callback=TrainingCurve(), progress_bar=False)
+                model.learn(-(-self.budget() // hold), callback=TrainingCurve(), progress_bar=False)  # agent steps
                 seconds = time.perf_counter() - t0
         finally:
             bar.close()
         venv.close()
         self.model_ = model
         self.curve_ = pd.DataFrame(rows, columns=["env_steps", "return", *[name for name, _ in shown]])
-        return {"env_steps": int(model.num_timesteps), "episodes": len(rows) + venv.num_envs,
+        samples = int(model.num_timesteps) if hold == 1 else int(venv.samples_run)
+        return {"env_steps": samples, "episodes": len(rows) + venv.num_envs, "hold": hold,
                 "seconds": round(seconds, 3), "algorithm": cfg.algorithm}
 
     def _safeguard(self, plant) -> None:
@@ -362,14 +387,15 @@ class RLFeedforward(Controller):
         """Deterministic rollout on ``reference`` with the residual acting on the axes ``kept``: its
         ``Trial`` (``ff``: the applied feedforward).
 
-        The residual of the first sample is zero: the env settles the plant at the start with the
+        The residual of the first action (its held samples) is zero: the env settles the plant at the start with the
         base feedforward, a replay (``plant.run``) with the feedforward's first sample; equal
         first samples make the replay equal to the rollout (tested)."""
         from ..envs import make_env
+        from ..envs.hold import HoldAction
 
         cfg = self._config()
-        env = make_env(self.system_.env_id, references=[reference], base_feedforward=self._base(), plant=plant,
-                       episode_steps=None)
+        env = HoldAction(make_env(self.system_.env_id, references=[reference], base_feedforward=self._base(),
+                                  plant=plant, episode_steps=None), self.hold())
         hide = self.system_.observation_error
         act = deterministic_actor(self.model_)
         obs, _ = env.reset(seed=cfg.seed, options={"reference": 0})

@@ -24,6 +24,8 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
+from .hold import VecHoldAction, hold_samples
+
 
 class SB3VecAdapter(VecEnv):
     """Wraps a vector env (``IXVectorEnv``, ``FlexArmVectorEnv``) built with
@@ -90,13 +92,18 @@ class SB3VecAdapter(VecEnv):
         return [False] * len(self._get_indices(indices))
 
 
-def make_sb3_vec_env(env_id: str = "lcgym/IX-v1", num_envs: int = 4, **kwargs) -> SB3VecAdapter:
+def make_sb3_vec_env(env_id: str = "lcgym/IX-v1", num_envs: int = 4, agent_rate: float | None = None,
+                     **kwargs) -> SB3VecAdapter | VecHoldAction:
     """``gym.make_vec(env_id, num_envs, vector_entry_point, same-step autoreset)`` for stable-baselines3
-    (default: the IX's newest version; 4 envs: with PPO's default 2048 steps per env, its first
-    rollout of 8192 steps already ends episodes of the default 1000 samples and logs them)."""
-    venv = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point",
-                        autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
-    return SB3VecAdapter(venv)
+    (default: the IX's newest version; 4 envs). ``agent_rate`` [Hz]: each action held so that the
+    agent acts at that rate (``envs.hold``; ``AGENT_RATE``, 50 Hz, holds 10 samples on the IX and
+    20 on the 1 kHz machines: what the recipe of docs/environments.md uses); ``None``, the
+    default: an action every sample. With episodes of the default 1000 samples, PPO's first
+    rollout (2048 agent steps per env) already ends episodes and logs them. ``kwargs`` go to the env."""
+    venv = SB3VecAdapter(gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point",
+                                      autoreset_mode=AutoresetMode.SAME_STEP, **kwargs))
+    samples = hold_samples(venv.venv, agent_rate)
+    return venv if samples == 1 else VecHoldAction(venv, samples)
 
 
 class HideError(VecEnvWrapper):

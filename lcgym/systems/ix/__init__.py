@@ -47,8 +47,9 @@ IX = System(
     candidates=CANDIDATES,
     quadratic_in_nonlinear=True,
     # the benchmark's PGNN trains on a run with the physical model's feedforward on, u low-passed at
-    # 5 Hz; the RL agent gets 3 passes over the training samples in 8 envs
-    hints={"benchmark": {"pgnn": {"collect": "physical", "filter_hz": 5.0}, "rl": {"passes": 3.0, "num_envs": 8}}},
+    # 5 Hz; the RL agent gets 3 passes over the training samples in 8 envs, acting at 50 Hz
+    hints={"benchmark": {"pgnn": {"collect": "physical", "filter_hz": 5.0},
+                         "rl": {"passes": 3.0, "num_envs": 8, "agent_rate": 50.0}}},
     description="interventional X-ray C-arm of paper 000: propeller and roll, input in V",
     joint_axes=joint_axes,
     bench=IXBench,
