@@ -2,13 +2,14 @@
 
 Every lcgym env steps one control sample per action (2 ms on the IX, 1 ms on the arms and the
 EMPS). An agent that acts that often must assign credit through the closed loop over hundreds of
-steps: with PPO's discount 0.99 its horizon is 100 samples, 0.2 s on the IX, shorter than the
-loop's own response, and one sample's action barely moves the next error. Measured with
-stable-baselines3's PPO, all defaults, on the IX-v1 residual (``studies/rl_recipe.py``): acting on
-every sample, the deterministic policy's validation return wanders between 0.8 and 1.4 times the
-base feedforward's; holding each action for 10 samples (the agent at 50 Hz), it rises steadily to
-about 0.3 times the base's within 65,536 agent steps. The feedforward a machine needs is smooth
-(the references are), so 50 Hz loses little; the tracking error is still scored on every sample.
+steps: PPO's discount 0.99 weighs about 100 samples, 0.2 s on the IX, and one sample's action
+barely moves the next error. Measured with stable-baselines3's PPO, all defaults, on the IX-v1
+residual (``studies/rl_recipe.py``, docs/environments.md): acting on every sample, the
+deterministic policy's validation return wanders between 0.84 and 1.39 times the base
+feedforward's; holding each action for 10 samples (the agent at 50 Hz), it rises to 0.27 times the
+base's within 65,536 agent steps. The feedforward a machine needs is smooth (the references are),
+so 50 Hz loses little; the tracking error is still scored on every sample. Not on a flexible arm,
+whose residual shapes resonances near the hold's rate (the FlexArm: every sample).
 
 ``HoldAction`` wraps a single env, ``VecHoldAction`` a stable-baselines3 vector env: one agent step
 applies the action on ``samples`` consecutive samples and returns the last observation and the
