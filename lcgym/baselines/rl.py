@@ -298,8 +298,9 @@ class RLFeedforward(Controller):
                    disable=not cfg.progress, leave=False)
 
         class TrainingCurve(BaseCallback):
-            """One row per finished episode: env steps (control samples) so far, return, RMS tracking
-            error per scored axis [deg or mm]."""
+            """One row per finished episode: env steps so far (agent steps x hold: control samples,
+            counting an episode's last, shorter hold as whole), return, RMS tracking error per scored
+            axis [deg or mm]."""
 
             def _on_step(self) -> bool:
                 bar.update(self.training_env.num_envs * hold)
