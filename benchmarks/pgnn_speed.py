@@ -1,33 +1,35 @@
 """What makes a PGNN training step cheaper (``lcgym.pgnn``), each as a ratio to the plain
 implementation measured in the same run, one torch thread (as the benchmark's cells):
 
-* the tanh of the hidden layers, forward and backward on a (1e4, 30) float32 batch: torch's own
-  against ``pgnn.network.Tanh`` (numpy's tanh on CPU);
+* the IX's two networks (paper 000's: 16 inputs, two tanh layers of 30) forward and backward on a
+  batch of 1e4 samples: torch's autograd (``nn.Sequential``) against the compiled float32 kernels
+  of ``pgnn.fused``; with ``--alternatives`` also ``torch.compile`` of the same networks (its
+  compile time printed apart) and the BLAS matrix products alone;
 * R2 (eq. 30) with its gradient: eq. (30) differentiated in full (``physical_constraints``) against
   ``physics_penalty`` (the mass-matrix term as a constant while M is clearly positive definite);
   IX-v1 on 1e4 configurations, FlexArm-v1 on its 16 per batch;
 * R1's projection with its gradient (``pgnn.training._batch_projection``) on a FlexArm batch of
   4,000 samples: every column and the basis computed per step, against the all-zero columns left
   out and the basis of a batch used again (validation, a training split that fits one batch);
-* where a whole training step of the IX PGNN goes (batch 1e4, two torch threads, as
-  ``benchmarks/pgnn_tables.py``'s fits): the step (``pgnn.training.train`` run for 60 and for 10
-  steps, the difference per step), the two axes' networks forward and backward, and their 16
-  matrix products alone (the arithmetic any float32 implementation of the paper's MLPs does),
-  each as a share of the step, and what they come to over the 9,760 steps the N = 1e6 fit takes
-  to early stopping (``docs/speed.md``).
+* where a whole training step of the IX PGNN goes (batch 1e4, one torch thread, as the
+  benchmark's cells): the step (``pgnn.training.train`` run for 60 and for 10 steps, the
+  difference per step) and the parts of its cost function with their gradients: the networks, the
+  physical model, R1, R2, and Adam's update.
 
-Run:  .venv/bin/python benchmarks/pgnn_speed.py
+Run:  .venv/bin/python benchmarks/pgnn_speed.py [--alternatives]
 """
 
 from __future__ import annotations
 
+import argparse
 import time
 
 import numpy as np
 import torch
 
 from lcgym import systems
-from lcgym.pgnn.network import PGNNModule, Tanh, physical_constraints, physics_penalty
+from lcgym.pgnn.fused import fused_networks
+from lcgym.pgnn.network import PGNNModule, mlp, physical_constraints, physics_penalty
 from lcgym.pgnn.training import (
     PGNNConfig,
     TrainingData,
@@ -39,9 +41,6 @@ from lcgym.pgnn.training import (
 )
 from lcgym.systems.flexarm import motor
 from lcgym.systems.ix import IX
-
-STEPS_TO_EARLY_STOPPING = 9_760
-"""Adam steps of the IX PGNN with J on N = 1e6 to early stopping: 122 iterations of 80 (docs/speed.md)."""
 
 
 def per_call(f, repeat: int = 5, number: int = 50) -> float:
@@ -72,10 +71,42 @@ def r2_ratio(name: str, rng, n: int = 10_000) -> None:
     ratio_line(f"R2 with its gradient, {name}", full, lambda: physics_penalty(system, zeta, q).backward())
 
 
-def step_parts(rng, n: int = 100_000, threads: int = 2) -> None:
-    """The IX PGNN's training step and what of it the networks take (module docstring)."""
-    before = torch.get_num_threads()
-    torch.set_num_threads(threads)
+def networks(rng, alternatives: bool, n: int = 10_000) -> None:
+    """The IX's two networks forward + backward: torch's autograd against ``pgnn.fused``."""
+    nets = [mlp(16, (30, 30), "tanh") for _ in range(2)]
+    x = torch.tensor(rng.normal(size=(n, 16)), dtype=torch.float32)
+    dy = torch.tensor(rng.normal(size=(n, 2)), dtype=torch.float32)
+
+    def autograd(f=lambda x: torch.cat([net(x) for net in nets], dim=1)):
+        return lambda: (f(x) * dy).sum().backward()
+
+    ratio_line("networks forward + backward, autograd / fused", autograd(),
+               lambda: (fused_networks(x, nets) * dy).sum().backward())
+    if not alternatives:
+        return
+    t = time.perf_counter()
+    compiled = torch.compile(lambda x: torch.cat([net(x) for net in nets], dim=1))
+    autograd(compiled)()
+    print(f"  torch.compile of the networks: compiled in {time.perf_counter() - t:.1f} s "
+          f"(an empty cache: TORCHINDUCTOR_CACHE_DIR set to a new folder)")
+    ratio_line("networks forward + backward, torch.compile / fused", autograd(compiled),
+               lambda: (fused_networks(x, nets) * dy).sum().backward())
+    products = []  # forward x W per layer; backward: each weight's gradient, each hidden input's gradient
+    for net in nets:
+        widths = [layer.weight.shape for layer in net if isinstance(layer, torch.nn.Linear)]
+        for k, (out, inp) in enumerate(widths):
+            products += [((n, inp), (inp, out)), ((inp, n), (n, out))]
+            if k > 0:
+                products.append(((n, out), (out, inp)))
+    mats = [(torch.randn(*a), torch.randn(*b)) for a, b in products]
+    flops = sum(2 * a[0] * a[1] * b[1] for a, b in products)
+    ratio_line(f"their {len(products)} matrix products alone (BLAS) / fused", lambda: [torch.mm(a, b) for a, b in mats],
+               lambda: (fused_networks(x, nets) * dy).sum().backward())
+    print(f"  ({flops / 1e6:.0f} MFLOP per pass)")
+
+
+def step_parts(rng, n: int = 100_000) -> None:
+    """The IX PGNN's training step and the parts of its cost (module docstring), one thread."""
     q, qd, qdd = rng.uniform(-1.5, 1.5, (n, 2)), rng.normal(size=(n, 2)), rng.normal(size=(n, 2))
     zeta0 = IX.nominal_params().to_vector()
     config = PGNNConfig(max_epochs=1, patience=1)
@@ -90,38 +121,38 @@ def step_parts(rng, n: int = 100_000, threads: int = 2) -> None:
 
     fit(5)
     step = (min(fit(60) for _ in range(3)) - min(fit(10) for _ in range(3))) / 50
+    b = config.batch_size
     module = PGNNModule(IX, zeta0, inputs.shape[1])
-    x = torch.tensor(inputs[: config.batch_size], dtype=torch.float32)
-    nets = per_call(lambda: module.network(x).sum().backward(), number=20)
-    products = []  # forward x W per layer; backward: each weight's gradient, each hidden input's gradient
-    for net in module.nets:
-        widths = [layer.weight.shape for layer in net if isinstance(layer, torch.nn.Linear)]
-        for k, (out, inp) in enumerate(widths):
-            products += [((len(x), inp), (inp, out)), ((inp, len(x)), (len(x), out))]
-            if k > 0:
-                products.append(((len(x), out), (out, inp)))
-    mats = [(torch.randn(*a), torch.randn(*b)) for a, b in products]
-    matmul = per_call(lambda: [torch.mm(a, b) for a, b in mats], number=20)
-    flops = sum(2 * a[0] * a[1] * b[1] for a, b in products)
-    torch.set_num_threads(before)
-    print(f"\nIX PGNN training step, batch {len(x):,}, {threads} torch threads: {1e3 * step:.2f} ms "
-          f"(x {STEPS_TO_EARLY_STOPPING:,} steps: {step * STEPS_TO_EARLY_STOPPING:.0f} s)")
-    print(f"  the networks forward + backward {1e3 * nets:.2f} ms ({nets / step:.0%} of the step; "
-          f"x {STEPS_TO_EARLY_STOPPING:,}: {nets * STEPS_TO_EARLY_STOPPING:.0f} s)")
-    print(f"  their {len(products)} matrix products alone {1e3 * matmul:.2f} ms ({matmul / step:.0%}; "
-          f"{flops / matmul / 1e9:.0f} GFLOP/s; x {STEPS_TO_EARLY_STOPPING:,}: {matmul * STEPS_TO_EARLY_STOPPING:.0f} s)")
+    t = {k: torch.tensor(v[:b], dtype=torch.float32) for k, v in (("q", q), ("qd", qd), ("qdd", qdd), ("x", inputs))}
+    X = torch.tensor(data.X[:b], dtype=torch.float32)
+    columns = nonzero_columns(X)
+    known = [(X[:, i, c].contiguous(), projection_basis(X[:, i, c])) for i, c in enumerate(columns)]
+    r = torch.tensor(rng.normal(size=(b, 2)), dtype=torch.float32)
+    g = r.clone().requires_grad_()
+    opt = torch.optim.Adam(module.parameters(), lr=1e-3, foreach=True)
+    parts = {
+        "the networks": lambda: (module.network(t["x"]) * r).sum().backward(),
+        "the physical model": lambda: (module.physical(t["q"], t["qd"], t["qdd"]) * r).sum().backward(),
+        "R1 (the batch's basis known)": lambda: _batch_projection(X, g, columns, known).backward(),
+        "R2": lambda: physics_penalty(IX, module.zeta, t["q"]).backward(),
+        "Adam's update": opt.step,
+    }
+    print(f"\nIX PGNN training step, batch {b:,}, one torch thread: {1e3 * step:.2f} ms; its parts with their gradients:")
+    for label, f in parts.items():
+        module.zero_grad()
+        cost = per_call(f, number=20)
+        print(f"  {label:30s} {1e3 * cost:6.2f} ms ({cost / step:.0%})")
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--alternatives", action="store_true",
+                        help="also torch.compile of the networks (slow to compile) and the BLAS products alone")
+    args = parser.parse_args()
     torch.set_num_threads(1)
     rng = np.random.default_rng(0)
     print(f"{'':52s} {'plain':>11s}  {'lcgym':>11s}  ratio")
-
-    x = torch.tensor(rng.normal(size=(10_000, 30)), dtype=torch.float32, requires_grad=True)
-    ours = Tanh()
-    ratio_line("tanh forward + backward, (1e4, 30) float32", lambda: torch.tanh(x).sum().backward(),
-               lambda: ours(x).sum().backward())
-
+    networks(rng, args.alternatives)
     for name in ("ix-v1", "flexarm-v1"):
         r2_ratio(name, rng)
 

@@ -213,6 +213,18 @@ def test_an_iteration_is_a_number_of_adam_steps():
         PGNN(PGNNConfig(max_epochs=1, threads=1, steps_per_iteration=0), system=IX).fit(trials)
 
 
+def test_fixed_minibatches_learn_too():
+    """``reshuffle=False`` (fixed minibatches, their order reshuffled) trains on the same samples
+    along another path: the validation cost falls in both, and the two fits differ."""
+    trials = _trials(n=1, duration=3.0)
+    fits = {r: PGNN(PGNNConfig(max_epochs=3, batch_size=200, threads=1, steps_per_iteration=10, patience=5,
+                               reshuffle=r), system=IX).fit(trials) for r in (True, False)}
+    for m in fits.values():
+        j = [h["J_validation"] for h in m.info_["history"]]
+        assert np.all(np.isfinite(j)) and j[-1] < j[0]
+    assert fits[True].info_["history"][-1]["J_validation"] != fits[False].info_["history"][-1]["J_validation"]
+
+
 def test_zeta_steps_absolute_or_relative():
     trials = _trials(n=1, duration=3.0)
     absolute = PGNN(PGNNConfig(max_epochs=1, batch_size=500, threads=1, steps_per_iteration=3), system=IX).fit(trials)

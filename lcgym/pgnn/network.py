@@ -29,33 +29,9 @@ import torch
 from torch import nn
 
 from ..systems import System
+from .fused import fusable, fused_networks
 
-
-class _NumpyTanh(torch.autograd.Function):
-    """tanh through numpy on CPU tensors: torch 2.13's CPU ``tanh`` and ``tanh_backward`` take
-    0.6-1.2 ms on a (1e4, 30) float32 batch here, numpy's tanh 0.06 ms (both within an ulp of
-    the exact value; ``benchmarks/pgnn_speed.py``). Backward: d tanh(x) / dx = 1 - tanh(x)^2."""
-
-    @staticmethod
-    def forward(ctx, x):
-        y = torch.from_numpy(np.tanh(x.detach().contiguous().numpy()))
-        ctx.save_for_backward(y)
-        return y
-
-    @staticmethod
-    def backward(ctx, grad):
-        (y,) = ctx.saved_tensors
-        return grad * (1.0 - y * y)
-
-
-class Tanh(nn.Module):
-    """``nn.Tanh`` with numpy's tanh for CPU tensors (``_NumpyTanh``), torch's elsewhere."""
-
-    def forward(self, x):
-        return _NumpyTanh.apply(x) if x.device.type == "cpu" else torch.tanh(x)
-
-
-ACTIVATIONS = {"tanh": Tanh, "relu": nn.ReLU, "sigmoid": nn.Sigmoid}
+ACTIVATIONS = {"tanh": nn.Tanh, "relu": nn.ReLU, "sigmoid": nn.Sigmoid}
 
 
 def mlp(n_in: int, hidden: Sequence[int], activation: str) -> nn.Sequential:
@@ -102,10 +78,14 @@ class PGNNModule(nn.Module):
         return self.system.inverse_dynamics(self.zeta, q, qd, qdd)
 
     def network(self, inputs) -> torch.Tensor:
-        """f^C of eq. (13), (B, n_axes); zero when the network is switched off."""
+        """f^C of eq. (13), (B, n_axes); zero when the network is switched off. The paper's networks
+        (two tanh hidden layers, float32 on the CPU) run in the compiled kernels of ``pgnn.fused``,
+        any other through torch."""
         if not self.network_on:
             return torch.zeros(inputs.shape[0], len(self.nets), dtype=inputs.dtype)
         x = (inputs - self.input_mean) / self.input_std
+        if x.dtype == torch.float32 and all(fusable(net) for net in self.nets):
+            return fused_networks(x, self.nets)
         return torch.cat([net(x) for net in self.nets], dim=1)
 
     def forward(self, q, qd, qdd, inputs, X=None):

@@ -37,16 +37,20 @@ data set (the leaderboard's 8 training runs: 1.8e5 samples, 14 minibatches) the 
 only 70 steps and training stops early (IX-v1, seed 0: after 165 epochs, about 2,300 steps, at
 1.58x / 2.33x below the physical model, against 1.76x / 2.77x with 80-step iterations and absolute
 zeta steps; ``studies/pgnn_protocol.py`` rows A to C). So an iteration is
-``steps_per_iteration`` = 80 Adam steps (the paper's epoch at its N; minibatches drawn from a
-reshuffle at each pass over the data; a training split that fits one minibatch, the arm's, is that
-batch at every step), which is the paper's schedule at N = 1e6 and keeps it at any N;
-``steps_per_iteration=None`` is the literal one-epoch iteration.
+``steps_per_iteration`` = 80 Adam steps (the paper's epoch at its N), which is the paper's
+schedule at N = 1e6 and keeps it at any N; ``steps_per_iteration=None`` is the literal one-epoch
+iteration. The minibatches are drawn from a new random order of the training samples at each pass
+over them (a training split that fits one minibatch, the arm's, is that batch at every step).
+``reshuffle=False``: the training split, in random order, is cut into minibatches once, and these
+are visited in a new random order at each pass, so that each batch's projection basis for R1 is
+computed once and no samples are gathered per step: a step costs about 20 % less (docs/speed.md),
+the fit follows another, equally random path.
 
-What a step costs (``benchmarks/pgnn_speed.py``). The networks' tanh goes through numpy
-(``network.Tanh``); R2's mass-matrix term is differentiated only where M is near indefinite
-(``network.physics_penalty``); R1's projection leaves out regressor columns that are zero in all
-the data and keeps the bases of batches it sees again (validation, test, a one-batch training
-split). None of it changes the numbers beyond round-off.
+What a step costs (``benchmarks/pgnn_speed.py``, docs/speed.md). The paper's networks run forward
+and backward in compiled float32 kernels (``pgnn.fused``); R2's mass-matrix term is differentiated
+only where M is near indefinite (``network.physics_penalty``); R1's projection leaves out regressor
+columns that are zero in all the data and keeps the bases of batches it sees again (validation,
+test, fixed training batches).
 """
 
 from __future__ import annotations
@@ -78,6 +82,7 @@ class PGNNConfig:
     patience: int = 5  # iterations without improvement of the validation J
     max_epochs: int = 300  # lcgym's safety cap on iterations; the paper stops by validation only
     steps_per_iteration: int | None = 80  # lcgym: Adam steps per iteration (validation check); None: one epoch
+    reshuffle: bool = True  # minibatches from a new order of the samples at each pass; False: fixed batches (faster)
     zeta_steps: str = "absolute"  # Adam on zeta itself (the paper's) or "relative" to zeta0 (``pgnn.network``)
     split: tuple[float, float, float] = (0.8, 0.1, 0.1)
     seed: int = 0
@@ -238,23 +243,28 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
             r2 = physics_penalty(module.system, module.zeta, b["q"])
             return j_ls + config.mu1 * r1 + config.mu2 * r2, j_ls.detach(), r1.detach(), r2.detach()
 
-        def batches(part, shuffle=False):
+        def piece(b):
+            """The arrays of the rows ``b`` of a split (dict of contiguous tensors)."""
+            return ({k: b[:, c].contiguous() for k, c in columns.items()}
+                    | {"X": b[:, columns["X"]].reshape(len(b), *data.X.shape[1:]).contiguous()})
+
+        def batches(part):
             rows = split[part]
-            if shuffle:
-                rows = torch.index_select(rows, 0, torch.randperm(len(rows), generator=gen))
             for s in range(0, len(rows), config.batch_size):
-                b = rows[s : s + config.batch_size]
-                yield {k: b[:, c] for k, c in columns.items()} | {"X": b[:, columns["X"]].reshape(len(b), *data.X.shape[1:])}
+                yield piece(rows[s : s + config.batch_size])
 
         def known(b):
-            """The batch with each axis's regressor in float64 and its projection basis, for a batch
-            used again (the validation and test batches; the training batch where it is the whole split)."""
+            """The batch with each axis's regressor (its columns that are not all zero) and their
+            projection basis, computed once for a batch used again (validation, test, the fixed
+            training minibatches)."""
             if not config.regularize:
                 return b
-            xs = [b["X"][:, i, cols].double() for i, cols in enumerate(nonzero)]
+            xs = [b["X"][:, i, cols] for i, cols in enumerate(nonzero)]
             return b | {"projection": [(x, projection_basis(x)) for x in xs]}
 
-        fixed = {part: [known(b) for b in batches(part)] for part in ("validation", "test")}
+        per_epoch = -(-len(split["train"]) // config.batch_size)
+        once = ("validation", "test") if config.reshuffle and per_epoch > 1 else ("train", "validation", "test")
+        fixed = {part: [known(b) for b in batches(part)] for part in once}
 
         def evaluate(part):
             """Sample-weighted means of (J, J_LS, R1, R2) over the batches of a split."""
@@ -264,18 +274,22 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
 
         longest = 0.0  # the longest iteration so far [s], for the budget
 
-        per_epoch = -(-len(split["train"]) // config.batch_size)
-
         def stream():
-            """Training minibatches, reshuffled at each pass over the data, without end; where the
-            split fits in one minibatch, that batch every time (a reshuffle would change only the
-            round-off of its sums), with its projection basis computed once."""
-            if per_epoch == 1:
-                whole = known(next(batches("train")))
+            """Training minibatches without end. ``config.reshuffle``: drawn from a new random
+            order of the training samples at each pass over them; else the fixed minibatches,
+            visited in a new random order at each pass. A training split that fits one minibatch
+            is that batch every time (a reshuffle would change only the round-off of its sums)."""
+            while per_epoch == 1:
+                yield fixed["train"][0]
+            if not config.reshuffle:
                 while True:
-                    yield whole
+                    for i in torch.randperm(per_epoch, generator=gen).tolist():
+                        yield fixed["train"][i]
+            rows = split["train"]
             while True:
-                yield from batches("train", shuffle=True)
+                order = torch.randperm(len(rows), generator=gen)
+                for s in range(0, len(rows), config.batch_size):
+                    yield piece(torch.index_select(rows, 0, order[s : s + config.batch_size]))
 
         steps = config.steps_per_iteration or per_epoch
         source = stream()
