@@ -40,6 +40,7 @@ feedforward (``IXPlant.static_model``: the true rigid body and hidden effects th
 of the reference; what a static function of the PGNN's inputs can reach at best).
 
 Run:  .venv/bin/python benchmarks/pgnn_tables.py [--version v1] [--seed 0] [--data train] [--samples 1e6] [--quick]
+      [--variants J,J_LS,1hz,history,periods] [--fixed-batches]
 """
 
 from __future__ import annotations
@@ -106,6 +107,20 @@ def where_fc_lies(model: PGNN, trials) -> tuple[np.ndarray, np.ndarray]:
     return share, np.sqrt(np.mean(moved**2, axis=0))
 
 
+VARIANTS = {"J": "PGNN with J", "J_LS": "PGNN with J_LS", "1hz": "PGNN J, u at 1 Hz", "history": "PGNN J + history",
+            "periods": "PGNN J 10 Hz+periods"}
+"""The PGNNs fitted (``--variants``): short name -> label in the tables."""
+
+
+def config(variant: str, base: dict) -> PGNNConfig:
+    """The configuration of one of ``VARIANTS`` on top of the common settings ``base``."""
+    return {"J": lambda: PGNNConfig(**base),
+            "J_LS": lambda: PGNNConfig(regularize=False, **base),
+            "1hz": lambda: PGNNConfig(**{**base, "filter_hz": 1.0}),  # the paper's filter
+            "history": lambda: PGNNConfig(history=HISTORY, **base),
+            "periods": lambda: PGNNConfig(periods=((0, GEAR_PERIOD),), **{**base, "filter_hz": 10.0})}[variant]()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seed", type=int, default=0)
@@ -122,6 +137,10 @@ def main() -> None:
                         help="wall-time budget [s] of each whole PGNN fit (physical least squares + Algorithm 1; "
                              "PGNNConfig.max_seconds); 0: no budget, early stopping alone")
     parser.add_argument("--quick", action="store_true", help="1e5 samples and the two paper variants only")
+    parser.add_argument("--variants", default=",".join(VARIANTS),
+                        help=f"comma-separated PGNNs to fit, of {','.join(VARIANTS)} (default all)")
+    parser.add_argument("--fixed-batches", action="store_true",
+                        help="fixed minibatches (PGNNConfig.reshuffle=False) instead of a reshuffle at each pass")
     args = parser.parse_args()
     plant = IXPlant.of_version(args.version)
     print(f"IX-{args.version}")
@@ -147,12 +166,12 @@ def main() -> None:
     val_data = plant.run(val_refs, [physical.predict(r) for r in val_refs]) if args.collect_with == "physical" else val_fb
 
     budget = args.budget if args.budget > 0 else None
-    base = dict(mu1=args.mu1, max_epochs=args.max_epochs, filter_hz=args.filter_hz, seed=args.seed, max_seconds=budget)
-    variants = {"PGNN with J": PGNNConfig(**base), "PGNN with J_LS": PGNNConfig(regularize=False, **base)}
-    if not args.quick:
-        variants["PGNN J, u at 1 Hz"] = PGNNConfig(**{**base, "filter_hz": 1.0})  # the paper's filter
-        variants["PGNN J + history"] = PGNNConfig(history=HISTORY, **base)
-        variants["PGNN J 10 Hz+periods"] = PGNNConfig(periods=((0, GEAR_PERIOD),), **{**base, "filter_hz": 10.0})
+    base = dict(mu1=args.mu1, max_epochs=args.max_epochs, filter_hz=args.filter_hz, seed=args.seed, max_seconds=budget,
+                reshuffle=not args.fixed_batches)
+    chosen = args.variants.split(",")
+    if unknown := set(chosen) - set(VARIANTS):
+        parser.error(f"unknown variants {sorted(unknown)}; choose of {','.join(VARIANTS)}")
+    variants = {VARIANTS[v]: config(v, base) for v in VARIANTS if v in chosen and (not args.quick or v in ("J", "J_LS"))}
     models = {"physical model": physical}
     for label, cfg in variants.items():
         m = PGNN(cfg, system=IX).fit(data)
@@ -193,10 +212,11 @@ def main() -> None:
             ratio = table["physical model"]["RMS"][i] / nm["RMS"][i]
             print(f"{label:18s} {ax:9s} {nm['MA'][i]:7.3f} {nm['RMS'][i]:7.3f} {nm['Inf'][i]:7.3f} {ratio:18.2f}"
                   f"{paper_cell('tracking', label, i)}")
-    fc = {label: np.sqrt(np.mean(np.concatenate([models[label].nn_contribution(t) for t in val_data]) ** 2, axis=0))
-          for label in ("PGNN with J", "PGNN with J_LS")}
-    ratio = fc["PGNN with J_LS"] / fc["PGNN with J"]
-    print(f"\nNN contribution RMS(f^C) J_LS / J: {ratio[0]:.2f}x / {ratio[1]:.2f}x (paper 12.6x / 4.3x)")
+    if {"PGNN with J", "PGNN with J_LS"} <= set(models):
+        fc = {label: np.sqrt(np.mean(np.concatenate([models[label].nn_contribution(t) for t in val_data]) ** 2, axis=0))
+              for label in ("PGNN with J", "PGNN with J_LS")}
+        ratio = fc["PGNN with J_LS"] / fc["PGNN with J"]
+        print(f"\nNN contribution RMS(f^C) J_LS / J: {ratio[0]:.2f}x / {ratio[1]:.2f}x (paper 12.6x / 4.3x)")
     print("where f^C lies (validation runs): share of ||f^C||^2 in the column space of X(zeta^0); "
           "RMS of f^M(zeta) - f^M(zeta^0) [V]")
     for label, model in models.items():

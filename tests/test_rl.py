@@ -9,7 +9,7 @@ import pytest
 import torch
 from stable_baselines3 import PPO, SAC, TD3
 
-from lcgym.baselines.rl import HYPERPARAMETERS, RLConfig, RLFeedforward, deterministic_actor
+from lcgym.baselines.rl import HYPERPARAMETERS, RLConfig, RLFeedforward, deterministic_actor, ppo_rollout
 from lcgym.envs.sb3 import HideError, make_sb3_vec_env
 from lcgym.leaderboard.runner import BenchConfig, run_cell
 from lcgym.physics.model import PhysicalModel
@@ -196,8 +196,10 @@ def test_bench_cell_counts_env_steps(monkeypatch, tmp_path):
     # the IX's agent acts at 50 Hz: each action held 10 samples, and the last of an episode's holds
     # shorter (the reference's samples are not a multiple of 10); PPO trains in whole rollouts of
     # n_steps agent steps per env, 8 envs, which run their episodes in step
-    hold, n_steps = 10, HYPERPARAMETERS["ppo"]["n_steps"]
+    hold = 10
     agent_steps = -(-budget // hold)  # the budget counts samples, rounded up to whole holds
+    n_steps = ppo_rollout(HYPERPARAMETERS["ppo"]["n_steps"], HYPERPARAMETERS["ppo"]["batch_size"], agent_steps, 8)
+    assert n_steps < HYPERPARAMETERS["ppo"]["n_steps"]  # one short rollout covers this small budget
     per_env = -(-agent_steps // (8 * n_steps)) * n_steps  # agent steps per env
     per_episode = -(-train // hold)
     trained_steps = 8 * (per_env * hold - (per_env // per_episode) * (per_episode * hold - train))
@@ -275,3 +277,12 @@ def test_safeguard_judges_each_training_reference(ix_data):
     assert rl.safeguard_["policy"][0] < rl.safeguard_["base"][0]  # better on the whole: dropped all the same
     assert rl.safeguard_["references_worse"] == 1
     assert f"residual dropped on propeller (it raised the tracking error on 1 of {n} training references)" in rl.note_
+
+
+def test_ppo_rollout_no_longer_than_the_budget():
+    assert ppo_rollout(2048, 64, 10_000_000, 8) == 2048  # a large budget: SB3's rollout
+    assert ppo_rollout(2048, 64, 6_000, 8) == 752  # 750 per env, rounded up to whole minibatches
+    assert ppo_rollout(2048, 64, 2_100, 4) * 4 % 64 == 0 and ppo_rollout(2048, 64, 2_100, 4) * 4 >= 2_100
+    assert RLConfig().agent_kwargs(6_000, 8)["n_steps"] == 752
+    assert RLConfig(hyperparameters={"n_steps": 100}).agent_kwargs(6_000, 8)["n_steps"] == 100  # given: kept
+    assert RLConfig(algorithm="sac").agent_kwargs(6_000, 8).get("n_steps") is None

@@ -56,6 +56,7 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import math
 import os
 import time
 from contextlib import contextmanager
@@ -149,9 +150,25 @@ class RLConfig:
         defaults = {"passes": PASSES, "num_envs": NUM_ENVS, "agent_rate": 0.0}
         return system.hints.get("benchmark", {}).get("rl", {}).get(name, defaults[name])
 
-    def agent_kwargs(self) -> dict:
-        """The algorithm's keyword arguments: the defaults updated by ``hyperparameters``."""
-        return {**HYPERPARAMETERS[self.algorithm], **self.hyperparameters}
+    def agent_kwargs(self, agent_steps: int | None = None, num_envs: int = 1) -> dict:
+        """The algorithm's keyword arguments: the defaults updated by ``hyperparameters``. PPO's
+        rollout (``n_steps`` per env) where ``hyperparameters`` does not set it: no longer than a
+        budget of ``agent_steps`` over ``num_envs`` envs needs (``ppo_rollout``)."""
+        kwargs = {**HYPERPARAMETERS[self.algorithm], **self.hyperparameters}
+        if self.algorithm == "ppo" and agent_steps is not None and "n_steps" not in self.hyperparameters:
+            kwargs["n_steps"] = ppo_rollout(kwargs["n_steps"], kwargs["batch_size"], agent_steps, num_envs)
+        return kwargs
+
+
+def ppo_rollout(n_steps: int, batch_size: int, agent_steps: int, num_envs: int) -> int:
+    """PPO's agent steps per env and update: ``n_steps``, or fewer where one rollout of all
+    ``num_envs`` envs covers the whole budget of ``agent_steps`` (PPO trains in whole rollouts: a
+    budget of 2,000 agent steps would otherwise run 2,048 per env and 10 epochs over all of them),
+    rounded up so that the rollout is a whole number of minibatches of ``batch_size``. The
+    benchmark's full budgets all exceed one rollout of 2,048; ``lcgym bench --quick``'s do not."""
+    step = batch_size // math.gcd(batch_size, num_envs)
+    needed = -(-agent_steps // num_envs)
+    return min(n_steps, -(-needed // step) * step)
 
 
 def _vec_env(system: systems.System, references, plant, base, config: RLConfig, hold: int):
@@ -316,9 +333,11 @@ class RLFeedforward(Controller):
 
         try:
             with torch_settings():
-                model = algorithm("MlpPolicy", venv, seed=cfg.seed, device="cpu", verbose=0, **cfg.agent_kwargs())
+                agent_steps = -(-self.budget() // hold)
+                model = algorithm("MlpPolicy", venv, seed=cfg.seed, device="cpu", verbose=0,
+                                  **cfg.agent_kwargs(agent_steps, venv.num_envs))
                 t0 = time.perf_counter()
-                model.learn(-(-self.budget() // hold), callback=TrainingCurve(), progress_bar=False)  # agent steps
+                model.learn(agent_steps, callback=TrainingCurve(), progress_bar=False)
                 seconds = time.perf_counter() - t0
         finally:
             bar.close()

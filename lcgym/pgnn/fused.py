@@ -160,9 +160,6 @@ def backward_kernel(x, W2, w3, a1, a2, dy, gW1, gb1, gW2, gb2, gw3, d1, d2):
                     gW1[a, k, i] += s
 
 
-numba.config.CACHE_DIR = _previous_cache_dir
-
-
 @_jit
 def to_tiles(v, out, columns_first):
     """Write v (B, m) float32 into tiles with zero padding: out[c, i, t] = v[c TILE + t, i] with
@@ -176,6 +173,9 @@ def to_tiles(v, out, columns_first):
             for t in range(T):
                 s = c * T + t
                 row[t] = v[s, i] if s < B else 0.0
+
+
+numba.config.CACHE_DIR = _previous_cache_dir
 
 
 class _Scratch:
