@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import time
 
+import numba
 import numpy as np
 import torch
 
@@ -135,13 +136,16 @@ def step_parts(rng, n: int = 100_000) -> None:
         "the physical model": lambda: (module.physical(t["q"], t["qd"], t["qdd"]) * r).sum().backward(),
         "R1 (the batch's basis known)": lambda: _batch_projection(X, g, columns, known).backward(),
         "R2": lambda: physics_penalty(IX, module.zeta, t["q"]).backward(),
-        "Adam's update": opt.step,
+        "Adam's update": opt.step,  # after the parts above: every parameter has its gradient
     }
     print(f"\nIX PGNN training step, batch {b:,}, one torch thread: {1e3 * step:.2f} ms; its parts with their gradients:")
+    total = 0.0
     for label, f in parts.items():
-        module.zero_grad()
         cost = per_call(f, number=20)
+        total += cost
         print(f"  {label:30s} {1e3 * cost:6.2f} ms ({cost / step:.0%})")
+    print(f"  {'the rest':30s} {1e3 * (step - total):6.2f} ms ({1 - total / step:.0%}): the batch's gather, J_LS, "
+          f"R1's basis of a reshuffled batch, autograd's own work")
 
 
 def main() -> None:
@@ -150,6 +154,7 @@ def main() -> None:
                         help="also torch.compile of the networks (slow to compile) and the BLAS products alone")
     args = parser.parse_args()
     torch.set_num_threads(1)
+    numba.set_num_threads(1)  # the compiled networks' threads (one axis each)
     rng = np.random.default_rng(0)
     print(f"{'':52s} {'plain':>11s}  {'lcgym':>11s}  ratio")
     networks(rng, args.alternatives)

@@ -33,6 +33,7 @@ _previous_cache_dir = numba.config.CACHE_DIR
 numba.config.CACHE_DIR = cache_dir(__file__)
 # error_model="numpy": no division-by-zero check in the loops, which would stop their vectorization
 _jit = numba.njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+_parallel = numba.njit(cache=True, fastmath=FASTMATH, error_model="numpy", parallel=True)  # axes on numba's threads
 
 # tanh(x) = x p(x^2) / q(x^2) on |x| <= CLAMP, +-1 (in float32) beyond: a rational minimax fit
 # (the one of the Eigen library's float tanh), within 3e-7 of the exact value (tests/test_pgnn_fused.py)
@@ -65,14 +66,14 @@ def tanh_array(x):
     return out
 
 
-@_jit
+@_parallel
 def forward_kernel(x, W1, b1, W2, b2, w3, a1, a2, y):
     """y[a] = w3[a] . tanh(W2[a] tanh(W1[a] x + b1[a]) + b2[a]) per tile. x (n_tiles, n, T);
     a1 (A, n_tiles, h1, T), a2 (A, n_tiles, h2, T): the hidden activations (written); y (A, n_tiles, T)."""
     n_axes, h1, n = W1.shape
     h2 = W2.shape[1]
     n_tiles, _, T = x.shape
-    for a in range(n_axes):
+    for a in numba.prange(n_axes):
         for c in range(n_tiles):
             for j in range(h1):
                 z = a1[a, c, j]
@@ -104,24 +105,24 @@ def forward_kernel(x, W1, b1, W2, b2, w3, a1, a2, y):
                     out[t] += w * v
 
 
-@_jit
+@_parallel
 def backward_kernel(x, W2, w3, a1, a2, dy, gW1, gb1, gW2, gb2, gw3, d1, d2):
     """Gradients of sum(dy * y) with respect to the weights (written into gW1 ... gw3, shaped like
-    the weights), from the activations of ``forward_kernel``. dy (A, n_tiles, T); d1 (h1, T) and
-    d2 (h2, T) scratch: the gradients of the hidden layers' pre-activations within a tile."""
+    the weights), from the activations of ``forward_kernel``. dy (A, n_tiles, T); d1 (A, h1, T) and
+    d2 (A, h2, T) scratch: the gradients of the hidden layers' pre-activations within a tile."""
     n_axes, h2, h1 = W2.shape
     n_tiles, n, T = x.shape
     one = np.float32(1.0)
-    gW1[:] = 0.0
-    gb1[:] = 0.0
-    gW2[:] = 0.0
-    gb2[:] = 0.0
-    gw3[:] = 0.0
-    for a in range(n_axes):
+    for a in numba.prange(n_axes):
+        gW1[a] = 0.0
+        gb1[a] = 0.0
+        gW2[a] = 0.0
+        gb2[a] = 0.0
+        gw3[a] = 0.0
         for c in range(n_tiles):
             g = dy[a, c]
             for j in range(h2):  # output layer, then the second hidden layer's pre-activation
-                h, dj, w = a2[a, c, j], d2[j], w3[a, j]
+                h, dj, w = a2[a, c, j], d2[a, j], w3[a, j]
                 s3 = np.float32(0.0)
                 sb = np.float32(0.0)
                 for t in range(T):
@@ -138,11 +139,11 @@ def backward_kernel(x, W2, w3, a1, a2, dy, gW1, gb1, gW2, gb2, gw3, d1, d2):
                         s += dj[t] * hk[t]
                     gW2[a, j, k] += s
             for k in range(h1):  # the first hidden layer
-                dk = d1[k]
+                dk = d1[a, k]
                 for t in range(T):
                     dk[t] = 0.0
                 for j in range(h2):
-                    w, dj = W2[a, j, k], d2[j]
+                    w, dj = W2[a, j, k], d2[a, j]
                     for t in range(T):
                         dk[t] += w * dj[t]
                 hk = a1[a, c, k]
@@ -194,7 +195,7 @@ class _Scratch:
         f32 = np.float32
         return {"key": key, "x": np.empty((n_tiles, n_in, TILE), f32), "dy": np.empty((n_axes, n_tiles, TILE), f32),
                 "a1": np.empty((n_axes, n_tiles, h1, TILE), f32), "a2": np.empty((n_axes, n_tiles, h2, TILE), f32),
-                "d1": np.empty((h1, TILE), f32), "d2": np.empty((h2, TILE), f32)}
+                "d1": np.empty((n_axes, h1, TILE), f32), "d2": np.empty((n_axes, h2, TILE), f32)}
 
     def give(self, arrays: dict[str, np.ndarray]) -> None:
         free = self._free.setdefault(arrays["key"], [])
