@@ -24,12 +24,11 @@ from __future__ import annotations
 import argparse
 import time
 
-import numba
 import numpy as np
 import torch
 
 from lcgym import systems
-from lcgym.pgnn.fused import fused_networks
+from lcgym.pgnn.fused import fused_networks, tanh_array
 from lcgym.pgnn.network import PGNNModule, mlp, physical_constraints, physics_penalty
 from lcgym.pgnn.training import (
     PGNNConfig,
@@ -104,6 +103,10 @@ def networks(rng, alternatives: bool, n: int = 10_000) -> None:
     ratio_line(f"their {len(products)} matrix products alone (BLAS) / fused", lambda: [torch.mm(a, b) for a, b in mats],
                lambda: (fused_networks(x, nets) * dy).sum().backward())
     print(f"  ({flops / 1e6:.0f} MFLOP per pass)")
+    h = rng.normal(size=(n, 30)).astype(np.float32)
+    th = torch.from_numpy(h)
+    ratio_line("tanh of (1e4, 30) float32, numpy / fused.tanh32", lambda: np.tanh(h), lambda: tanh_array(h))
+    ratio_line("tanh of (1e4, 30) float32, torch / fused.tanh32", lambda: torch.tanh(th), lambda: tanh_array(h))
 
 
 def step_parts(rng, n: int = 100_000) -> None:
@@ -154,7 +157,6 @@ def main() -> None:
                         help="also torch.compile of the networks (slow to compile) and the BLAS products alone")
     args = parser.parse_args()
     torch.set_num_threads(1)
-    numba.set_num_threads(1)  # the compiled networks' threads (one axis each)
     rng = np.random.default_rng(0)
     print(f"{'':52s} {'plain':>11s}  {'lcgym':>11s}  ratio")
     networks(rng, args.alternatives)

@@ -33,7 +33,6 @@ _previous_cache_dir = numba.config.CACHE_DIR
 numba.config.CACHE_DIR = cache_dir(__file__)
 # error_model="numpy": no division-by-zero check in the loops, which would stop their vectorization
 _jit = numba.njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-_parallel = numba.njit(cache=True, fastmath=FASTMATH, error_model="numpy", parallel=True)  # axes on numba's threads
 
 # tanh(x) = x p(x^2) / q(x^2) on |x| <= CLAMP, +-1 (in float32) beyond: a rational minimax fit
 # (the one of the Eigen library's float tanh), within 3e-7 of the exact value (tests/test_pgnn_fused.py)
@@ -66,14 +65,14 @@ def tanh_array(x):
     return out
 
 
-@_parallel
+@_jit
 def forward_kernel(x, W1, b1, W2, b2, w3, a1, a2, y):
     """y[a] = w3[a] . tanh(W2[a] tanh(W1[a] x + b1[a]) + b2[a]) per tile. x (n_tiles, n, T);
     a1 (A, n_tiles, h1, T), a2 (A, n_tiles, h2, T): the hidden activations (written); y (A, n_tiles, T)."""
     n_axes, h1, n = W1.shape
     h2 = W2.shape[1]
     n_tiles, _, T = x.shape
-    for a in numba.prange(n_axes):
+    for a in range(n_axes):
         for c in range(n_tiles):
             for j in range(h1):
                 z = a1[a, c, j]
@@ -105,7 +104,7 @@ def forward_kernel(x, W1, b1, W2, b2, w3, a1, a2, y):
                     out[t] += w * v
 
 
-@_parallel
+@_jit
 def backward_kernel(x, W2, w3, a1, a2, dy, gW1, gb1, gW2, gb2, gw3, d1, d2):
     """Gradients of sum(dy * y) with respect to the weights (written into gW1 ... gw3, shaped like
     the weights), from the activations of ``forward_kernel``. dy (A, n_tiles, T); d1 (A, h1, T) and
@@ -113,7 +112,7 @@ def backward_kernel(x, W2, w3, a1, a2, dy, gW1, gb1, gW2, gb2, gw3, d1, d2):
     n_axes, h2, h1 = W2.shape
     n_tiles, n, T = x.shape
     one = np.float32(1.0)
-    for a in numba.prange(n_axes):
+    for a in range(n_axes):
         gW1[a] = 0.0
         gb1[a] = 0.0
         gW2[a] = 0.0

@@ -58,7 +58,6 @@ from __future__ import annotations
 import time
 from dataclasses import asdict, dataclass, field
 
-import numba
 import numpy as np
 import torch
 
@@ -209,10 +208,9 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
         raise ValueError(f"steps_per_iteration must be >= 1 or None, got {config.steps_per_iteration}")
     from tqdm.auto import tqdm
 
-    before = torch.get_num_threads(), numba.get_num_threads()
-    if config.threads:  # torch's and the compiled networks' (pgnn.fused: one axis per thread)
+    before = torch.get_num_threads()
+    if config.threads:
         torch.set_num_threads(config.threads)
-        numba.set_num_threads(min(config.threads, numba.config.NUMBA_NUM_THREADS))
     try:
         gen = torch.Generator().manual_seed(config.seed)
         n = data.u.shape[0]
@@ -323,5 +321,4 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
         return {"history": history, "epochs": len(history), "seconds": time.perf_counter() - t0,
                 "J_LS_test": float(evaluate("test")["J_LS"]), "n_samples": n, "config": asdict(config)}
     finally:
-        torch.set_num_threads(before[0])
-        numba.set_num_threads(before[1])
+        torch.set_num_threads(before)
