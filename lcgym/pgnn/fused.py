@@ -65,43 +65,40 @@ def tanh_array(x):
     return out
 
 
+@numba.njit(cache=True, fastmath=FASTMATH, error_model="numpy", inline="always")
+def _layer(out, W, b, inputs):
+    """out[j] = tanh(b[j] + sum_k W[j, k] inputs[k]) for each row j, over the tile's samples:
+    out (h, T), W (h, m), b (h,), inputs (m, T)."""
+    T = out.shape[1]
+    for j in range(W.shape[0]):
+        z = out[j]
+        bias = b[j]
+        for t in range(T):
+            z[t] = bias
+        for k in range(W.shape[1]):
+            w, xk = W[j, k], inputs[k]
+            for t in range(T):
+                z[t] += w * xk[t]
+        for t in range(T):
+            z[t] = tanh32(z[t])
+
+
 @_jit
 def forward_kernel(x, W1, b1, W2, b2, w3, a1, a2, y):
     """y[a] = w3[a] . tanh(W2[a] tanh(W1[a] x + b1[a]) + b2[a]) per tile. x (n_tiles, n, T);
     a1 (A, n_tiles, h1, T), a2 (A, n_tiles, h2, T): the hidden activations (written); y (A, n_tiles, T)."""
-    n_axes, h1, n = W1.shape
-    h2 = W2.shape[1]
-    n_tiles, _, T = x.shape
+    n_axes, n_tiles, T = W1.shape[0], x.shape[0], x.shape[2]
     for a in range(n_axes):
         for c in range(n_tiles):
-            for j in range(h1):
-                z = a1[a, c, j]
-                bias = b1[a, j]
-                for t in range(T):
-                    z[t] = bias
-                for k in range(n):
-                    w, xk = W1[a, j, k], x[c, k]
-                    for t in range(T):
-                        z[t] += w * xk[t]
-                for t in range(T):
-                    z[t] = tanh32(z[t])
+            _layer(a1[a, c], W1[a], b1[a], x[c])
+            _layer(a2[a, c], W2[a], b2[a], a1[a, c])
             out = y[a, c]
             for t in range(T):
                 out[t] = 0.0
-            for j in range(h2):
-                z = a2[a, c, j]
-                bias = b2[a, j]
+            for j in range(W2.shape[1]):
+                w, h = w3[a, j], a2[a, c, j]
                 for t in range(T):
-                    z[t] = bias
-                for k in range(h1):
-                    w, hk = W2[a, j, k], a1[a, c, k]
-                    for t in range(T):
-                        z[t] += w * hk[t]
-                w = w3[a, j]
-                for t in range(T):
-                    v = tanh32(z[t])
-                    z[t] = v
-                    out[t] += w * v
+                    out[t] += w * h[t]
 
 
 @_jit
