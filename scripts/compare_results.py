@@ -3,7 +3,10 @@ another commit) is from the shipped ``results/leaderboard.csv``.
 
 Rows are matched on (system, method, seed, reference_set, axis, signal, period); per (system,
 method) it prints how many of the MA, RMS and Inf values differ at all, the median and the largest
-relative difference |a - b| / |a| of RMS, and the largest of all three norms. Rows in only one of
+relative difference |a - b| / |a| of RMS, the largest of all three norms, and the largest change
+of RMS in units of its spread over seeds in the first file (``RMS_max_in_std``: |a - b| / s, s the
+sample standard deviation of a's RMS over the seeds of that system, method, reference set, axis,
+signal and period; NaN with one seed). Rows in only one of
 the files are counted and listed by cell. Counts (env steps, plant trials) are compared exactly;
 ``fit_seconds``, run ids and timestamps are not compared.
 
@@ -52,12 +55,16 @@ def compare(a: pd.DataFrame, b: pd.DataFrame, names: tuple[str, str] = ("first",
     m = both[both["_merge"] == "both"].copy()
     rel = pd.DataFrame({c: relative(m[f"{c}_a"], m[f"{c}_b"]) for c in NORMS}, index=m.index)
     counts_differ = sum((m[f"{c}_a"] != m[f"{c}_b"]) for c in COUNTS)
+    over_seeds = [k for k in KEY if k != "seed"]
+    spread = m.groupby(over_seeds, dropna=False)["RMS_a"].transform("std")
+    in_std = ((m["RMS_a"] - m["RMS_b"]).abs() / spread).where(rel["RMS"] > 0, 0.0)
     table = pd.DataFrame({
         "rows": m.groupby(["system", "method"]).size(),
         "values_differ": (rel > 0).sum(axis=1).groupby([m["system"], m["method"]]).sum(),
         "RMS_median": rel["RMS"].groupby([m["system"], m["method"]]).median(),
         "RMS_max": rel["RMS"].groupby([m["system"], m["method"]]).max(),
         "any_max": rel.max(axis=1).groupby([m["system"], m["method"]]).max(),
+        "RMS_max_in_std": in_std.groupby([m["system"], m["method"]]).max(),
         "counts_differ": counts_differ.groupby([m["system"], m["method"]]).sum(),
     })
     return table, only[KEY + ["only_in"]]

@@ -42,6 +42,16 @@ def test_a_changed_value_is_found_with_its_relative_size():
     assert table.loc[("ix-v1", "physical"), "counts_differ"] == 4
 
 
+def test_a_change_is_measured_in_the_spread_over_seeds():
+    a = results()
+    a.loc[(a.method == "pgnn") & (a.seed == 1), "RMS"] = 0.12  # two seeds, 0.1 and 0.12: s = 0.02 / sqrt(2)
+    b = a.copy()
+    b.loc[(b.method == "pgnn") & (b.seed == 0) & (b.axis == "roll"), "RMS"] = 0.1 + 0.005
+    table, _ = compare_results.compare(a, b)
+    assert table.loc[("ix-v1", "pgnn"), "RMS_max_in_std"] == pytest.approx(0.005 / (0.02 / np.sqrt(2)))
+    assert table.loc[("ix-v1", "physical"), "RMS_max_in_std"] == 0  # equal seeds (s = 0), nothing changed
+
+
 def test_failed_cells_compare_equal_and_a_new_failure_counts_as_infinite():
     a, b = results(), results()
     a.loc[0, ["MA", "RMS", "Inf"]] = np.nan
