@@ -33,7 +33,8 @@ TALLY = "lcgym_tally"  # the user_properties key of a self-counted test's counts
 
 def pytest_xdist_auto_num_workers(config):
     """``-n auto``: one worker per core this process may use, at most ``MAX_WORKERS``."""
-    return max(1, min(len(os.sched_getaffinity(0)), MAX_WORKERS))
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1  # macOS lacks it
+    return max(1, min(cores, MAX_WORKERS))
 
 
 def pytest_configure(config):
