@@ -93,6 +93,32 @@ def test_quadratic_design_is_exact():
     assert n_filtered < 40  # sparse: most coefficient columns are zero (21 x 22 if dense)
 
 
+def test_quadratic_design_of_the_nonlinear_columns_only_is_the_same_bit_for_bit(monkeypatch):
+    """The IX's columns other than ``IX.nonlinear_columns`` do not depend on zeta_n at all, and the
+    design built from evaluations of those columns only (in blocks of rows on two threads) is the
+    dense one's, bit for bit."""
+    import numba
+
+    monkeypatch.setattr(numba, "get_num_threads", lambda: 2)  # the blocks' path also in one-thread test workers
+    rng = np.random.default_rng(4)
+    q, qd, qdd = rng.normal(size=(3, 250_000, 2))
+    others = np.setdiff1d(np.arange(ix.N_LINEAR), IX.nonlinear_columns)
+    base = compiled.regressor(np.zeros(5), q, qd, qdd)
+    for zn in rng.normal(0, 0.1, (3, 5)):
+        full = compiled.regressor(zn, q, qd, qdd)
+        assert np.array_equal(full[:, :, others], base[:, :, others])
+        assert np.array_equal(compiled.regressor(zn, q, qd, qdd, columns=IX.nonlinear_columns),
+                              full[:, :, list(IX.nonlinear_columns)])
+    monkeypatch.setattr(numba, "get_num_threads", lambda: 1)
+    assert np.array_equal(compiled.regressor(zn, q, qd, qdd), full)  # one call: the same numbers
+    k = slice(None, 5000)
+    dense = _QuadraticDesign(lambda zn: compiled.regressor(zn, q[k], qd[k], qdd[k]), 5)
+    sparse = _QuadraticDesign(lambda zn, columns=None: compiled.regressor(zn, q[k], qd[k], qdd[k], columns=columns), 5,
+                              columns=IX.nonlinear_columns)
+    for zn in rng.normal(0, 0.1, (3, 5)):
+        assert np.array_equal(sparse(zn), dense(zn))
+
+
 def test_compiled_regressor_equals_numpy():
     rng = np.random.default_rng(3)
     q, qd, qdd = rng.normal(size=(3, 50, 2))
@@ -117,3 +143,13 @@ def test_effect_labels():
     for bad, msg in [("coulomb_friction", "NAME@AXIS"), ("friction@roll", "unknown effect")]:
         with pytest.raises(ValueError, match=msg):
             fx.make_effect(bad)
+
+
+@pytest.mark.parametrize("columns", [(ix.N_LINEAR,), (-1,)])
+def test_nonlinear_columns_out_of_range_rejected(columns):
+    import dataclasses
+
+    with pytest.raises(ValueError, match="nonlinear_columns"):
+        dataclasses.replace(IX, nonlinear_columns=columns)
+    with pytest.raises(ValueError, match="nonlinear_columns"):
+        dataclasses.replace(IX, quadratic_in_nonlinear=False)

@@ -10,7 +10,10 @@ from __future__ import annotations
 
 import hashlib
 import os
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+
+import numpy as np
 
 # LLVM fast-math flags for the kernels: fused multiply-add, reciprocals, reassociation. Not
 # 'nnan'/'ninf': the plant's divergence check must still see NaN and inf. Results stay
@@ -27,3 +30,23 @@ def cache_dir(*files: str) -> str:
         h.update(Path(path).read_bytes())
     root = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "lcgym" / "numba"
     return str(root / h.hexdigest()[:16])
+
+
+def in_row_blocks(kernel, head: tuple, rows: tuple, min_rows: int = 100_000) -> None:
+    """``kernel(*head, *rows)`` for a kernel that treats each row of the arrays ``rows`` (the output
+    among them, written in place) on its own: on large arrays, in blocks of rows on
+    ``numba.get_num_threads()`` threads (the kernel must be compiled ``nogil``). Each row runs the
+    same machine code as in one call, so the results are the same bit for bit; the benchmark's
+    workers, which set numba to one thread, make one call."""
+    import numba
+
+    n_rows = len(rows[0])
+    blocks = min(numba.get_num_threads(), n_rows // min_rows)
+    if blocks <= 1:
+        kernel(*head, *rows)
+        return
+    edges = np.linspace(0, n_rows, blocks + 1).astype(int)
+    with ThreadPoolExecutor(max_workers=blocks) as pool:
+        done = [pool.submit(kernel, *head, *(a[s:e] for a in rows)) for s, e in zip(edges[:-1], edges[1:], strict=True)]
+        for f in done:
+            f.result()

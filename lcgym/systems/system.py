@@ -179,7 +179,11 @@ class System:
     ``hints["benchmark"][method]``: the benchmark protocol's settings of a leaderboard method on it,
     e.g. ``{"rl": {"passes": 3.0, "num_envs": 8}}``; see the method's module).
     quadratic_in_nonlinear: the regressor's entries are polynomials of degree <= 2 in zeta_n
-    (the IX: a faster exact variable projection). description: one line for listings.
+    (the IX: a faster exact variable projection). nonlinear_columns: the linear parameters whose
+    regressor columns depend on zeta_n at all (the IX: the two masses, which multiply the centres
+    of mass in eqs. 4-7); the variable projection evaluates only these away from the given zeta_n,
+    through ``regressor(zeta_n, q, qd, qdd, columns=...)``; None: all. description: one line for
+    listings.
     joint_axes: ``() -> (n_axes, 3)``, the unit axis of each joint in the base frame at the
     machine's reference pose (the RBF expert's motion influence); None: all mutually perpendicular.
     caching: ``() -> context manager`` inside which the machine keeps its last regressors (a
@@ -206,6 +210,7 @@ class System:
     candidate_names: tuple[str, ...] | None = None
     hints: Mapping[str, Mapping] = field(default_factory=dict)
     quadratic_in_nonlinear: bool = False
+    nonlinear_columns: tuple[int, ...] | None = None
     description: str = ""
     joint_axes: Callable | None = None
     caching: Callable | None = None
@@ -234,6 +239,11 @@ class System:
             raise ValueError(f"{self.name}: positive parameter indices {bad} out of range")
         if self.fs is not None and not (np.isfinite(self.fs) and self.fs > 0):
             raise ValueError(f"{self.name}: fs must be > 0, got {self.fs}")
+        if self.nonlinear_columns is not None:
+            object.__setattr__(self, "nonlinear_columns", tuple(int(i) for i in self.nonlinear_columns))
+            if any(not 0 <= i < self.n_linear for i in self.nonlinear_columns) or not self.quadratic_in_nonlinear:
+                raise ValueError(f"{self.name}: nonlinear_columns must be indices of linear parameters (0..{self.n_linear - 1}) "
+                                 f"of a machine quadratic_in_nonlinear, got {self.nonlinear_columns}")
         object.__setattr__(self, "hints", {k: dict(v) for k, v in self.hints.items()})
         object.__setattr__(self, "envs", {k: dict(v) for k, v in self.envs.items()})
 

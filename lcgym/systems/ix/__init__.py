@@ -46,6 +46,7 @@ IX = System(
     effects=(PositionDependentFriction,),
     candidates=CANDIDATES,
     quadratic_in_nonlinear=True,
+    nonlinear_columns=(dynamics.M2, dynamics.M3),  # m2 x2, m3 y3 z3, ...: the masses carry zeta_n
     # the benchmark's PGNN trains on a run with the physical model's feedforward on, u low-passed at
     # 5 Hz; the RL agent gets 3 passes over the training samples in 8 envs, acting at 50 Hz
     hints={"benchmark": {"pgnn": {"collect": "physical", "filter_hz": 5.0},

@@ -12,7 +12,7 @@ import math
 import numba
 import numpy as np
 
-from ...physics.compiled import FASTMATH, cache_dir
+from ...physics.compiled import FASTMATH, cache_dir, in_row_blocks
 from . import dynamics as ix
 
 # numba reads CACHE_DIR when a function is decorated: set it for this module's kernels only
@@ -22,7 +22,7 @@ numba.config.CACHE_DIR = cache_dir(__file__, ix.__file__)
 _torques = ix.joint_torques
 
 
-@numba.njit(cache=True, fastmath=FASTMATH)
+@numba.njit(cache=True, fastmath=FASTMATH, nogil=True)  # nogil: blocks of rows on threads
 def _inverse_dynamics_sets(P, q, qd, qdd, out):
     for t in range(q.shape[0]):
         s2, c2, s3, c3 = math.sin(q[t, 0]), math.cos(q[t, 0]), math.sin(q[t, 1]), math.cos(q[t, 1])
@@ -33,12 +33,14 @@ def _inverse_dynamics_sets(P, q, qd, qdd, out):
 numba.config.CACHE_DIR = _previous_cache_dir
 
 
-def regressor(zeta_n, q, qd, qdd) -> np.ndarray:
-    """``dynamics.regressor`` (Lemma 1, eq. 17) for (T, 2) sample arrays, compiled: shape (T, 2, 11)."""
-    basis = np.zeros((ix.N_LINEAR, len(ix.PARAM_NAMES)))
-    basis[:, : ix.N_LINEAR] = np.eye(ix.N_LINEAR)
+def regressor(zeta_n, q, qd, qdd, columns=None) -> np.ndarray:
+    """``dynamics.regressor`` (Lemma 1, eq. 17) for (T, 2) sample arrays, compiled: shape (T, 2, 11);
+    ``columns``: only these linear parameters' columns, (T, 2, len(columns)), the same numbers."""
+    columns = np.arange(ix.N_LINEAR) if columns is None else np.asarray(columns, dtype=int)
+    basis = np.zeros((columns.size, len(ix.PARAM_NAMES)))
+    basis[np.arange(columns.size), columns] = 1.0
     basis[:, ix.N_LINEAR :] = np.asarray(zeta_n, dtype=float)
     q, qd, qdd = (np.ascontiguousarray(a, dtype=float).reshape(-1, 2) for a in (q, qd, qdd))
-    out = np.empty((q.shape[0], 2, ix.N_LINEAR))
-    _inverse_dynamics_sets(basis, q, qd, qdd, out)
+    out = np.empty((q.shape[0], 2, columns.size))
+    in_row_blocks(_inverse_dynamics_sets, (basis,), (q, qd, qdd, out))
     return out
