@@ -269,6 +269,23 @@ def test_parallel_jobs_give_the_serial_numbers(tmp_path):
                                   read_results(parallel)[cols].sort_values(key).reset_index(drop=True))
 
 
+def test_parallel_workers_take_the_costliest_methods_first(tmp_path, monkeypatch):
+    """Dispatch order only: methods by ``relative_cost`` from the costliest down, each method's cells
+    in the machines' and seeds' order; a user's method without a cost counts as 1 s."""
+    from lcgym.leaderboard.runner import costliest_first
+
+    (tmp_path / "costless.py").write_text("class WithoutCost:\n    def fit(self, trials):\n        return self\n\n"
+                                          "    def feedforward(self, reference):\n        return None\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    cells = BenchConfig(systems=("ix-v1", "flexarm-v1"), methods=("feedback", "pgnn", "physical", "rl",
+                                                                   "costless:WithoutCost"), seeds=(0, 1)).cells()
+    order = costliest_first(cells)
+    assert sorted(order) == sorted(cells)
+    assert [c[1] for c in order[:4]] == ["rl"] * 4 and [c[1] for c in order[-4:]] == ["feedback"] * 4
+    assert [c for c in order if c[1] == "pgnn"] == [c for c in cells if c[1] == "pgnn"]
+    assert [c[1] for c in order][8:12] == ["costless:WithoutCost"] * 4  # 1 s: after pgnn, before physical
+
+
 def test_leaderboard_ranks_one_configuration_and_the_newest_run_per_cell(tmp_path):
     from lcgym.leaderboard.report import select
 

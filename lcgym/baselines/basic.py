@@ -17,6 +17,7 @@ class BasicArmFeedforward(Controller):
     for ``systems.get``, such as "flexarm")."""
 
     name = "basic"
+    relative_cost = 0.0  # seconds of a quick cell (protocol.Controller)
     systems = ("flexarm",)  # the machines with a nominal structure
 
     def __init__(self, nominal=None, system: machines.System | str | None = None):

@@ -14,6 +14,7 @@ class FeedbackOnly(Controller):
     method's (the protocol hands it) and not needed."""
 
     name = "feedback"
+    relative_cost = 0.0  # seconds of a quick cell (protocol.Controller)
 
     def __init__(self, system: systems.System | str | None = None):
         self.system = system

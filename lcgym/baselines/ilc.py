@@ -175,6 +175,7 @@ class IterativeLearningControl(Controller):
     the machine (a ``System`` or a spec for ``systems.get``, such as "ix")."""
 
     name = "ilc"
+    relative_cost = 12.0  # seconds of a quick cell (protocol.Controller)
     uses_plant = True
 
     def __init__(self, config: ILCConfig | None = None, system: systems.System | str | None = None):
@@ -266,6 +267,7 @@ class ILCTransfer(IterativeLearningControl):
     to one trajectory; this shows how little of it carries over (paper 002, section 1)."""
 
     name = "ilc-transfer"
+    relative_cost = 3.0  # seconds of a quick cell (protocol.Controller)
 
     def fit(self, trials) -> ILCTransfer:
         super().fit(trials)

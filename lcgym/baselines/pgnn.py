@@ -78,6 +78,7 @@ class PGNNFeedforward(Controller):
     """
 
     name = "pgnn"
+    relative_cost = 18.0  # seconds of a quick cell (protocol.Controller)
     regularize = True
     uses_plant = True
     learns_once = True  # learn's plant runs happen on its first call (the training data), not per reference
@@ -142,4 +143,5 @@ class PGNNLSFeedforward(PGNNFeedforward):
     """Method ``pgnn-ls``: the same PGNN trained with J_LS only (no R1, no R2)."""
 
     name = "pgnn-ls"
+    relative_cost = 14.0  # seconds of a quick cell (protocol.Controller)
     regularize = False

@@ -20,6 +20,7 @@ class PhysicalFeedforward(Controller):
     has one (the arm), else None."""
 
     name = "physical"
+    relative_cost = 0.3  # seconds of a quick cell (protocol.Controller)
 
     def __init__(self, model: PhysicalModel | None = None, system: systems.System | str | None = None):
         self.model = model

@@ -58,6 +58,10 @@ class Controller:
 
     name = "controller"
     uses_plant = False
+    relative_cost = 1.0
+    """About how long a cell of this method takes, in seconds of ``lcgym bench --quick``'s cells on the
+    built-in machines (the median of their ``fit_seconds``, 2026-12-04): the runner starts the
+    costlier cells first, so that its parallel workers end together. It orders, nothing else."""
 
     def fit(self, trials: Sequence) -> Controller:
         self.cost_ = getattr(self, "cost_", Cost())

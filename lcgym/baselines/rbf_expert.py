@@ -47,6 +47,7 @@ class RBFExpertFeedforward(Controller):
     ``systems.get``, such as "flexarm")."""
 
     name = "rbf-expert"
+    relative_cost = 1.3  # seconds of a quick cell (protocol.Controller)
     uses_plant = True
 
     def __init__(self, config: RBFExpertConfig | None = None, learning: ILCConfig | None = None,

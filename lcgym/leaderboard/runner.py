@@ -119,7 +119,7 @@ def _single_thread() -> None:
     torch.set_num_threads(1)
 
 
-@lru_cache(maxsize=4)
+@lru_cache(maxsize=16)  # every machine and seed of a full run: its cells come in the order of costliest_first
 def _training_trials(system: str, seed: int, config: BenchConfig) -> list:
     """The feedback-only runs of a cell's training references: the same for every method of a
     (system, seed, budget), so computed once per process (the plants are deterministic)."""
@@ -217,6 +217,14 @@ def _failure(exc: Exception, stage: str) -> str:
     return f"{type(exc).__name__} in {stage}{place}: {' '.join(str(exc).split())}"
 
 
+def costliest_first(cells: Sequence[tuple[str, str, int]]) -> list[tuple[str, str, int]]:
+    """The cells in the order parallel workers take them: the methods' ``relative_cost`` from the
+    costliest down (a stable sort: a method's cells keep the machines' and seeds' order). Started
+    last, a long cell would run on alone while the other workers idle."""
+    cost = {m: float(getattr(load_method(m, CONTROLLERS), "relative_cost", 1.0)) for m in {c[1] for c in cells}}
+    return sorted(cells, key=lambda c: -cost[c[1]])
+
+
 def traces_dir(out: str | Path) -> Path:
     """Folder of the traces of a results CSV: ``<csv>.traces/<system>_<method>_<seed>.parquet``."""
     return Path(f"{out}.traces")
@@ -288,8 +296,9 @@ def run_benchmark(config: BenchConfig, out: str | Path, jobs: int | None = 1, da
             backend = {"backend": "dask"}
         try:
             with parallel_config(**backend):
-                tasks = (delayed(run_cell)(*cell, config, True, timeout) for cell in todo)
-                for result in Parallel(n_jobs=jobs if dask is None else -1, return_as="generator_unordered")(tasks):
+                tasks = (delayed(run_cell)(*cell, config, True, timeout) for cell in costliest_first(todo))
+                for result in Parallel(n_jobs=jobs if dask is None else -1, batch_size=1,
+                                       return_as="generator_unordered")(tasks):
                     store(result)
                     bar.update()
         finally:

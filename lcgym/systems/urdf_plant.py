@@ -353,6 +353,7 @@ class URDFPlant:
                                      self.robot.v_index)
         self._L = plant_effects.pack([e for e, r in zip(self._torques, reads_load, strict=True) if r], self.n_axes,
                                      self.robot.v_index)
+        self._reads_load = bool(self._L[:, 0].any())
         rotor = [e for e in self.bound_effects if isinstance(e, fx.RotorInertia)]
         if rotor:  # rotor inertias: on a copy, the system's model stays the URDF's
             self.model = self.model.copy()
@@ -541,11 +542,11 @@ class URDFPlant:
 
     def interval(self, S: np.ndarray, h: float, views: tuple) -> None:
         """One sample interval: ``substeps`` RK4 steps of size h with S[U] held; ``views``: ``views(S)``."""
-        model, data, aba, E, C = self.model, self.data, pin.aba, self._E, self._C
-        qpin, vs, tau = views
-        if self._L[:, 0].any():  # the slower path: a load-dependent friction reads g(q) at every stage
+        if self._reads_load:  # the slower path: a load-dependent friction reads g(q) at every stage
             self._interval_with_load(S, h, views)
             return
+        model, data, aba, E, C = self.model, self.data, pin.aba, self._E, self._C
+        qpin, vs, tau = views
         for _ in range(self.substeps):
             rk4_stage(0, vs, S, E, C, h)
             a = aba(model, data, qpin, vs, tau)
