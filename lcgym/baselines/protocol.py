@@ -11,8 +11,9 @@ A feedforward controller has
 * ``cost_``: a ``Cost`` with the plant trials and env steps it used beyond the shared training
   data (the runner adds wall time);
 * optionally ``reference_offset(reference) -> (T, n_axes)`` [rad] or None: added to the reference
-  the feedback tracks, on systems with that channel (the FlexArm's motor reference); and
-  ``systems``: the systems it runs on (default all).
+  the feedback tracks, on systems with that channel (the FlexArm's motor reference);
+  ``systems``: the systems it runs on (default all); and ``relative_cost``: about how many
+  seconds a quick cell of it takes (default 1), which only orders the parallel workers' cells.
 
 Subclassing ``Controller`` gives the no-op defaults; duck typing works too. A user's class is
 named on the command line as ``module:Class`` (see ``load_method``).
