@@ -518,7 +518,8 @@ def solve_min_norm(A, u, theta0, rcond: float = 1e-9, penalties=()):
 
 
 class _Design:
-    """Reduced design matrix at any zeta_n, by evaluating the regressor there (any machine)."""
+    """Reduced design matrix at any zeta_n, by evaluating the regressor there (any machine; every
+    column, so ``columns`` is not used)."""
 
     def __init__(self, evaluate, n, reduce=lambda A: A, columns=None):
         self._evaluate, self._reduce = evaluate, reduce
