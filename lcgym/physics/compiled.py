@@ -1,5 +1,6 @@
-"""Settings of lcgym's compiled (numba) kernels: the cache folder of every kernel, and the fast-math
-flags of those that use them (the IX's and the URDF plant's; the FlexArm's kernels run without).
+"""Settings of lcgym's compiled (numba) kernels: the cache folder of every kernel, the fast-math
+flags of those that use them (the IX's and the URDF plant's; the FlexArm's kernels run without),
+and ``in_row_blocks``, which runs a row-wise kernel on blocks of rows in numba's threads.
 
 The kernels themselves live with their machines (``systems/ix/kernel.py``, ``systems/ix/compiled.py``,
 ``systems/flexarm/*.py``, ``systems/urdf_plant.py``); they call the same ``register_jitable``
