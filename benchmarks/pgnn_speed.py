@@ -5,16 +5,16 @@ implementation measured in the same run, one torch thread (as the benchmark's ce
   batch of 1e4 samples: torch's autograd (``nn.Sequential``) against the compiled float32 kernels
   of ``pgnn.fused``; with ``--alternatives`` also ``torch.compile`` of the same networks (its
   compile time printed apart) and the BLAS matrix products alone;
-* R2 (eq. 30) with its gradient: eq. (30) differentiated in full (``physical_constraints``) against
-  ``physics_penalty`` (the mass-matrix term as a constant while M is clearly positive definite);
-  IX-v1 on 1e4 configurations, FlexArm-v1 on its 16 per batch;
-* R1's projection with its gradient (``pgnn.training._batch_projection``) on a FlexArm batch of
+* R2 (eq. 30) with its gradient: eq. (30) differentiated in full by torch's autograd
+  (``physical_constraints``) against ``physics_penalty`` (numpy, the mass-matrix term as a constant
+  while M is clearly positive definite); IX-v1 on 1e4 configurations, FlexArm-v1 on its 16 per batch;
+* R1's projection with its gradient (``pgnn.objective.batch_projection``) on a FlexArm batch of
   4,000 samples: every column and the basis computed per step, against the all-zero columns left
   out and the basis of a batch used again (validation, a training split that fits one batch);
 * where a whole training step of the IX PGNN goes (batch 1e4, one torch thread, as the
   benchmark's cells): the step (``pgnn.training.train`` run for 60 and for 10 steps, the
-  difference per step) and the parts of its cost function with their gradients: the networks, the
-  physical model, R1, R2, and Adam's update.
+  difference per step) and the parts of its cost function with their gradients in closed form
+  (``pgnn.objective``): the networks, the physical model, R1, R2, the batch's gather and Adam's update.
 
 Run:  .venv/bin/python benchmarks/pgnn_speed.py [--alternatives]
 """
@@ -30,15 +30,17 @@ import torch
 from lcgym import systems
 from lcgym.pgnn.fused import fused_networks, tanh_array
 from lcgym.pgnn.network import PGNNModule, mlp, physical_constraints, physics_penalty
-from lcgym.pgnn.training import (
-    PGNNConfig,
-    TrainingData,
-    _batch_projection,
-    network_inputs,
+from lcgym.pgnn.objective import (
+    Adam,
+    Batch,
+    FlatParameters,
+    Objective,
+    PhysicsFeatures,
+    batch_projection,
     nonzero_columns,
     projection_basis,
-    train,
 )
+from lcgym.pgnn.training import PGNNConfig, TrainingData, network_inputs, train
 from lcgym.systems.flexarm import motor
 from lcgym.systems.ix import IX
 
@@ -62,13 +64,15 @@ def ratio_line(label: str, plain, faster) -> None:
 
 def r2_ratio(name: str, rng, n: int = 10_000) -> None:
     system = systems.get(name)
-    zeta = torch.tensor(system.nominal_params().to_vector(), dtype=torch.float32, requires_grad=True)
-    q = torch.tensor(rng.uniform(-1.5, 1.5, (n, system.n_axes)), dtype=torch.float32)
+    zeta0 = system.nominal_params().to_vector()
+    zeta = torch.tensor(zeta0, requires_grad=True)
+    q = rng.uniform(-1.5, 1.5, (n, system.n_axes))
+    qt = torch.from_numpy(q)
 
     def full():
-        torch.clamp(torch.exp(-physical_constraints(system, zeta, q)) - 1.0, min=0.0).sum().backward()
+        torch.clamp(torch.exp(-physical_constraints(system, zeta, qt)) - 1.0, min=0.0).sum().backward()
 
-    ratio_line(f"R2 with its gradient, {name}", full, lambda: physics_penalty(system, zeta, q).backward())
+    ratio_line(f"R2 with its gradient, {name}", full, lambda: physics_penalty(system, zeta0, q))
 
 
 def networks(rng, alternatives: bool, n: int = 10_000) -> None:
@@ -127,28 +131,40 @@ def step_parts(rng, n: int = 100_000) -> None:
     step = (min(fit(60) for _ in range(3)) - min(fit(10) for _ in range(3))) / 50
     b = config.batch_size
     module = PGNNModule(IX, zeta0, inputs.shape[1])
-    t = {k: torch.tensor(v[:b], dtype=torch.float32) for k, v in (("q", q), ("qd", qd), ("qdd", qdd), ("x", inputs))}
-    X = torch.tensor(data.X[:b], dtype=torch.float32)
-    columns = nonzero_columns(X)
-    known = [(X[:, i, c].contiguous(), projection_basis(X[:, i, c])) for i, c in enumerate(columns)]
-    r = torch.tensor(rng.normal(size=(b, 2)), dtype=torch.float32)
-    g = r.clone().requires_grad_()
-    opt = torch.optim.Adam(module.parameters(), lr=1e-3, foreach=True)
+    params = FlatParameters(module)
+    features = PhysicsFeatures.of(IX, zeta0, q, qd, qdd)
+    rows = rng.permutation(n)[:b]
+    f32 = {k: np.asarray(v[rows], dtype=np.float32) for k, v in (("q", q), ("x", inputs), ("F", features.F), ("X", data.X))}
+    batch = Batch(x=f32["x"], u=np.zeros((b, 2), np.float32), q=f32["q"], F=f32["F"], X=f32["X"])
+    objective = Objective(module, params, features, 10.0, 1.0, True, nonzero_columns(data.X))
+    r = rng.normal(size=(b, 2)).astype(np.float32)
+    adam = Adam(params.values, 1e-3)
+
+    def networks():
+        _, backward = objective._networks(batch.x, True)
+        backward(r)
+
+    def physical():
+        _, backward = objective._physical(batch, True)
+        backward(r)
+
     parts = {
-        "the networks": lambda: (module.network(t["x"]) * r).sum().backward(),
-        "the physical model": lambda: (module.physical(t["q"], t["qd"], t["qdd"]) * r).sum().backward(),
-        "R1 (the batch's basis known)": lambda: _batch_projection(X, g, columns, known).backward(),
-        "R2": lambda: physics_penalty(IX, module.zeta, t["q"]).backward(),
-        "Adam's update": opt.step,  # after the parts above: every parameter has its gradient
+        "the networks (fused kernels)": networks,
+        "the physical model (features)": physical,
+        "R1 with the batch's basis": lambda: batch_projection(batch.X, r, objective.nonzero, gradient=True),
+        "R2": lambda: physics_penalty(IX, objective.zeta(), batch.q),
+        "the batch's gather": lambda: [np.take(a, rows, axis=0) for a in (inputs, features.F, data.X, q)],
+        "Adam's update": lambda: adam.step(params.grad),
     }
     print(f"\nIX PGNN training step, batch {b:,}, one torch thread: {1e3 * step:.2f} ms; its parts with their gradients:")
     total = 0.0
     for label, f in parts.items():
         cost = per_call(f, number=20)
         total += cost
-        print(f"  {label:30s} {1e3 * cost:6.2f} ms ({cost / step:.0%})")
-    print(f"  {'the rest':30s} {1e3 * (step - total):6.2f} ms ({1 - total / step:.0%}): the batch's gather, J_LS, "
-          f"R1's basis of a reshuffled batch, autograd's own work")
+        print(f"  {label:32s} {1e3 * cost:6.2f} ms ({cost / step:.0%})")
+    print(f"  {'the rest':32s} {1e3 * (step - total):6.2f} ms ({1 - total / step:.0%}): J_LS, the sums of the gradients, "
+          f"the validation passes")
+    params.release()
 
 
 def main() -> None:
@@ -164,14 +180,15 @@ def main() -> None:
         r2_ratio(name, rng)
 
     q, qd, qdd = rng.normal(size=(3, 4000, 6))
-    X = torch.tensor(motor.regressor(None, q, qd, qdd), dtype=torch.float32)
-    g = torch.tensor(rng.normal(size=(4000, 6)), dtype=torch.float32, requires_grad=True)
+    X = motor.regressor(None, q, qd, qdd).astype(np.float32)
+    g = rng.normal(size=(4000, 6))
     columns = nonzero_columns(X)
-    known = [(X[:, i, c].double(), projection_basis(X[:, i, c])) for i, c in enumerate(columns)]
-    plain = lambda: _batch_projection(X, g).backward()  # noqa: E731
-    ratio_line("R1 projection + gradient, arm: zero columns out", plain, lambda: _batch_projection(X, g, columns).backward())
+    known = [(X[:, i, c].astype(float), projection_basis(X[:, i, c])) for i, c in enumerate(columns)]
+    plain = lambda: batch_projection(X, g, gradient=True)  # noqa: E731
+    ratio_line("R1 projection + gradient, arm: zero columns out", plain,
+               lambda: batch_projection(X, g, columns, gradient=True))
     ratio_line("R1 projection + gradient, arm: basis known", plain,
-               lambda: _batch_projection(X, g, columns, known).backward())
+               lambda: batch_projection(X, g, columns, known, gradient=True))
     step_parts(rng)
 
 

@@ -49,11 +49,10 @@ import argparse
 import time
 
 import numpy as np
-import torch
 
 from lcgym.metrics import norms
 from lcgym.pgnn import PGNN, PGNNConfig
-from lcgym.pgnn.training import projected_norm2
+from lcgym.pgnn.objective import projected_norm2
 from lcgym.physics.kinematics import lowpass_zero_phase, reference_kinematics
 from lcgym.physics.model import PhysicalModel
 from lcgym.systems.ix import IX
@@ -99,9 +98,9 @@ def where_fc_lies(model: PGNN, trials) -> tuple[np.ndarray, np.ndarray]:
     zeta0 = model.physical_.params_.to_vector()
     q, qd, qdd = (np.concatenate(a) for a in zip(*(reference_kinematics(t.ref, t.fs, model.config_.advance)
                                                     for t in trials), strict=True))
-    X = torch.tensor(system.regressor(zeta0[system.n_linear:], q, qd, qdd))
+    X = system.regressor(zeta0[system.n_linear:], q, qd, qdd)
     fc = np.concatenate([model.nn_contribution(t) for t in trials])
-    share = np.array([float(projected_norm2(X[:, i, :], torch.tensor(fc[:, i]))) / max(np.sum(fc[:, i] ** 2), 1e-300)
+    share = np.array([projected_norm2(X[:, i, :], fc[:, i]) / max(np.sum(fc[:, i] ** 2), 1e-300)
                       for i in range(fc.shape[1])])
     moved = np.concatenate([model.predict(t) - model.nn_contribution(t) - model.physical_.predict(t) for t in trials])
     return share, np.sqrt(np.mean(moved**2, axis=0))

@@ -175,7 +175,7 @@ class IterativeLearningControl(Controller):
     the machine (a ``System`` or a spec for ``systems.get``, such as "ix")."""
 
     name = "ilc"
-    relative_cost = 12.0  # seconds of a quick cell (protocol.Controller)
+    relative_cost = 10.0  # seconds of a quick cell (protocol.Controller)
     uses_plant = True
 
     def __init__(self, config: ILCConfig | None = None, system: systems.System | str | None = None):

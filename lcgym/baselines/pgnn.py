@@ -28,14 +28,17 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .. import systems
-from ..pgnn import PGNN, PGNNConfig
 from ..references import references_of
 from .physical import PhysicalFeedforward
 from .protocol import Controller, Cost, given_system
+
+if TYPE_CHECKING:  # lcgym.pgnn (torch) is imported where a PGNN is trained: the bench's main process needs none
+    from ..pgnn import PGNN, PGNNConfig
 
 COLLECT = "feedback"
 """What the training data are recorded with where the machine does not say
@@ -78,7 +81,7 @@ class PGNNFeedforward(Controller):
     """
 
     name = "pgnn"
-    relative_cost = 18.0  # seconds of a quick cell (protocol.Controller)
+    relative_cost = 10.0  # seconds of a quick cell (protocol.Controller)
     regularize = True
     uses_plant = True
     learns_once = True  # learn's plant runs happen on its first call (the training data), not per reference
@@ -113,6 +116,8 @@ class PGNNFeedforward(Controller):
         """The configuration it trains with on ``n_trials`` runs: the one given (with this method's
         ``regularize``), else the machine's defaults with the protocol's filter (``protocol``),
         iteration cap (``max_iterations(n_trials)``) and one torch thread."""
+        from ..pgnn import PGNNConfig
+
         if self.config is not None:
             return replace(self.config, regularize=self.regularize)
         cfg = replace(PGNNConfig.for_system(self.system_), threads=1, regularize=self.regularize,
@@ -121,6 +126,8 @@ class PGNNFeedforward(Controller):
         return cfg if filter_hz is None else replace(cfg, filter_hz=filter_hz)
 
     def _train(self, trials: Sequence) -> None:
+        from ..pgnn import PGNN
+
         self.data_ = list(trials)
         self.pgnn_ = PGNN(self.training_config(len(trials)), fs=trials[0].fs, system=self.system_).fit(trials)
 
@@ -143,5 +150,5 @@ class PGNNLSFeedforward(PGNNFeedforward):
     """Method ``pgnn-ls``: the same PGNN trained with J_LS only (no R1, no R2)."""
 
     name = "pgnn-ls"
-    relative_cost = 14.0  # seconds of a quick cell (protocol.Controller)
+    relative_cost = 8.0  # seconds of a quick cell (protocol.Controller)
     regularize = False

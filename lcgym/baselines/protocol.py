@@ -61,7 +61,8 @@ class Controller:
     uses_plant = False
     relative_cost = 1.0
     """About how long a cell of this method takes, in seconds of ``lcgym bench --quick``'s cells on the
-    built-in machines (the median of their ``fit_seconds``, 2026-12-04): the runner starts the
+    built-in machines (the median of their cells' times; pgnn, pgnn-ls, rl and ilc from a serial run,
+    ``--jobs 1``, of 2026-12-05, the others 2026-12-04): the runner starts the
     costlier cells first, so that its parallel workers end together. It orders, nothing else."""
 
     def fit(self, trials: Sequence) -> Controller:

@@ -206,7 +206,7 @@ class RLFeedforward(Controller):
     ``systems.get``, such as "ix")."""
 
     name = "rl"
-    relative_cost = 20.0  # seconds of a quick cell (protocol.Controller)
+    relative_cost = 17.0  # seconds of a quick cell (protocol.Controller)
     uses_plant = True
 
     def __init__(self, config: RLConfig | None = None, system: systems.System | str | None = None):

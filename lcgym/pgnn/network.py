@@ -120,19 +120,27 @@ PD_MARGIN = 1e-3
 """Relative to the largest entry of M: a smallest eigenvalue above this is positive in float32 too."""
 
 
-def physics_penalty(system: System, zeta: torch.Tensor, q: torch.Tensor) -> torch.Tensor:
-    """R2 of eq. (30): sum_i max(0, exp(-h_i) - 1).
+def physics_penalty(system: System, zeta: np.ndarray, q: np.ndarray) -> tuple[float, np.ndarray]:
+    """R2 of eq. (30), sum_k max(0, exp(-h_k) - 1), and its gradient with respect to zeta (numpy,
+    float64; zeta (n_params,), configurations q (B, n_axes)).
 
     The mass-matrix term and its gradient are zero while M(theta) is positive definite, as it is
     for physical parameters; differentiating it is the costly part (the arm's 6 x 6 matrices come
     from a basis of its regressor). So its smallest eigenvalue is first evaluated without a graph
-    (numpy, float64) and enters as a constant when it exceeds ``PD_MARGIN`` of M's largest entry:
-    the same penalty, bit for bit, and the same gradient. Otherwise h is ``physical_constraints``."""
-    configs = _constraint_configs(system, q)
-    M = system.mass_matrix(zeta.detach().double().numpy(), configs.detach().double().numpy())
+    and enters as a constant when it exceeds ``PD_MARGIN`` of M's largest entry: the same penalty
+    and the same gradient, d/dzeta_k = -exp(-zeta_k) for a positive parameter below zero. Otherwise
+    h is ``physical_constraints`` differentiated by torch's autograd."""
+    zeta, q = np.asarray(zeta, dtype=float), np.asarray(q, dtype=float)
+    positive = list(system.positive)
+    M = system.mass_matrix(zeta, _constraint_configs(system, q))
     lam = float(min_eigenvalue(M).min())
     if lam > PD_MARGIN * float(np.abs(M).max()):
-        h = torch.cat([zeta[list(system.positive)], torch.full((1,), lam, dtype=zeta.dtype)])
-    else:
-        h = physical_constraints(system, zeta, q)
-    return torch.clamp(torch.exp(-h) - 1.0, min=0.0).sum()
+        h = zeta[positive]
+        excess = np.exp(-np.append(h, lam)) - 1.0
+        grad = np.zeros_like(zeta)
+        np.add.at(grad, positive, np.where(excess[:-1] > 0, -np.exp(-h), 0.0))
+        return float(np.maximum(excess, 0.0).sum()), grad
+    z = torch.tensor(zeta, requires_grad=True)
+    value = torch.clamp(torch.exp(-physical_constraints(system, z, torch.from_numpy(q))) - 1.0, min=0.0).sum()
+    value.backward()
+    return float(value.detach()), z.grad.numpy()

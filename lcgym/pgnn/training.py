@@ -63,7 +63,8 @@ import torch
 
 from ..physics.kinematics import lowpass_zero_phase, reference_kinematics, relay
 from ..systems import System
-from .network import PGNNModule, physics_penalty
+from .network import PGNNModule
+from .objective import Adam, Batch, FlatParameters, Objective, PhysicsFeatures, nonzero_columns, projection_basis
 
 
 @dataclass
@@ -146,53 +147,6 @@ def training_data(trials, system: System, config: PGNNConfig, zeta_n0: np.ndarra
     return TrainingData(q, qd, qdd, inputs, u, system.regressor(zeta_n0, q, qd, qdd))
 
 
-def projection_basis(X: torch.Tensor, rtol: float = 1e-6) -> torch.Tensor:
-    """W (n_linear, r) with W W^T = (X^T X)^+ on the column space of X (B, n_linear), float64; see
-    ``projected_norm2``."""
-    X = X.double()
-    with torch.no_grad():
-        scale = X.norm(dim=0)
-        scale = torch.where(scale > 0, scale, torch.ones_like(scale))  # a zero column stays zero
-        lam, V = torch.linalg.eigh((X.T @ X) / torch.outer(scale, scale))
-        keep = lam > (rtol**2) * lam.max().clamp_min(1e-300)
-        W = V[:, keep] / torch.sqrt(lam[keep])  # G^+ = W W^T on the kept directions
-        return W / scale[:, None]
-
-
-def projected_norm2(X: torch.Tensor, g: torch.Tensor, rtol: float = 1e-6, W: torch.Tensor | None = None) -> torch.Tensor:
-    """||U^T g||^2 with U of eq. (21) the orthonormal basis of the column space of X (B, n_linear);
-    g (B,) may carry gradients, X is data; ``W``: ``projection_basis(X)`` where already known.
-
-    Computed as c^T G^+ c with c = X^T g and G = X^T X (n_linear x n_linear, cheap for B = 1e4
-    rows) after scaling the columns to unit norm (inertia and damping columns differ by orders of
-    magnitude). The pseudo-inverse keeps the numerical rank r of eq. (21) (singular values above
-    ``rtol`` of the largest): zero columns (a parameter absent from this axis) and exactly
-    dependent ones (IX: X_J2yy = X_J3yy + X_J3zz on the propeller) add no direction.
-    """
-    X = X.double()
-    W = projection_basis(X, rtol) if W is None else W
-    return ((g.double() @ X @ W) ** 2).sum().to(g.dtype)
-
-
-def nonzero_columns(X) -> list[torch.Tensor]:
-    """Per axis, the indices of the regressor columns that are not zero everywhere in X
-    (N, n_axes, n_linear), numpy or torch: the only ones a projection needs."""
-    X = X.numpy() if isinstance(X, torch.Tensor) else np.asarray(X)
-    return [torch.as_tensor(np.flatnonzero(np.any(X[:, i, :] != 0, axis=0))) for i in range(X.shape[1])]
-
-
-def _batch_projection(X_b: torch.Tensor, g_b: torch.Tensor, columns=None, known=None) -> torch.Tensor:
-    """sum over axes of ||U_b^T g_b||^2 / B for a minibatch: X_b (B, n_axes, n_linear), g_b (B, n_axes).
-    ``columns[i]``: axis i's regressor columns that are not zero everywhere in the data (the
-    others add nothing; None: all); ``known[i]``: (X_i in float64, its ``projection_basis``) of a batch seen
-    before, else None."""
-    total = g_b.new_zeros(())
-    for i in range(g_b.shape[1]):
-        X, W = known[i] if known is not None else (X_b[:, i, slice(None) if columns is None else columns[i]], None)
-        total = total + projected_norm2(X, g_b[:, i], W=W)
-    return total / g_b.shape[0]
-
-
 def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: bool = False,
           seconds: float | None = None) -> dict:
     """Algorithm 1 on ``module`` (in place).
@@ -211,56 +165,56 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
     before = torch.get_num_threads()
     if config.threads:
         torch.set_num_threads(config.threads)
+    params = FlatParameters(module)
     try:
         gen = torch.Generator().manual_seed(config.seed)
         n = data.u.shape[0]
         perm = torch.randperm(n, generator=gen).numpy()
         n_tr, n_va = int(config.split[0] * n), int(config.split[1] * n)
         idx = {"train": perm[:n_tr], "validation": perm[n_tr : n_tr + n_va], "test": perm[n_tr + n_va :]}
-        # all per-sample arrays side by side in one float32 matrix, so that a shuffle is one gather;
-        # X in float32 too: projected_norm2 forms its Gram matrix in float64, where the exactly
-        # dependent columns (stored with 1e-7 relative rounding) still fall far below the rank cut
-        names = ("q", "qd", "qdd", "inputs", "u", "X")
-        arrays = [getattr(data, k).reshape(n, -1) for k in names]
-        edges = np.cumsum([0] + [a.shape[1] for a in arrays])
-        columns = {k: slice(edges[i], edges[i + 1]) for i, k in enumerate(names)}
-        matrix = torch.tensor(np.concatenate(arrays, axis=1), dtype=torch.float32)
-        split = {name: torch.index_select(matrix, 0, torch.as_tensor(rows)) for name, rows in idx.items()}
-        del matrix
-        nonzero = nonzero_columns(data.X)
-        opt = torch.optim.Adam(module.parameters(), lr=config.lr, foreach=True)  # one call for all tensors: the same numbers
-        history, best, best_state, stale = [], np.inf, None, 0
+        zeta0 = module.zeta0.double().numpy()
+        features = PhysicsFeatures.of(module.system, zeta0, data.q, data.qd, data.qdd, X=data.X)
+        objective = Objective(module, params, features, config.mu1, config.mu2, config.regularize,
+                              nonzero_columns(data.X))
+        # the per-sample arrays a batch needs, float32 (X too: the projection forms its Gram matrix
+        # in float64, where the exactly dependent columns, stored with 1e-7 relative rounding, still
+        # fall far below the rank cut); a linear machine's features are its regressor
+        x = (torch.tensor(data.inputs, dtype=torch.float32) - module.input_mean) / module.input_std
+        arrays = {"x": x.numpy(), "u": data.u, "q": data.q}
+        if features is not None:
+            arrays["F"] = features.F
+        else:
+            arrays |= {"qd": data.qd, "qdd": data.qdd}
+        if config.regularize and not (features is not None and features.F is data.X):
+            arrays["X"] = data.X
+        arrays = {k: np.asarray(a, dtype=np.float32) for k, a in arrays.items()}
+
+        def piece(rows) -> Batch:
+            """The batch of the samples ``rows``; a linear machine's X is its F."""
+            b = Batch(**{k: np.take(a, rows, axis=0) for k, a in arrays.items()})
+            if config.regularize and b.X is None:
+                b.X = b.F
+            return b
+
+        split = {name: rows for name, rows in idx.items()}
+        opt = Adam(params.values, config.lr)
+        history, best, best_values, stale = [], np.inf, None, 0
         t0 = time.perf_counter()
         bar = tqdm(range(config.max_epochs), desc="PGNN epochs", disable=not progress, leave=False)
-
-        def cost(b):
-            """(J, J_LS, R1, R2) of one batch ``b`` (dict of tensors), J normalized as the module docstring says."""
-            f_m, f_c = module(b["q"], b["qd"], b["qdd"], b["inputs"], b["X"])
-            j_ls = ((b["u"] - f_m - f_c) ** 2).sum(dim=1).mean()
-            if not config.regularize:
-                return j_ls, j_ls.detach(), j_ls.new_zeros(()), j_ls.new_zeros(())
-            r1 = _batch_projection(b["X"], f_c, nonzero, b.get("projection"))
-            r2 = physics_penalty(module.system, module.zeta, b["q"])
-            return j_ls + config.mu1 * r1 + config.mu2 * r2, j_ls.detach(), r1.detach(), r2.detach()
-
-        def piece(b):
-            """The arrays of the rows ``b`` of a split (dict of contiguous tensors)."""
-            return ({k: b[:, c].contiguous() for k, c in columns.items()}
-                    | {"X": b[:, columns["X"]].reshape(len(b), *data.X.shape[1:]).contiguous()})
 
         def batches(part):
             rows = split[part]
             for s in range(0, len(rows), config.batch_size):
                 yield piece(rows[s : s + config.batch_size])
 
-        def known(b):
-            """The batch with each axis's regressor (its columns that are not all zero) and their
-            projection basis, computed once for a batch used again (validation, test, the fixed
-            training minibatches)."""
-            if not config.regularize:
-                return b
-            xs = [b["X"][:, i, cols] for i, cols in enumerate(nonzero)]
-            return b | {"projection": [(x, projection_basis(x)) for x in xs]}
+        def known(b: Batch) -> Batch:
+            """The batch with each axis's regressor (its columns that are not all zero) in float64
+            and their projection basis, computed once for a batch used again (validation, test, the
+            fixed training minibatches)."""
+            if config.regularize:
+                xs = [b.X[:, i, cols].astype(float) for i, cols in enumerate(objective.nonzero)]
+                b.projection = [(x, projection_basis(x)) for x in xs]
+            return b
 
         per_epoch = -(-len(split["train"]) // config.batch_size)
         once = ("validation", "test") if config.reshuffle and per_epoch > 1 else ("train", "validation", "test")
@@ -268,8 +222,7 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
 
         def evaluate(part):
             """Sample-weighted means of (J, J_LS, R1, R2) over the batches of a split."""
-            with torch.no_grad():
-                values, sizes = zip(*[([float(x) for x in cost(b)], len(b["u"])) for b in fixed[part]], strict=True)
+            values, sizes = zip(*[(objective(b, gradient=False), len(b.u)) for b in fixed[part]], strict=True)
             return dict(zip(("J", "J_LS", "R1", "R2"), np.average(values, axis=0, weights=sizes), strict=True))
 
         longest = 0.0  # the longest iteration so far [s], for the budget
@@ -287,21 +240,17 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
                         yield fixed["train"][i]
             rows = split["train"]
             while True:
-                order = torch.randperm(len(rows), generator=gen)
+                order = rows[torch.randperm(len(rows), generator=gen).numpy()]
                 for s in range(0, len(rows), config.batch_size):
-                    yield piece(torch.index_select(rows, 0, order[s : s + config.batch_size]))
+                    yield piece(order[s : s + config.batch_size])
 
         steps = config.steps_per_iteration or per_epoch
         source = stream()
         for epoch in bar:
             started = time.perf_counter()
-            module.train()
             for _ in range(steps):
-                b = next(source)
-                opt.zero_grad()
-                cost(b)[0].backward()
-                opt.step()
-            module.eval()
+                objective(next(source))
+                opt.step(params.grad)
             val = evaluate("validation")
             history.append({"epoch": epoch + 1, "steps": (epoch + 1) * steps,
                             **{f"{k}_validation": float(v) for k, v in val.items()}})
@@ -309,7 +258,7 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
             bar.set_postfix(J_val=f"{j_val:.3g}")
             if j_val < best - 1e-12:
                 best, stale = j_val, 0
-                best_state = {k: v.detach().clone() for k, v in module.state_dict().items()}
+                best_values = params.values.copy()
             else:
                 stale += 1
                 if stale >= config.patience:
@@ -317,8 +266,9 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
             longest = max(longest, time.perf_counter() - started)
             if seconds is not None and time.perf_counter() - t0 + 1.5 * longest > seconds:
                 break
-        module.load_state_dict(best_state)
+        params.values[:] = best_values
         return {"history": history, "epochs": len(history), "seconds": time.perf_counter() - t0,
                 "J_LS_test": float(evaluate("test")["J_LS"]), "n_samples": n, "config": asdict(config)}
     finally:
+        params.release()
         torch.set_num_threads(before)
