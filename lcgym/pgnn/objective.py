@@ -307,11 +307,10 @@ class Objective:
         zeta = self.zeta()
         if self.features is not None:
             theta, jac = self.features.theta(zeta)
-            F = b.F.reshape(-1, b.F.shape[2])
-            f_m = (F @ theta.astype(np.float32)).reshape(b.u.shape)
+            f_m = b.F @ theta.astype(np.float32)  # (B, A, K) @ (K,)
 
             def backward(dfm):
-                dtheta = F.T @ dfm.reshape(-1)
+                dtheta = np.tensordot(b.F, dfm, axes=([0, 1], [0, 1]))
                 self.params.delta_grad[:] += (jac.T @ dtheta).astype(np.float32) * self.scale
             return f_m, backward
         delta = self.module.delta

@@ -176,9 +176,10 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
         features = PhysicsFeatures.of(module.system, zeta0, data.q, data.qd, data.qdd, X=data.X)
         objective = Objective(module, params, features, config.mu1, config.mu2, config.regularize,
                               nonzero_columns(data.X))
-        # the per-sample arrays a batch needs, float32 (X too: the projection forms its Gram matrix
-        # in float64, where the exactly dependent columns, stored with 1e-7 relative rounding, still
-        # fall far below the rank cut); a linear machine's features are its regressor
+        # the per-sample arrays a batch needs side by side in one float32 matrix per split, so that a
+        # minibatch is one gather of whole rows (X too: the projection forms its Gram matrix in
+        # float64, where the exactly dependent columns, stored with 1e-7 relative rounding, still fall
+        # far below the rank cut); a linear machine's features are its regressor
         x = (torch.tensor(data.inputs, dtype=torch.float32) - module.input_mean) / module.input_std
         arrays = {"x": x.numpy(), "u": data.u, "q": data.q}
         if features is not None:
@@ -187,16 +188,22 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
             arrays |= {"qd": data.qd, "qdd": data.qdd}
         if config.regularize and not (features is not None and features.F is data.X):
             arrays["X"] = data.X
-        arrays = {k: np.asarray(a, dtype=np.float32) for k, a in arrays.items()}
+        shapes = {k: a.shape[1:] for k, a in arrays.items()}
+        edges = np.cumsum([0] + [int(np.prod(shape)) for shape in shapes.values()])
+        columns = {k: slice(a, b) for k, a, b in zip(shapes, edges[:-1], edges[1:], strict=True)}
+        matrix = np.concatenate([a.reshape(n, -1) for a in arrays.values()], axis=1, dtype=np.float32)
+        split = {name: np.take(matrix, rows, axis=0) for name, rows in idx.items()}
+        del matrix, arrays
 
-        def piece(rows) -> Batch:
-            """The batch of the samples ``rows``; a linear machine's X is its F."""
-            b = Batch(**{k: np.take(a, rows, axis=0) for k, a in arrays.items()})
+        def piece(rows: np.ndarray, contiguous: bool = False) -> Batch:
+            """The batch of the matrix rows ``rows`` (views of its columns; ``contiguous``: copies, for
+            a batch used again); a linear machine's X is its F."""
+            parts = {k: rows[:, c].reshape(len(rows), *shapes[k]) for k, c in columns.items()}
+            b = Batch(**({k: np.ascontiguousarray(a) for k, a in parts.items()} if contiguous else parts))
             if config.regularize and b.X is None:
                 b.X = b.F
             return b
 
-        split = {name: rows for name, rows in idx.items()}
         opt = Adam(params.values, config.lr)
         history, best, best_values, stale = [], np.inf, None, 0
         t0 = time.perf_counter()
@@ -205,7 +212,7 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
         def batches(part):
             rows = split[part]
             for s in range(0, len(rows), config.batch_size):
-                yield piece(rows[s : s + config.batch_size])
+                yield piece(rows[s : s + config.batch_size], contiguous=True)
 
         def known(b: Batch) -> Batch:
             """The batch with each axis's regressor (its columns that are not all zero) in float64
@@ -240,9 +247,9 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
                         yield fixed["train"][i]
             rows = split["train"]
             while True:
-                order = rows[torch.randperm(len(rows), generator=gen).numpy()]
+                order = torch.randperm(len(rows), generator=gen).numpy()
                 for s in range(0, len(rows), config.batch_size):
-                    yield piece(order[s : s + config.batch_size])
+                    yield piece(np.take(rows, order[s : s + config.batch_size], axis=0))
 
         steps = config.steps_per_iteration or per_epoch
         source = stream()
