@@ -8,7 +8,7 @@ import pytest
 from lcgym.data import Trial
 from lcgym.physics import effects as fx
 from lcgym.physics.kinematics import reference_kinematics
-from lcgym.physics.model import PhysicalModel, _QuadraticDesign
+from lcgym.physics.model import PhysicalModel, QuadraticDesign
 from lcgym.systems.ix import IX, compiled
 from lcgym.systems.ix import dynamics as ix
 from lcgym.systems.ix.references import random_moves
@@ -83,8 +83,8 @@ def test_ripple_fit_first_order():
 def test_quadratic_design_is_exact():
     rng = np.random.default_rng(2)
     q, qd, qdd = rng.normal(size=(3, 40, 2))
-    design = _QuadraticDesign(lambda zn: compiled.regressor(zn, q, qd, qdd), 5)
-    reduced = _QuadraticDesign(lambda zn: ix.regressor(zn, q, qd, qdd), 5, reduce=lambda A: np.cumsum(A, axis=0)[::3])
+    design = QuadraticDesign(lambda zn: compiled.regressor(zn, q, qd, qdd), 5)
+    reduced = QuadraticDesign(lambda zn: ix.regressor(zn, q, qd, qdd), 5, reduce=lambda A: np.cumsum(A, axis=0)[::3])
     for _ in range(3):
         zn = rng.normal(0, 0.1, 5)
         np.testing.assert_allclose(design(zn), ix.regressor(zn, q, qd, qdd), rtol=1e-9, atol=1e-9)
@@ -112,8 +112,8 @@ def test_quadratic_design_of_the_nonlinear_columns_only_is_the_same_bit_for_bit(
     monkeypatch.setattr(numba, "get_num_threads", lambda: 1)
     assert np.array_equal(compiled.regressor(zn, q, qd, qdd), full)  # one call: the same numbers
     k = slice(None, 5000)
-    dense = _QuadraticDesign(lambda zn: compiled.regressor(zn, q[k], qd[k], qdd[k]), 5)
-    sparse = _QuadraticDesign(lambda zn, columns=None: compiled.regressor(zn, q[k], qd[k], qdd[k], columns=columns), 5,
+    dense = QuadraticDesign(lambda zn: compiled.regressor(zn, q[k], qd[k], qdd[k]), 5)
+    sparse = QuadraticDesign(lambda zn, columns=None: compiled.regressor(zn, q[k], qd[k], qdd[k], columns=columns), 5,
                               columns=IX.nonlinear_columns)
     for zn in rng.normal(0, 0.1, (3, 5)):
         assert np.array_equal(sparse(zn), dense(zn))

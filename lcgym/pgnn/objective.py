@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from ..physics.model import _QuadraticDesign
+from ..physics.model import QuadraticDesign
 from ..systems import System
 from .fused import TILE, _scratch, backward_kernel, forward_kernel, fusable, to_tiles
 from .network import PGNNModule, physics_penalty
@@ -128,7 +128,7 @@ class PhysicsFeatures:
         def evaluate(z, columns=None):
             return system.regressor(z, q, qd, qdd, **({} if columns is None else {"columns": columns}))
 
-        design = _QuadraticDesign(evaluate, n_nonlinear, columns=system.nonlinear_columns)
+        design = QuadraticDesign(evaluate, n_nonlinear, columns=system.nonlinear_columns)
         terms = [((), design.c), *(((i,), b) for i, b in enumerate(design.b)), *design.a.items()]
         columns, linear, monomials = [], [], []
         for monomial, term in terms:

@@ -388,7 +388,7 @@ class PhysicalModel:
         loads = self.load_torques(kin, p0)  # the model torques effects read (ripple), refined per pass
         n_pass = 2 if loads is not None else 1
         penalties = self.penalties(n)
-        evaluate = (_QuadraticDesign if self.system.quadratic_in_nonlinear else _Design)
+        evaluate = (QuadraticDesign if self.system.quadratic_in_nonlinear else _Design)
         for _ in range(n_pass):
             rigid = evaluate(lambda zn, columns=None: before(self.system.regressor(zn, *kin, **(
                 {} if columns is None else {"columns": columns}))), zeta_n.size, lambda A: self.reduce(A, lengths),
@@ -528,7 +528,7 @@ class _Design:
         return self._reduce(self._evaluate(np.asarray(z, dtype=float)))
 
 
-class _QuadraticDesign:
+class QuadraticDesign:
     """Reduced design matrix as an exact quadratic polynomial in zeta_n.
 
     The IX regressor's entries are polynomials of total degree <= 2 in the centre-of-mass
