@@ -138,6 +138,8 @@ def step_parts(rng, n: int = 100_000) -> None:
     batch = Batch(x=f32["x"], u=np.zeros((b, 2), np.float32), q=f32["q"], F=f32["F"], X=f32["X"])
     objective = Objective(module, params, features, 10.0, 1.0, True, nonzero_columns(data.X))
     r = rng.normal(size=(b, 2)).astype(np.float32)
+    # the training split's matrix as ``train`` lays it out: x, u, q, F, X side by side, float32
+    matrix = np.concatenate([a.reshape(n, -1) for a in (inputs, data.u, q, features.F, data.X)], axis=1, dtype=np.float32)
     adam = Adam(params.values, 1e-3)
 
     def networks():
@@ -153,7 +155,7 @@ def step_parts(rng, n: int = 100_000) -> None:
         "the physical model (features)": physical,
         "R1 with the batch's basis": lambda: batch_projection(batch.X, r, objective.nonzero, gradient=True),
         "R2": lambda: physics_penalty(IX, objective.zeta(), batch.q),
-        "the batch's gather": lambda: [np.take(a, rows, axis=0) for a in (inputs, features.F, data.X, q)],
+        "the batch's gather (whole rows)": lambda: np.take(matrix, rows, axis=0),
         "Adam's update": lambda: adam.step(params.grad),
     }
     print(f"\nIX PGNN training step, batch {b:,}, one torch thread: {1e3 * step:.2f} ms; its parts with their gradients:")

@@ -271,3 +271,19 @@ def test_iteration_cap_in_proportion_to_the_training_runs():
     method = PGNNFeedforward()
     method.system_ = IX
     assert method.training_config(2).max_epochs == 25 and method.training_config().max_epochs == 100
+
+
+def test_a_training_whose_validation_cost_is_never_finite_says_so():
+    """NaN in the targets: no iteration improves, and ``train`` names the divergence instead of
+    restoring parameters it never kept."""
+    from lcgym.pgnn.training import TrainingData, train
+
+    rng = np.random.default_rng(0)
+    q, qd, qdd = rng.uniform(-1, 1, (3, 3000, 2))
+    zeta0 = IX.nominal_params().to_vector()
+    config = PGNNConfig(max_epochs=2, patience=1, steps_per_iteration=2, batch_size=1000)
+    inputs = network_inputs(q, qd, qdd, config, 500.0)
+    u = np.full((3000, 2), np.nan)
+    data = TrainingData(q, qd, qdd, inputs, u, IX.regressor(zeta0[IX.n_linear:], q, qd, qdd))
+    with pytest.raises(RuntimeError, match="not finite in any of 1 iteration"):
+        train(PGNNModule(IX, zeta0, inputs.shape[1]), data, config)

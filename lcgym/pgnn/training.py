@@ -273,6 +273,9 @@ def train(module: PGNNModule, data: TrainingData, config: PGNNConfig, progress: 
             longest = max(longest, time.perf_counter() - started)
             if seconds is not None and time.perf_counter() - t0 + 1.5 * longest > seconds:
                 break
+        if best_values is None:
+            raise RuntimeError(f"PGNN: the validation cost was not finite in any of {len(history)} iteration(s) "
+                               f"(last J = {history[-1]['J_validation']}); the training diverged")
         params.values[:] = best_values
         return {"history": history, "epochs": len(history), "seconds": time.perf_counter() - t0,
                 "J_LS_test": float(evaluate("test")["J_LS"]), "n_samples": n, "config": asdict(config)}
