@@ -1,7 +1,8 @@
 """The ``lcgym`` command. Thin: parses, calls library functions, prints.
 
     lcgym bench [--systems ix-v1,flexarm-v1] [--methods feedback,physical] [--seeds 0,1,2] [--quick]
-                [--out results.csv] [--jobs N] [--dask ADDRESS] [--resume] [--timeout SECONDS]
+                [--out results.csv] [--html DIR|OUT.html] [--no-html] [--jobs N] [--dask ADDRESS] [--resume]
+                [--timeout SECONDS]
     lcgym leaderboard [results.csv] [--reference-set SET] [--config HASH] [--markdown OUT.md] [--html DIR|OUT.html]
                       [--share-of METHOD [--base METHOD]]
     lcgym simulate [--system ix|two_link|ix-v0|my_arm.toml|...] [--controller feedback,physical] [--out run.csv]
@@ -23,8 +24,11 @@ import argparse
 import os
 import sys
 import tempfile
+import time
 import warnings
 from pathlib import Path
+
+from .provenance import __version__
 
 
 def _simulate_systems() -> tuple[str, ...]:
@@ -161,8 +165,18 @@ def _page_target(text: str) -> Path:
     return p
 
 
+def _machine_help() -> str:
+    """The forms ``diagnose --system`` and ``effects --system`` take (``systems.get``)."""
+    from .systems import BUILT_IN, EXAMPLES, URDF_EXAMPLES
+
+    return (f"a built-in machine ({', '.join(BUILT_IN)}), an example one ({', '.join([*EXAMPLES, *URDF_EXAMPLES])}), "
+            "a URDF file (robot.urdf: the data's pos_<joint> columns name its axes), a machine file (my_arm.toml: a "
+            "URDF with its plant) or module:attr naming a lcgym.systems.System")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="lcgym", description="Learning feedforward control benchmark suite")
+    parser.add_argument("--version", action="version", version=f"lcgym {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     bench = sub.add_parser("bench", help="run methods on systems over seeds; append MA/RMS/Inf to a results CSV")
     bench.add_argument("--systems", type=_names, help="comma-separated machines: built-in ones with their version, "
@@ -174,6 +188,9 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--seeds", type=_seeds, help="comma-separated seeds (default 0,1,2; --quick: 0)")
     bench.add_argument("--quick", action="store_true", help="small budgets: 1 seed, 2 references of about 20 s of moves per set")
     bench.add_argument("--out", type=_writable, default=Path("results.csv"), help="results CSV (appended)")
+    bench.add_argument("--html", type=_page_target, metavar="DIR|OUT.html",
+                       help="the leaderboard page of the run's rows (default: the results CSV's name with .html)")
+    bench.add_argument("--no-html", action="store_true", help="write no page")
     bench.add_argument("--jobs", type=_positive, help="parallel cells (joblib processes; default: one per CPU core "
                        "this process may use, at most one per cell)")
     bench.add_argument("--dask", metavar="ADDRESS", help="run the cells on this Dask scheduler (tcp://host:port)")
@@ -207,14 +224,17 @@ def build_parser() -> argparse.ArgumentParser:
                      help="PNG (or PDF, SVG) of tracking errors with the scaled reference velocity")
     diag = sub.add_parser("diagnose", help="compare the physical model with measurements; find the missing effect")
     diag.add_argument("data", type=Path, help="measurement file (.csv or .parquet; docs/measurement-format.md)")
-    diag.add_argument("--system", required=True, metavar="MACHINE",
-                      help="ix, flexarm, a URDF file (the data's pos_<joint> columns name its axes) or module:attr")
+    diag.add_argument("--system", required=True, metavar="MACHINE", help=_machine_help())
     diag.add_argument("--add", action="append", default=[], metavar="EFFECT@AXIS",
                       help="add this effect to the model, refit, show before/after (repeatable)")
     diag.add_argument("--json", type=_writable, metavar="OUT.json", help="write the report as JSON")
-    diag.add_argument("--plots", type=Path, metavar="DIR", help="write residual_time.png, residual_map.png, before_after.png")
+    diag.add_argument("--plots", type=Path, metavar="DIR",
+                      help="write residual_time.png (the residual over time), residual_map.png (over position and "
+                           "velocity), effects.png (the effects selected or added, as fitted) and, with --add, "
+                           "before_after.png")
     diag.add_argument("--replay", action="store_true",
-                      help="re-run the plant the data were simulated on with the model before/after (lcgym data only)")
+                      help="re-run the plant the data were simulated on with the model before/after (a log of lcgym "
+                           "simulate on ix or a machine file: its sidecar records the plant)")
     diag.add_argument("--min-explained", type=float, default=0.1, help="significance: share of residual energy (default 0.1)")
     diag.add_argument("--kinematics", choices=("reference", "measured"), default="reference",
                       help="velocity and acceleration from the reference corrected by the measured error (default; "
@@ -228,8 +248,9 @@ def build_parser() -> argparse.ArgumentParser:
     imp.add_argument("dataset", choices=DATASETS, help="emps: the EMPS benchmark's DATA_EMPS*.mat files")
     imp.add_argument("file", type=Path, help="the data set's file")
     imp.add_argument("--out", required=True, type=_file_of(".csv", ".parquet", ".pq"), help="measurement file to write")
-    eff = sub.add_parser("effects", help="list the effects diagnose can rank and add")
-    eff.add_argument("--system", default="ix", metavar="MACHINE", help="ix, flexarm, a URDF file or module:attr")
+    eff = sub.add_parser("effects", help="list the effects diagnose can rank and add, and those a machine file's "
+                         "[[hidden]] takes")
+    eff.add_argument("--system", default="ix", metavar="MACHINE", help=_machine_help() + " (default ix)")
     eff.add_argument("--data", type=Path, help="a measurement file whose pos_<joint> columns name a URDF's axes")
     return parser
 
@@ -238,6 +259,7 @@ def cmd_diagnose(args) -> int:
     from .data import MeasurementFileError, read_trials
     from .diagnose import diagnose
     from .diagnose.layout import DataTooShort
+    from .diagnose.machines import check_log_axes
     from .diagnose.workflow import bridged_gap
 
     if args.plots is not None:  # the folder must be creatable: check before any work
@@ -249,6 +271,8 @@ def cmd_diagnose(args) -> int:
         except OSError as exc:
             raise ValueError(f"--plots {args.plots}: cannot make a folder in {existing} ({exc.strerror})") from None
     system = _machine(args.system, args.data)
+    for path in (args.data, *([args.validate] if args.validate is not None else [])):
+        check_log_axes(path, system, args.system)  # a log of another machine: say whose axes these are
     rate = args.resample or "auto"  # a log with jitter or dropouts is put on uniform grids (its own rate by default)
     trials = read_trials(args.data, axes=system, min_samples=100, resample=rate, max_gap=bridged_gap())
     other = None if args.validate is None else read_trials(args.validate, axes=system, min_samples=100,
@@ -290,18 +314,56 @@ def cmd_import(args) -> int:
 
 
 def cmd_effects(args) -> int:
+    """Two lists: the effects diagnose ranks and ``--add`` accepts (``candidates_for``), and those a
+    machine file's ``[[hidden]]`` accepts (``machine.hidden_effects``: what the plant simulates), with
+    what is in one list only and why."""
     from .diagnose.candidates import candidates_for
+    from .physics.plant_effects import refusal
+    from .systems.machine import hidden_effects
+    from .systems.urdf import urdf_robot
 
     system = _machine(args.system, args.data)
+    cands = candidates_for(system)
+    model = system.diagnosis_model(fs=system.fs or 1000.0).parts()
     print(f"effects diagnose ranks and --add accepts on {system.name} (axes: {', '.join(system.axis_names)}):")
-    for cand in candidates_for(system):
-        name = cand.name
-        doc = " ".join((cand.effect.__doc__ or "").strip().split("\n\n")[0].split())
-        doc = doc if len(doc) <= 100 else doc[:97] + "..."
+    for cand in cands:
         searched = [*cand.grid, *([cand.period] if cand.period else [])]
-        print(f"  {name:30s} [{cand.family}] {doc}" + (f" (searched: {', '.join(searched)})" if searched else ""))
-    print(f"the model already has: {', '.join(system.diagnosis_model(fs=system.fs or 1000.0).parts())}")
+        print(f"  {cand.name:30s} [{cand.family}] {_summary(cand.effect)}"
+              + (f" (searched: {', '.join(searched)})" if searched else ""))
+    print(f"the model already has: {', '.join(model)}")
+
+    hidden = hidden_effects(system)
+    try:
+        urdf_robot(system)
+    except ValueError:  # the IX, the FlexArm, a machine of Python: their plants are their own
+        print(f"\na machine file's [[hidden]] (a URDF machine's plant, docs/own-machine-bench.md) accepts: "
+              f"{', '.join(hidden)} (lcgym effects --system my_arm.toml compares them with what diagnose ranks there)")
+        return 0
+    print(f"\neffects a machine file's [[hidden]] accepts on {system.name} (the plant simulates them; "
+          "docs/own-machine-bench.md):")
+    for name, cls in hidden.items():
+        print(f"  {name:30s} {_summary(cls)}")
+    ranked = {c.name for c in cands}
+    plant_only = [n for n in hidden if n not in ranked]
+    if plant_only:
+        print("only in this list (diagnose does not rank them):")
+        for name in plant_only:
+            why = ("the model already has it" if name in model else
+                   "plant only: diagnose fits a curve of no set shape instead" if hidden[name].plant_only else
+                   f"not a candidate on {system.name}")
+            print(f"  {name:30s} {why}")
+    model_only = [c for c in cands if c.name not in hidden]
+    if model_only:
+        print("only in the first list (the plant cannot simulate them):")
+        for cand in model_only:
+            print(f"  {cand.name:30s} {refusal(cand.effect)}")
     return 0
+
+
+def _summary(effect: type) -> str:
+    """The first paragraph of an effect's docstring, on one line of at most 100 characters."""
+    doc = " ".join((effect.__doc__ or "").strip().split("\n\n")[0].split())
+    return doc if len(doc) <= 100 else doc[:97] + "..."
 
 
 def cmd_simulate(args) -> int:
@@ -317,7 +379,7 @@ def cmd_simulate(args) -> int:
     table = metric_table(results)
     with pd.option_context("display.float_format", "{:.4f}".format, "display.width", 120):
         print(f"{benchmark_name(args.system)}, {args.n_validation} validation reference{'s' if args.n_validation > 1 else ''} "
-              f"(seed {args.seed}), norms of eqs. (34)-(36):")
+              f"(seed {args.seed}), norms MA, RMS, Inf (paper 000, Kon et al. 2025, eqs. (34)-(36); lcgym.metrics):")
         print(table.to_string(index=False))
     if args.out:
         trials = [t for r in results for t in r.trials]
@@ -330,10 +392,12 @@ def cmd_simulate(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    from .leaderboard.report import format_text, select
+    from .leaderboard.page import write_html
+    from .leaderboard.report import format_summary, format_text, select
     from .leaderboard.runner import BenchConfig, run_benchmark
     from .leaderboard.store import read_results
 
+    start = time.perf_counter()
     chosen = {k: v for k, v in (("systems", args.systems), ("methods", args.methods), ("seeds", args.seeds)) if v}
     config = BenchConfig.quick(**chosen) if args.quick else BenchConfig(**chosen)
     try:
@@ -345,8 +409,13 @@ def cmd_bench(args) -> int:
         return 130
     df, _ = select(read_results(args.out), config.config_hash())
     print(format_text(df))
+    page = None if args.no_html else write_html(df, args.html or args.out.with_suffix(".html"), source=str(args.out))
+    print(f"\n{format_summary(df)}")
     print(f"\nrun {summary['run_id']}: {summary['cells_run']} cells run, {summary['cells_skipped']} skipped "
-          f"(--resume), {summary['cells_failed']} failed; results in {args.out}")
+          f"(--resume), {summary['cells_failed']} failed in {time.perf_counter() - start:.0f} s")
+    print(f"results: {args.out.resolve()} (lcgym leaderboard {args.out} prints them again)")
+    if page is not None:
+        print(f"page:    {Path(page).resolve()}")
     return 0
 
 

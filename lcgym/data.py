@@ -445,6 +445,16 @@ def _chunks(path: Path, where: str) -> Iterator[pd.DataFrame]:
         raise MeasurementFileError(f"{where}: cannot parse file: {exc}") from None
 
 
+def another_machine(found: Sequence[str], expected: Sequence[str]) -> bool:
+    """Whether a log whose ``pos_`` columns name the axes ``found`` is one of another machine than
+    the one of the axes ``expected``: it names none of them, nor one that looks like a misspelling
+    of one (the same letters but for case, or a close name: difflib ratio of 0.75 at least)."""
+    if not found or any(ax in found for ax in expected):
+        return False
+    lower = [f.lower() for f in found]
+    return not any(difflib.get_close_matches(ax.lower(), lower, n=1, cutoff=0.75) for ax in expected)
+
+
 def _check_header(names: list[str], axes: tuple[str, ...], where: str) -> tuple[str, ...]:
     """The axes of a file with these column names, after checking that every required column is
     there. A missing column is named, with the file's nearest column names when one looks like a
@@ -457,6 +467,10 @@ def _check_header(names: list[str], axes: tuple[str, ...], where: str) -> tuple[
         axes = tuple(c[4:] for c in names if c.startswith("pos_"))
         if not axes:
             raise MeasurementFileError(f"{where}: column 'pos_<axis>' missing (no position column found)")
+    found = [c[4:] for c in names if c.startswith("pos_")]
+    if another_machine(found, axes):
+        raise MeasurementFileError(f"{where}: the file's axes ({', '.join(found)}) are not the axes expected "
+                                   f"({', '.join(axes)}): is it a log of another machine?")
     required = ["t"] + [f"{p}_{ax}" for p in ("pos", "u") for ax in axes]
     for col in required:
         if col not in names:

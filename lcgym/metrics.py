@@ -4,19 +4,23 @@
     RMS(x) = sqrt(1/N sum_k x(k)^2)    (35)
     Inf(x) = max_k |x(k)|              (36)
 
-Applied to the tracking error e = theta_d - theta (reported in deg) and to the input residual
-eps = u - f (measured input minus feedforward, in V for the IX).
+Applied to the tracking error e = theta_d - theta (reported in deg, mm on a prismatic axis) and to
+the input residual eps = u - f (measured input minus feedforward, in each axis's input unit: V for
+the IX, N m on a revolute joint, N on a prismatic one).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TypeAlias
 
 import numpy as np
 import pandas as pd
 
 METRICS = ("MA", "RMS", "Inf")
 PERIODS = ("all", "dynamic", "static")  # the samples a norm is taken over: all, the reference moving, at rest
+Units: TypeAlias = str | Sequence[str]
+"""One unit for every axis of a table, or one per axis (a machine with revolute and prismatic axes)."""
 
 
 def norms(x) -> dict[str, np.ndarray]:
@@ -42,8 +46,9 @@ def tracking_error_table(trials: Sequence, label: str = "") -> pd.DataFrame:
     return norms_table(e, trials[0].axes, "tracking_error", "deg", label)
 
 
-def input_residual_table(trials: Sequence, feedforward: Sequence, label: str = "", unit: str = "V") -> pd.DataFrame:
-    """Norms of eps = u - f [``unit``: V for the IX, N m for the arm] of trials taken together, one row per axis."""
+def input_residual_table(trials: Sequence, feedforward: Sequence, label: str = "", unit: Units = "V") -> pd.DataFrame:
+    """Norms of eps = u - f of trials taken together, one row per axis. ``unit``: V for the IX, N m for
+    the arm, or one per axis (``System.input_units``: N m on a revolute joint, N on a prismatic one)."""
     if not trials or len(trials) != len(feedforward):
         raise ValueError(f"input_residual_table: {len(trials)} trials but {len(feedforward)} feedforward signals")
     for i, (t, f) in enumerate(zip(trials, feedforward, strict=True)):
@@ -53,11 +58,16 @@ def input_residual_table(trials: Sequence, feedforward: Sequence, label: str = "
     return norms_table(eps, trials[0].axes, "input_residual", unit, label)
 
 
-def norms_table(x, axes: Sequence[str], signal: str, unit: str, label: str = "", period: str = "all") -> pd.DataFrame:
-    """One row per column of x (T, len(axes)): label, axis, signal, period, MA, RMS, Inf, unit."""
+def norms_table(x, axes: Sequence[str], signal: str, unit: Units, label: str = "", period: str = "all") -> pd.DataFrame:
+    """One row per column of x (T, len(axes)): label, axis, signal, period, MA, RMS, Inf, unit.
+    ``unit``: the unit of every column, or a sequence of one unit per axis."""
     if period not in PERIODS:
         raise ValueError(f"period must be one of {', '.join(PERIODS)}, got {period!r}")
+    units = [unit] * len(axes) if isinstance(unit, str) else list(unit)
+    if len(units) != len(axes) or not all(isinstance(u, str) and u.strip() for u in units):
+        raise ValueError(f"norms_table of {signal}: unit must be one non-empty string or one per axis "
+                         f"({len(axes)}: {', '.join(axes)}), got {unit!r}")
     n = norms(x)
     rows = [{"label": label, "axis": ax, "signal": signal, "period": period, **{m: float(n[m][i]) for m in METRICS},
-             "unit": unit} for i, ax in enumerate(axes)]
+             "unit": units[i]} for i, ax in enumerate(axes)]
     return pd.DataFrame(rows)

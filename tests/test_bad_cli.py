@@ -26,7 +26,8 @@ from lcgym.leaderboard.runner import BenchConfig, run_benchmark
 
 @pytest.fixture(scope="module")
 def inputs(tmp_path_factory):
-    """A valid IX measurement file, one with a NaN in data row 5 of pos_roll, and a results CSV."""
+    """A valid IX measurement file, one with a NaN in data row 5 of pos_roll, one of another machine
+    (a two-link arm's axes), and a results CSV."""
     folder = tmp_path_factory.mktemp("inputs")
     n = 200
     t = np.arange(n) / 500.0
@@ -38,10 +39,12 @@ def inputs(tmp_path_factory):
     bad.to_csv(folder / "bad.csv", index=False)
     degrees = Trial(t=t, ref=np.degrees(ref), pos=np.degrees(ref), u=np.zeros((n, 2)), axes=("propeller", "roll"))
     write_trials(folder / "degrees.csv", [degrees, degrees])  # two trials: one warning line per trial and column
+    arm = Trial(t=t, ref=ref, pos=ref, u=np.zeros((n, 2)), axes=("shoulder", "elbow"))  # another machine's log
+    write_trials(folder / "arm.csv", [arm])
     run_benchmark(BenchConfig(methods=("feedback",), systems=("ix",), seeds=(0,), n_train=1, n_validation=1,
                               duration=4.0), folder / "results.csv", progress=False)
     return {"data": str(folder / "run.csv"), "bad": str(folder / "bad.csv"), "degrees": str(folder / "degrees.csv"),
-            "results": str(folder / "results.csv")}
+            "arm": str(folder / "arm.csv"), "results": str(folder / "results.csv")}
 
 
 CASES = [
@@ -88,7 +91,11 @@ CASES = [
     (["diagnose", "{data}", "--system", "ix", "--add", "coulomb_friction@elbow"], "ix has no axis 'elbow'"),
     (["diagnose", "{data}", "--system", "ix", "--min-explained", "nan"], "min_explained must be in (0, 1)"),
     (["diagnose", "{data}", "--system", "ix", "--min-explained", "3"], "min_explained must be in (0, 1)"),
-    (["diagnose", "{data}", "--system", "flexarm"], "is it a file of another machine?"),
+    (["diagnose", "{data}", "--system", "flexarm"], "the file's axes (propeller, roll) are not those of machine flexarm "
+                                                    "(j1, j2, j3, j4, j5, j6): it is a log of another machine; give "
+                                                    "--system ix"),
+    (["diagnose", "{data}", "--system", "ix", "--validate", "{arm}"], "{arm}: the file's axes (shoulder, elbow) are "
+                                                                      "not those of machine ix"),
     (["diagnose", "{data}", "--system", "crane"], "unknown machine 'crane'"),
     (["diagnose", "{tmp}/missing.csv", "--system", "ix"], "file not found"),
     (["diagnose", "{bad}", "--system", "ix"], "column 'pos_roll', row 5"),

@@ -376,3 +376,60 @@ def test_leaderboard_takes_each_machines_newest_configuration(tmp_path):
     mine = chosen[chosen["system"] != "my_arm.toml"]
     assert (mine["plant_trials"] == 2).all() and len(others) == 1
     assert (chosen[chosen["system"] == "my_arm.toml"]["config_hash"] == "0123456789ab").all()
+
+
+def test_bench_from_another_folder_with_a_relative_machine_path(tmp_path):
+    """A machine file named by a relative path (``../mine/arm.toml``), the CSV in the working folder:
+    the run is stored, and the traces lie in the CSV's own traces folder, not beside the machine."""
+    mine, work = tmp_path / "mine", tmp_path / "work"
+    mine.mkdir()
+    work.mkdir()
+    folder = REPO / "lcgym" / "systems" / "two_link"
+    (mine / "two_link.urdf").write_text((folder / "two_link.urdf").read_text())
+    (mine / "arm.toml").write_text((folder / "machine.toml").read_text().replace('name = "two_link"\n', ""))
+    proc = cli("bench", "--quick", "--systems", "../mine/arm.toml", "--methods", "feedback", "--out", "r.csv",
+               cwd=work)
+    out, err = proc.communicate(timeout=300)
+    assert proc.returncode == 0, err
+    df = read_results(work / "r.csv")
+    assert set(df["system"]) == {"../mine/arm.toml"} and (df["status"] == "ok").all()
+    traces = list((work / "r.csv.traces").iterdir())
+    assert len(traces) == 1 and traces[0].suffix == ".parquet" and traces[0].name.startswith("arm.toml-")
+    assert sorted(p.name for p in mine.iterdir()) == ["arm.toml", "two_link.urdf"]  # nothing written beside it
+    # the output ends with the summary and where the results and the page went
+    tail = out.rstrip().splitlines()[-8:]
+    assert any(line.startswith("best on each machine") for line in tail)
+    assert any("../mine/arm.toml" in line and "feedback" in line for line in tail)
+    assert f"results: {work / 'r.csv'}" in out and f"page:    {work / 'r.html'}" in out
+    assert (work / "r.html").stat().st_size > 10_000 and sorted(p.name for p in work.iterdir()) == [
+        "r.csv", "r.csv.traces", "r.html"]  # no lock file left beside the CSV
+
+
+def test_the_summary_names_each_machines_best_method_against_the_physical_model():
+    """Per machine the method of the lowest RMS tracking error, its gain as the geometric mean of the
+    per-axis ratios to the physical model's RMS (so that a mm axis and a deg axis weigh alike);
+    where the physical model is best, it says so and names the runner-up; without a physical row it
+    compares with nothing."""
+    from lcgym.leaderboard.report import format_summary, summary
+
+    def row(system, method, axis, rms, unit="deg"):
+        return {"run_id": "r", "system": system, "method": method, "seed": 0, "reference_set": "validation",
+                "axis": axis, "signal": "tracking_error", "period": "all", "MA": rms, "RMS": rms, "Inf": rms,
+                "unit": unit, "plant_trials": 1, "env_steps": 0, "fit_seconds": 0.0, "status": "ok", "error": "",
+                "config_hash": "c", "note": ""}
+
+    df = pd.DataFrame([
+        row("rail", "physical", "x", 0.4, "mm"), row("rail", "physical", "q", 2.0),
+        row("rail", "pgnn", "x", 0.1, "mm"), row("rail", "pgnn", "q", 2.0),      # 4x and 1x: 2x in all
+        row("rail", "feedback", "x", 4.0, "mm"), row("rail", "feedback", "q", 0.5),  # 0.1x and 4x: 1.58x worse
+        row("arm", "physical", "j", 1.0), row("arm", "rl", "j", 1.25),
+        row("bare", "feedback", "j", 3.0), row("bare", "pgnn", "j", 2.0),
+    ])
+    table = summary(df).set_index("system")
+    assert table.loc["rail", "best"] == "pgnn" and table.loc["rail", "ratio"] == pytest.approx(0.5)
+    assert table.loc["arm", "best"] == "physical" and table.loc["arm", "runner_up"] == "rl"
+    assert table.loc["bare", "best"] == "pgnn" and table.loc["bare", "against"] == ""
+    text = format_summary(df)
+    assert "rail  pgnn      2.0x lower than the physical model's; x 0.1 mm, q 2 deg" in text
+    assert "no method beats the physical model (rl: 1.25x its RMS)" in text
+    assert "(no physical-model row to compare with)" in text

@@ -208,6 +208,44 @@ def test_cli_diagnose_writes_the_spec_json_and_plots(tmp_path, capsys):
     assert "coulomb_friction@roll" in text and "replay" in text
 
 
+def test_plot_legends_give_the_reports_figures_and_titles_fit():
+    """The RMS in a time plot's legend is the printed report's (the same samples: standstill and
+    trial edges, whose residual the fit sets to zero, left out; they once diluted the legend's RMS),
+    its plotted samples have that RMS, and every title fits its figure."""
+    import matplotlib.pyplot as plt
+
+    from lcgym.diagnose.report import PLOT_FILES
+
+    rep = _report((SINGLE["coulomb_friction@roll"],), ("coulomb_friction@roll",))
+    text = rep.text().splitlines()
+    figs = rep.figures()
+    try:
+        assert list(figs) == list(PLOT_FILES)  # with --add: every figure, in the listed order
+        for name, keys in (("residual_time.png", ["residual"]), ("before_after.png", ["residual", "residual_after"])):
+            for ax_name, panel in zip(rep.axes, figs[name].axes, strict=True):
+                lines = {line.get_label(): line for line in panel.get_lines()}
+                shown = [label for label in lines if "RMS" in label]
+                assert len(shown) == len(keys), shown
+                for key, label in zip(keys, shown, strict=True):
+                    rms = rep.legend_rms(key, ax_name)
+                    figure = f"{rms:.4g}"
+                    assert f"(RMS {figure} V over the" in label
+                    # the printed row: the residual table's (its RMS column) or the after table's (after column)
+                    head, column = ("residual [", 2) if key == "residual" else ("after adding", 2)
+                    start = next(k for k, x in enumerate(text) if x.startswith(head))
+                    row = next(x for x in text[start:] if x.split()[:1] == [ax_name])
+                    assert row.split()[column] == figure, row
+                    y = lines[label].get_ydata()
+                    assert np.sqrt(np.nanmean(y**2)) == pytest.approx(rms, rel=1e-9)  # the samples it measures
+        for fig in figs.values():  # no title cut off on either side
+            fig.canvas.draw()
+            box = fig._suptitle.get_window_extent()
+            assert box.x0 >= 0 and box.x1 <= fig.bbox.width and box.y1 <= fig.bbox.height, fig._suptitle.get_text()
+    finally:
+        for fig in figs.values():
+            plt.close(fig)
+
+
 @pytest.mark.bad_input
 @pytest.mark.parametrize("content, message", [
     ("t,ref_propeller,ref_roll\n0,0,0\n", "required column 'pos_propeller' missing"),
@@ -223,6 +261,16 @@ def test_cli_diagnose_bad_file_fails_clearly_and_writes_nothing(tmp_path, capsys
     err = capsys.readouterr().err
     assert rc != 0 and message in err and str(data) in err
     assert not out.exists() and not (tmp_path / "plots").exists()
+
+
+@pytest.mark.bad_input
+def test_trials_of_another_machine_are_refused_naming_whose_axes_they_are():
+    t = np.arange(200) / 500.0
+    q = np.column_stack([np.sin(t), np.cos(t)])
+    arm = Trial(t=t, ref=q, pos=q, u=np.zeros_like(q), axes=("shoulder", "elbow"))
+    with pytest.raises(ValueError, match=r"has axes shoulder, elbow; machine ix has propeller, roll: a log of another "
+                                         r"machine \(two_link"):
+        diagnose([arm], system="ix")
 
 
 @pytest.mark.bad_input

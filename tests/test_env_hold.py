@@ -36,6 +36,67 @@ def test_a_held_step_is_its_samples_one_by_one():
     assert trunc_h
 
 
+@pytest.mark.parametrize("episode_steps", [25, None])
+def test_a_machine_env_holds_in_compiled_code_what_it_steps_one_by_one(episode_steps):
+    """A URDF machine's env holds the action itself (``step_held``, the plant's samples in one compiled
+    loop): against the same env stepped sample by sample, the observations, flags, info and the
+    whole run bit for bit, the summed rewards to round-off; through windows of 25 samples (a hold
+    cut at the window's end) or one whole reference, with actions that the bound clips."""
+    from lcgym.envs import make_env
+
+    make = lambda: make_env("lcgym/TwoLink-v0", references="validation", episode_steps=episode_steps,  # noqa: E731
+                            n_references=1, duration=2.0, base_feedforward="none")
+    fast, plain = HoldAction(make(), 7), make()
+    assert hasattr(type(fast.env), "step_held")
+    fast.reset(seed=1)
+    plain.reset(seed=1)
+    for action in 1.5 * _actions(2000, fast.action_space.shape, seed=2):
+        obs_f, r_f, term_f, trunc_f, info_f = fast.step(action)
+        total = 0.0
+        for _ in range(info_f["held_samples"]):
+            obs_p, r, term_p, trunc_p, info_p = plain.step(action)
+            total += float(r)
+        assert np.array_equal(obs_f, obs_p) and (term_f, trunc_f) == (term_p, trunc_p)
+        assert r_f == pytest.approx(total, rel=1e-12)
+        for key in ("pos", "u", "ff", "error", "clipped_actions"):
+            assert np.array_equal(info_f[key], info_p[key]), key
+        if "trial" in info_p:
+            assert np.array_equal(info_f["trial"].pos, info_p["trial"].pos)
+            assert np.array_equal(info_f["trial"].ff, info_p["trial"].ff)
+            break
+        if term_f or trunc_f:
+            fast.reset()
+            plain.reset()
+    assert info_f["clipped_actions"] > 0 and "trial" in info_f
+
+
+def test_a_machine_env_hold_that_leaves_the_safe_range_ends_where_the_steps_end():
+    """Full torque on both axes until the plant leaves its safe range inside a hold: the held step is
+    terminated at the same sample, with the same observation and reward, as the steps one by one."""
+    from lcgym import systems
+    from lcgym.envs import make_env
+    from lcgym.systems.urdf_plant import URDFPlant
+
+    machine = systems.get("two_link")
+    make = lambda: make_env("lcgym/TwoLink-v0", references="validation", n_references=1, duration=2.0,  # noqa: E731
+                            episode_steps=None, plant=URDFPlant(machine, u_max=150.0, max_error=0.05))
+    fast, plain = HoldAction(make(), 9), make()
+    fast.reset(seed=0)
+    plain.reset(seed=0)
+    action = np.ones(fast.action_space.shape, dtype=np.float32)
+    for _ in range(2000):
+        obs_f, r_f, term_f, trunc_f, info_f = fast.step(action)
+        total, steps = 0.0, 0
+        while steps < info_f["held_samples"]:
+            obs_p, r, term_p, trunc_p, _ = plain.step(action)
+            total, steps = total + float(r), steps + 1
+        assert np.array_equal(obs_f, obs_p) and (term_f, trunc_f) == (term_p, trunc_p)
+        assert r_f == pytest.approx(total, rel=1e-12)
+        if term_f:
+            break
+    assert term_f and 0 < info_f["held_samples"] < 9 and np.array_equal(info_f["trial"].pos, plain.unwrapped._episode.trial().pos)
+
+
 def test_the_vector_hold_equals_the_adapter_stepped_sample_by_sample():
     """make_sb3_vec_env(agent_rate=50) on the IX (500 Hz) holds 10 samples: its steps equal the
     unheld adapter's, 10 samples at a time, with the rewards summed, and episodes of 1000 samples

@@ -5,7 +5,8 @@ Headless Chromium (``lcgym.leaderboard.browser``: Playwright for Python driving 
 tables are on the first screen, that clicking a header sorts the rows, that every image loads,
 that nothing is logged as an error and that no request leaves ``file:`` and ``data:`` URLs. Once on
 a page built from a small synthetic CSV (with traces and a failed cell whose error is markup), once
-on the shipped ``results/leaderboard.csv``.
+on the shipped ``results/leaderboard.csv``, and once on a user's machine with a prismatic axis (a
+rail in mm beside two joints in deg: each view in each axis's unit and scale).
 
 Without Playwright or Chromium the browser tests are skipped, saying which is missing, unless
 ``LCGYM_REQUIRE_BROWSER=1`` (the CI sets it): then they fail.
@@ -26,6 +27,7 @@ from lcgym.leaderboard.page import page_path, ratio_colour, write_html
 from lcgym.leaderboard.report import select
 from lcgym.leaderboard.runner import trace_path
 from lcgym.leaderboard.store import SIGNALS, append_rows, read_results
+from lcgym.metrics import norms
 
 REPO = Path(__file__).resolve().parents[1]
 SHIPPED = REPO / "results" / "leaderboard.csv"
@@ -101,9 +103,11 @@ def _column(page, table: int, col: int) -> list:
         [table, col])
 
 
-def _check_in_browser(html_file: Path) -> dict:
-    """Open the page at 1280 x 800 and check the first screen, sorting, images, console and requests."""
+def _check_in_browser(html_file: Path, inspect=None) -> dict:
+    """Open the page at 1280 x 800 and check the first screen, sorting, images, console and requests;
+    ``inspect(page)``, where given, reads the page first (its result is the answer's "inspected")."""
     with open_page(html_file) as (page, log):
+        inspected = inspect(page) if inspect else None
         width, height = VIEWPORT
         boxes = [t.bounding_box() for t in page.query_selector_all("table.overview")]
         assert boxes, "no overview table"
@@ -128,7 +132,7 @@ def _check_in_browser(html_file: Path) -> dict:
         assert images and all(done and w > 0 for _alt, done, w in images), images
         assert not log.console_errors and not log.page_errors, (log.console_errors, log.page_errors)
         assert all(u.startswith(("file:", "data:")) for u in log.requests), log.requests
-        return {"order": order, "images": [a for a, _, _ in images]}
+        return {"order": order, "images": [a for a, _, _ in images], "inspected": inspected}
 
 
 def test_page_of_a_synthetic_csv_in_the_browser(tmp_path, capsys):
@@ -209,3 +213,148 @@ def test_a_methods_note_reaches_the_text_the_markdown_and_the_page(tmp_path):
     text = write_markdown(df, tmp_path / "README.md", source=str(csv)).read_text()
     for shown in (page, text, format_text(df)):
         assert shown.count("alpha / seed 0: rl: residual dropped on roll") == 2  # ix-v1 and flexarm-v1
+
+
+RAIL = "rail_arm.toml"  # a user's machine file, as lcgym bench names it
+RAIL_UNITS = {"rail": ("mm", "N", 1000.0), "shoulder": ("deg", "N m", 180 / np.pi), "elbow": ("deg", "N m", 180 / np.pi)}
+"""axis -> (tracking-error unit, input unit, factor from the stored SI trace: m -> mm, rad -> deg)."""
+RAIL_SCALES = {"feedback": 10.0, "physical": 1.0, "ilc": 0.1}
+
+
+def _rail_csv(folder: Path) -> Path:
+    """One seed of a rail (prismatic) / shoulder / elbow machine: each method's trace with known errors
+    in m and rad, and its tracking-error rows the norms of that trace in mm and deg (as if the
+    validation set were that one reference), input-residual rows in N and N m."""
+    out = folder / "rail.csv"
+    folder.mkdir()
+    base = {"run_id": "r1", "seed": 0, "period": "all", "plant_trials": 2, "env_steps": 0, "fit_seconds": 0.1,
+            "status": "ok", "error": "", "lcgym_version": "0.1.0", "git_commit": "abc123def456",
+            "timestamp": "2026-12-02T10:00:00+00:00", "config_hash": "0a11ce0a11ce", "system": RAIL}
+    t = np.arange(0.0, 2.0, 0.01)
+    rows = []
+    for method, scale in RAIL_SCALES.items():
+        frame = {"t": t}
+        for k, axis in enumerate(RAIL_UNITS):
+            size = 1.43e-5 if axis == "rail" else 1.3e-3  # m: RMS about 0.0101 mm; rad: about 0.053 deg
+            frame[f"ref_{axis}"] = 0.2 * np.sin(np.pi * t + k)
+            frame[f"error_{axis}"] = scale * size * (1 + 0.3 * k) * np.sin(3 * np.pi * t + k)
+        trace = pd.DataFrame(frame).astype("float32")
+        path = trace_path(out, RAIL, method, 0)
+        path.parent.mkdir(exist_ok=True)
+        trace.to_parquet(path, index=False)
+        for axis, (unit, input_unit, factor) in RAIL_UNITS.items():
+            shown = norms(factor * trace[f"error_{axis}"].to_numpy(dtype=float))
+            for reference_set in ("train", "validation"):
+                rows.append({**base, "method": method, "reference_set": reference_set, "axis": axis,
+                             "signal": "tracking_error", "unit": unit, **{m: float(v) for m, v in shown.items()}})
+                rows.append({**base, "method": method, "reference_set": reference_set, "axis": axis,
+                             "signal": "input_residual", "unit": input_unit, "MA": scale, "RMS": 1.2 * scale,
+                             "Inf": 3 * scale})
+    append_rows(out, rows)
+    return out
+
+
+def _figures_drawn(monkeypatch) -> dict:
+    """Record the trace grids and bar charts the page draws: their panels' titles, y-labels and texts
+    (the images themselves are PNGs the browser cannot read back as text)."""
+    from lcgym.leaderboard import plots
+
+    drawn = {"traces": [], "bars": []}
+
+    def panels(fig):
+        return [{"title": ax.get_title(), "ylabel": ax.get_ylabel(), "texts": [t.get_text() for t in ax.texts]}
+                for ax in fig.axes]
+
+    def traces(traces, *args, **kwargs):
+        fig = trace_grid(traces, *args, **kwargs)
+        drawn["traces"].append({"methods": list(traces), "panels": panels(fig)})
+        return fig
+
+    def bars(part, *args, **kwargs):
+        fig = bar(part, *args, **kwargs)
+        drawn["bars"].append({"signal": part["signal"].iloc[0], "panels": panels(fig)})
+        return fig
+
+    trace_grid, bar = plots.trace_grid_figure, plots.rms_bar_figure
+    monkeypatch.setattr(plots, "trace_grid_figure", traces)
+    monkeypatch.setattr(plots, "rms_bar_figure", bars)
+    return drawn
+
+
+READ_UNITS = """() => ({
+    overview: [...document.querySelectorAll('table.overview thead th[data-col]')].map(
+        th => [th.firstChild.textContent, th.querySelector('small') ? th.querySelector('small').textContent : '']),
+    rows: Object.fromEntries([...document.querySelectorAll('table.overview tbody tr')].map(
+        r => [r.cells[0].firstChild.textContent, [...r.cells].slice(1).map(c => c.textContent)])),
+    marked: [...document.querySelectorAll('table.overview tbody th.method sup.scored')].map(
+        s => s.parentElement.firstChild.textContent),
+    heading: document.querySelector('section.machine h3').textContent,
+    groups: [...document.querySelectorAll('table.details')].map(
+        t => [...t.querySelectorAll('th.group')].map(th => th.textContent)),
+    summaries: [...document.querySelectorAll('details > summary')].map(s => s.textContent),
+    cells: [...document.querySelectorAll('td')].map(td => td.textContent),
+    legend: document.querySelector('p.legend').textContent,
+})"""
+
+
+def test_page_of_a_machine_with_a_prismatic_axis_in_the_browser(tmp_path, monkeypatch):
+    """A rail (prismatic, mm) beside a shoulder and an elbow (revolute, deg): every view says each
+    axis's own unit, the trace panels convert m to mm and rad to deg (the rail's trace RMS is the
+    table's mm figure, not m x 57.3), one seed shows no ± part, and ILC is marked as learned on the
+    references it is scored on."""
+    _browser_or_skip()
+    csv = _rail_csv(tmp_path / "made")
+    drawn = _figures_drawn(monkeypatch)
+    page = tmp_path / "board.html"
+    assert main(["leaderboard", str(csv), "--html", str(page)]) == 0
+    seen = _check_in_browser(page, lambda p: p.evaluate(READ_UNITS))
+    dom = seen["inspected"]
+    axes = list(RAIL_UNITS)  # the machine's order, in every view
+    assert dom["overview"][1:4] == [["rail", "mm"], ["shoulder", "deg"], ["elbow", "deg"]]
+    assert dom["groups"][0] == ["rail [mm]", "shoulder [deg]", "elbow [deg]"]  # details, tracking error
+    assert dom["groups"][1] == ["rail [N]", "shoulder [N m]", "elbow [N m]"]  # details, input residual
+    assert "tracking error [mm, deg] per axis" in dom["heading"]
+    assert any(s.startswith("tracking error") and s.endswith("[mm, deg]") for s in dom["summaries"])
+    assert any(s.startswith("input residual") and s.endswith("[N, N m]") for s in dom["summaries"])
+    assert not any("±" in c for c in dom["cells"]), "one seed: no ± part"
+    assert dom["marked"] == ["ilc"] and "ilc: learned on each reference it is scored on" in dom["legend"]
+    assert {f"{RAIL}_traces", f"{RAIL}_tracking_error", f"{RAIL}_input_residual"} <= set(seen["images"])
+
+    # the figures the page embeds: the trace panels in each axis's unit and scale
+    (grid,) = drawn["traces"]
+    assert [p["title"] for p in grid["panels"][:3]] == ["e rail [mm]", "e shoulder [deg]", "e elbow [deg]"]
+    for i, method in enumerate(grid["methods"]):
+        for j, axis in enumerate(axes):
+            panel = grid["panels"][i * len(axes) + j]
+            rms = float(panel["texts"][0].split()[1])
+            table = float(dom["rows"][method][j].lstrip("★"))
+            assert rms == pytest.approx(table, rel=1e-9), (method, axis, panel["texts"], dom["rows"][method])
+    assert float(dom["rows"]["physical"][0]) == pytest.approx(0.0101, rel=0.02)  # the rail in mm, not m x 57.3
+    labels = {b["signal"]: [p["ylabel"] for p in b["panels"]] for b in drawn["bars"]}  # a panel per unit
+    assert labels == {"tracking_error": ["RMS [mm] (log)", "RMS [deg] (log)"],
+                      "input_residual": ["RMS [N] (log)", "RMS [N m] (log)"]}
+
+
+def test_one_seed_shows_no_spread_and_ilc_is_marked_in_the_text_and_markdown(tmp_path):
+    """The text and Markdown leaderboards: RMS_std empty where a method has one seed (its std is
+    undefined, not 0), a number where it has two; each axis's unit; ILC named as learned on the
+    references it is scored on."""
+    from lcgym.leaderboard.report import format_text, write_markdown
+
+    csv = _rail_csv(tmp_path / "made")
+    df = read_results(csv)
+    again = df[df["method"] == "feedback"].assign(seed=1, RMS=lambda d: d["RMS"] * 1.1)
+    df = pd.concat([df, again], ignore_index=True)
+    text = format_text(df)
+    assert "ilc: learned on each reference it is scored on" in text
+    section = text.split(f"{RAIL} / tracking_error / rail\n")[1].split("\n\n")[0].splitlines()
+    header, rows = section[0].split(), {r.split()[1]: r.split() for r in section[1:]}
+    assert header[:7] == ["rank", "method", "MA", "RMS", "RMS_std", "Inf", "unit"]
+    assert len(rows["feedback"]) == len(header) and rows["feedback"][6] == "mm"  # two seeds: a spread
+    assert len(rows["physical"]) == len(header) - 1 and rows["physical"][5] == "mm"  # one seed: none
+    assert f"{RAIL} / input_residual / rail" in text and f"{RAIL} / input_residual / elbow" in text
+    md = write_markdown(df, tmp_path / "board.md", source=str(csv)).read_text()
+    assert "`ilc`: learned on each reference it is scored on" in md
+    table = md.split(f"## {RAIL} / tracking_error / shoulder\n")[1].split("\n\n")[0].splitlines()
+    cells = {r.split("|")[2].strip(): [c.strip() for c in r.split("|")[1:-1]] for r in table[2:]}
+    assert cells["physical"][4] == "" and cells["feedback"][4] != "" and cells["physical"][6] == "deg"

@@ -205,6 +205,49 @@ def test_process_sensitivity_matches_a_simulated_axis(tmp_path):
         assert (ps[0, 0] == 0.0) == (ki > 0)  # an integrator leaves no constant error
 
 
+def test_hidden_effects_are_exactly_those_the_plant_accepts(machine_file):
+    """``hidden_effects`` (what ``lcgym effects`` lists for [[hidden]]) against the plant's own gate,
+    ``bind_effects``, for every effect the machine knows; a name outside it is refused listing them."""
+    from lcgym.systems.machine import hidden_effects
+    from lcgym.systems.urdf_plant import bind_effects
+
+    m = systems.get(str(machine_file))
+    accepted = set()
+    for name, cls in m.effect_classes().items():
+        try:
+            bind_effects([cls(axis="yaw")], m)
+        except ValueError as exc:
+            assert "URDFPlant simulates" in str(exc), exc
+        else:
+            accepted.add(name)
+    assert set(hidden_effects(m)) == accepted and {"tabulated_force", "viscous_friction"} <= accepted
+    assert not {"stiction", "drivetrain_flexibility", "friction_curve"} & accepted
+    bad = write_machine(machine_file.parent, "urdf = 'yaw_pitch.urdf'\n[[hidden]]\neffect = 'coulomb'\naxis = 'yaw'\n")
+    with pytest.raises(MachineFileError) as info:
+        load_machine(bad)
+    assert f"a machine file's plant simulates {', '.join(hidden_effects(m))}" in str(info.value)
+
+
+def test_a_machine_files_runs_record_the_plant_and_rebuild_it(machine_file, tmp_path):
+    """Each run of the bench carries ``meta["plant"]``; the bench rebuilds that plant from it, and
+    refuses a record of another machine or of a plant the file no longer describes."""
+    from lcgym.data import read_trials, write_trials
+
+    bench = systems.make_bench(str(machine_file))
+    runs = bench.run(bench.references("validation", 0, 1, 2.0))
+    back = read_trials(write_trials(tmp_path / "run.csv", runs), axes=bench.axes)
+    record = back[0].meta["plant"]
+    assert record["system"] == "yaw_pitch" and record["machine_file"] == str(machine_file)
+    plant = type(bench).plant_from_record(record)
+    assert repr(plant) == repr(bench.plant)
+    with pytest.raises(ValueError, match="simulated on machine 'other'"):
+        type(bench).plant_from_record({**record, "system": "other"})
+    with pytest.raises(ValueError, match="its URDF"):
+        type(bench).plant_from_record({**record, "urdf_sha256": "0" * 64})
+    with pytest.raises(ValueError, match="its hidden effects"):
+        type(bench).plant_from_record({**record, "description": "URDFPlant('yaw_pitch', effects=[])"})
+
+
 def test_two_link_is_a_built_in_machine_from_one_folder():
     m = systems.get("two_link")
     assert m.env_id == "lcgym/TwoLink-v0" and systems.benchmark_name("two_link") == "two_link-v0"

@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 from lcgym.data import Trial
-from lcgym.metrics import METRICS, input_residual_table, norms, tracking_error_table
+from lcgym.metrics import METRICS, input_residual_table, norms, norms_table, tracking_error_table
 
 AXES = ("propeller", "roll")
 
@@ -129,6 +129,21 @@ def test_input_residual_table_in_volts():
     assert table.loc["propeller", "Inf"] == pytest.approx(3.0)
     # roll eps = u: 0.5 in magnitude; no deg conversion of volts
     assert [table.loc["roll", m] for m in METRICS] == pytest.approx([0.5, 0.5, 0.5])
+
+
+def test_input_residual_table_with_one_unit_per_axis():
+    """A machine of a prismatic and a revolute axis: N on the one, N m on the other, per row."""
+    tr = _trial(np.zeros((2, 2)), u=np.array([[3.0, -1.0], [-3.0, 1.0]]))
+    table = input_residual_table([tr], [np.zeros((2, 2))], unit=("N", "N m")).set_index("axis")
+    assert table.loc["propeller", "unit"] == "N" and table.loc["roll", "unit"] == "N m"
+    assert [table.loc["propeller", m] for m in METRICS] == pytest.approx([3.0, 3.0, 3.0])
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize("unit", [("N",), ("N", "N m", "V"), ("N", ""), ("N", None)])
+def test_norms_table_rejects_units_that_do_not_fit_the_axes(unit):
+    with pytest.raises(ValueError, match=r"one per axis \(2: propeller, roll\)"):
+        norms_table(np.ones((3, 2)), AXES, "input_residual", unit)
 
 
 def test_input_residual_sign_is_u_minus_f():

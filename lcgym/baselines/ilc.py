@@ -57,7 +57,8 @@ history instead of returning garbage (as does a trial that drives the plant out 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -177,14 +178,23 @@ class IterativeLearningControl(Controller):
     name = "ilc"
     relative_cost = 10.0  # seconds of a quick cell (protocol.Controller)
     uses_plant = True
+    learns_on_scored_references = True
 
-    def __init__(self, config: ILCConfig | None = None, system: systems.System | str | None = None):
+    def __init__(self, config: ILCConfig | None = None, system: systems.System | str | None = None,
+                 budget: float = 1.0):
         self.config = config
         self.system = system
+        self.budget = budget
 
     @property
     def config_(self) -> ILCConfig:
-        return self.config or ILCConfig()
+        """The configuration it learns with: the one given, its trials scaled by ``budget`` (at least
+        one; ``protocol.build_method``)."""
+        cfg = self.config or ILCConfig()
+        if self.budget == 1.0:
+            return cfg
+        return replace(cfg, trials=max(1, math.ceil(cfg.trials * self.budget)),
+                       arm_trials=max(1, math.ceil(cfg.arm_trials * self.budget)))
 
     def fit(self, trials) -> IterativeLearningControl:
         from .physical import PhysicalFeedforward
@@ -268,6 +278,7 @@ class ILCTransfer(IterativeLearningControl):
 
     name = "ilc-transfer"
     relative_cost = 3.0  # seconds of a quick cell (protocol.Controller)
+    learns_on_scored_references = False  # it learns on a training reference only
 
     def fit(self, trials) -> ILCTransfer:
         super().fit(trials)

@@ -17,7 +17,7 @@ measured with ``studies/pgnn_protocol.py`` on IX-v1's leaderboard data):
 * **iterations**: ``PGNNConfig.steps_per_iteration`` (80 Adam steps, the paper's epoch at its N),
   so that the patience of five iterations means the same at the leaderboard's N as at the paper's;
   at most ``MAX_ITERATIONS`` on the benchmark's 8 training runs, in proportion to the runs otherwise
-  (``max_iterations``: 25 on ``--quick``'s 2).
+  (``max_iterations``: 25 on ``--quick``'s 2 at the full budget; ``--quick`` trains for half of that).
 
 The leaderboard trains with one torch thread (benchmark cells run in parallel workers);
 ``nn_contribution`` gives f^C for the results' ``nn_rms`` column.
@@ -63,12 +63,13 @@ REFERENCE_TRIALS = 8
 """The training runs ``MAX_ITERATIONS`` is set for: the benchmark's default training set."""
 
 
-def max_iterations(n_trials: int) -> int:
-    """The cap for ``n_trials`` training runs: ``MAX_ITERATIONS`` per ``REFERENCE_TRIALS`` runs (at
-    least one iteration). A budget in proportion to the data, as the ``rl`` method's (passes over
-    the training samples): a fixed cap in Adam steps would train 4x as many epochs on ``lcgym bench
-    --quick``'s 2 runs as on the full benchmark's 8 (25 iterations there, 100 here)."""
-    return max(1, math.ceil(MAX_ITERATIONS * n_trials / REFERENCE_TRIALS))
+def max_iterations(n_trials: int, budget: float = 1.0) -> int:
+    """The cap for ``n_trials`` training runs: ``MAX_ITERATIONS`` per ``REFERENCE_TRIALS`` runs, times
+    ``budget`` (at least one iteration). A budget in proportion to the data, as the ``rl`` method's
+    (passes over the training samples): a fixed cap in Adam steps would train 4x as many epochs on
+    ``lcgym bench --quick``'s 2 runs as on the full benchmark's 8 (25 iterations there at the full
+    budget, 100 here)."""
+    return max(1, math.ceil(MAX_ITERATIONS * n_trials / REFERENCE_TRIALS * budget))
 
 
 class PGNNFeedforward(Controller):
@@ -77,7 +78,9 @@ class PGNNFeedforward(Controller):
     ``fit`` keeps the training trials (and trains at once where ``collect`` is "feedback");
     ``learn`` records the training data with the physical feedforward on, on its first call, and
     trains. Learned: ``pgnn_`` (the fitted ``PGNN``), ``data_`` (its training trials), ``cost_``.
-    ``system``: the machine (a ``System`` or a spec for ``systems.get``, such as "ix").
+    ``system``: the machine (a ``System`` or a spec for ``systems.get``, such as "ix"); ``budget``: the
+    fraction of the protocol's iteration cap it trains for (``max_iterations``; a given ``config``
+    is used as given).
     """
 
     name = "pgnn"
@@ -87,10 +90,11 @@ class PGNNFeedforward(Controller):
     learns_once = True  # learn's plant runs happen on its first call (the training data), not per reference
 
     def __init__(self, config: PGNNConfig | None = None, collect: str | None = None,
-                 system: systems.System | str | None = None):
+                 system: systems.System | str | None = None, budget: float = 1.0):
         self.config = config
         self.collect = collect
         self.system = system
+        self.budget = budget
 
     def fit(self, trials: Sequence) -> PGNNFeedforward:
         self.system_ = given_system(self)
@@ -121,7 +125,7 @@ class PGNNFeedforward(Controller):
         if self.config is not None:
             return replace(self.config, regularize=self.regularize)
         cfg = replace(PGNNConfig.for_system(self.system_), threads=1, regularize=self.regularize,
-                      max_epochs=max_iterations(n_trials))
+                      max_epochs=max_iterations(n_trials, self.budget))
         filter_hz = protocol(self.system_).get("filter_hz")
         return cfg if filter_hz is None else replace(cfg, filter_hz=filter_hz)
 

@@ -13,7 +13,10 @@ A feedforward controller has
 * optionally ``reference_offset(reference) -> (T, n_axes)`` [rad] or None: added to the reference
   the feedback tracks, on systems with that channel (the FlexArm's motor reference);
   ``systems``: the systems it runs on (default all); and ``relative_cost``: about how many
-  seconds a quick cell of it takes (default 1), which only orders the parallel workers' cells.
+  seconds a quick cell of it takes (default 1), which only orders the parallel workers' cells;
+* optionally a constructor keyword ``budget`` (default 1): the fraction of its full learning budget
+  a method spends (the PGNN's iterations, ILC's trials), which ``lcgym bench --quick`` lowers
+  (``BenchConfig.budget``) for a smoke run of every cell.
 
 Subclassing ``Controller`` gives the no-op defaults; duck typing works too. A user's class is
 named on the command line as ``module:Class`` (see ``load_method``).
@@ -59,6 +62,9 @@ class Controller:
 
     name = "controller"
     uses_plant = False
+    learns_on_scored_references = False
+    """True for a method whose ``learn`` runs the plant on each evaluation reference itself before it
+    is scored (ILC): the leaderboard marks its rows as learned on the references they score."""
     relative_cost = 1.0
     """About how long a cell of this method takes, in seconds of ``lcgym bench --quick``'s cells on the
     built-in machines (the median of their cells' times; pgnn, pgnn-ls, rl and ilc from a serial run,
@@ -120,12 +126,27 @@ def takes_system(cls: type) -> bool:
                for p in parameters)
 
 
-def build_method(spec: str, system: systems.System, registry: dict[str, type]):
+def takes_budget(cls: type) -> bool:
+    """Whether ``cls``'s constructor names a ``budget`` keyword (``**kwargs`` alone does not count:
+    a class that does not know the word is not handed it)."""
+    try:
+        parameters = inspect.signature(cls).parameters
+    except (TypeError, ValueError):
+        return False
+    return "budget" in parameters and parameters["budget"].kind in (inspect.Parameter.POSITIONAL_OR_KEYWORD,
+                                                                    inspect.Parameter.KEYWORD_ONLY)
+
+
+def build_method(spec: str, system: systems.System, registry: dict[str, type], budget: float = 1.0):
     """The controller of method ``spec`` (an id of ``registry`` or ``module:Class``, ``load_method``)
     for ``system``: ``cls(system=system)``; a user's class whose constructor takes no ``system`` is
-    built without arguments."""
+    built without arguments. ``budget``: the fraction of its full learning budget, handed to a class
+    whose constructor names ``budget`` (``Controller``) where it is not 1."""
     cls = load_method(spec, registry)
-    return cls(system=system) if takes_system(cls) else cls()
+    kwargs = {"system": system} if takes_system(cls) else {}
+    if budget != 1.0 and takes_budget(cls):
+        kwargs["budget"] = budget
+    return cls(**kwargs)
 
 
 @dataclass

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import textwrap
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -14,6 +15,13 @@ from ..data import atomic_write
 DEG = math.pi / 180.0
 NOTHING_FOUND = "no missing effect found"
 MAX_PRINTED_PARAMETERS = 8  # a machine with more (a URDF's 10 per link) has its fitted parameters in the JSON only
+PLOT_FILES = {
+    "residual_time.png": "the residual over time, with the scaled reference velocity",
+    "residual_map.png": "the mean residual over position and velocity",
+    "effects.png": "the selected or added effects as fitted",
+    "before_after.png": "with --add: the residual before and after",
+}
+"""The figures ``Diagnosis.plot`` writes (``lcgym diagnose --plots``), by file name: what each shows."""
 
 
 @dataclass
@@ -235,25 +243,48 @@ class Diagnosis:
         return out
 
     def plot(self, folder: str | Path) -> list[Path]:
-        """residual_time.png, residual_map.png, (with ``after``) before_after.png and, where effects
-        were selected or added, effects.png (their fitted curves) in ``folder``."""
+        """Write the figures (``figures``) to ``folder`` as PNG files named by ``PLOT_FILES``; the
+        paths written."""
+        import matplotlib.pyplot as plt
+
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        figs = self.figures()
+        paths = []
+        try:
+            for name, fig in figs.items():
+                path = folder / name
+                atomic_write(path, lambda tmp, f=fig: f.savefig(tmp, dpi=100, format="png"))
+                paths.append(path)
+        finally:
+            for fig in figs.values():
+                plt.close(fig)
+        return paths
+
+    def figures(self) -> dict:
+        """The figures of ``PLOT_FILES`` that this report has, by file name (matplotlib figures,
+        Agg; the caller closes them): residual_time.png and residual_map.png always, effects.png
+        where effects were selected or added, before_after.png with ``after``. The residual is
+        shown at the samples fitted and scored (``series["used"]``: the trial edges and standstill
+        left out, whose residual the fit sets to zero, are gaps), and the RMS in a legend is the
+        printed report's, over those samples."""
         import matplotlib
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        folder = Path(folder)
-        folder.mkdir(parents=True, exist_ok=True)
         s, n = self.series, len(self.axes)
-        figs = []
-        figs.append((self._time_panels(plt, [("residual", "residual")], velocity=True,
-                                       title="Residual u - f of the fitted model"), folder / "residual_time.png"))
+        figs = {"residual_time.png": self._time_panels(plt, [("residual", "residual")], velocity=True,
+                                                       title="Residual u - f of the fitted model")}
 
         fig, axs = plt.subplots(1, n, figsize=(5.5 * n, 4.2), squeeze=False)
         for i, ax_name in enumerate(self.axes):
             ax = axs[0, i]
             f, pos_unit = self.displays.get(ax_name, (180 / math.pi, "deg"))
-            q, v, r = f * s["q"][:, i], f * s["qd"][:, i], s["residual"][:, i]
+            used = s["used"][:, i]  # the residual of a sample left out is no residual (zero): not mapped
+            q, v, r = f * s["q"][used, i], f * s["qd"][used, i], s["residual"][used, i]
+            if not q.size:
+                q = v = r = np.zeros(1)
             qe, ve = np.linspace(q.min(), q.max() + 1e-9, 31), np.linspace(v.min(), v.max() + 1e-9, 21)
             total, _, _ = np.histogram2d(q, v, [qe, ve], weights=r)
             count, _, _ = np.histogram2d(q, v, [qe, ve])
@@ -263,27 +294,22 @@ class Diagnosis:
             fig.colorbar(im, ax=ax, label=f"mean residual [{self.residual[ax_name]['unit']}]")
             ax.set_xlabel(f"{ax_name} position [{pos_unit}]")
             ax.set_ylabel(f"{ax_name} velocity [{pos_unit}/s]")
-        fig.suptitle("Where the model fails: residual over (position, velocity)")
-        fig.tight_layout()
-        figs.append((fig, folder / "residual_map.png"))
+        _title(fig, "Where the model fails: mean residual over (position, velocity), at the samples fitted")
+        figs["residual_map.png"] = fig
 
+        if s.get("effects"):
+            figs["effects.png"] = self._effect_panels(plt, s["effects"])
         if "residual_after" in s:
             after = "after " + ", ".join(self.after["added"])
-            figs.append((self._time_panels(plt, [("residual", "before"), ("residual_after", after)], velocity=False,
-                                           title="Residual before and after adding the effects"),
-                         folder / "before_after.png"))
-        if s.get("effects"):
-            figs.append((self._effect_panels(plt, s["effects"]), folder / "effects.png"))
-        paths = []
-        try:
-            for fig, path in figs:
-                atomic_write(path, lambda tmp, f=fig: f.savefig(tmp, dpi=100, format="png"))
-                paths.append(path)
-        finally:
-            for fig, _ in figs:
-                plt.close(fig)
-        return paths
+            figs["before_after.png"] = self._time_panels(plt, [("residual", "before"), ("residual_after", after)],
+                                                         velocity=False,
+                                                         title="Residual before and after adding the effects")
+        return figs
 
+    def legend_rms(self, key: str, axis: str) -> float:
+        """The RMS [input unit] a legend gives for series ``key`` ("residual", "residual_after") on
+        ``axis``: the report's (``residual``, ``after["residual"]``)."""
+        return (self.residual if key == "residual" else self.after["residual"])[axis]["RMS"]
 
     def _effect_panels(self, plt, curves: list[dict]):
         """One panel per added effect: its fitted torque over the variable it acts on (velocity for
@@ -302,32 +328,42 @@ class Diagnosis:
             ax.set_ylabel(f"torque [{self.residual[axis]['unit']}]")
             ax.set_title(f"{c['effect']} [{c['family']}]", fontsize=10)
             ax.grid(alpha=0.3)
-        fig.suptitle("The effects added, as fitted: torque over the variable each acts on")
-        fig.tight_layout()
+        _title(fig, "The effects added, as fitted: torque over the variable each acts on")
         return fig
 
     def _time_panels(self, plt, series: list[tuple[str, str]], velocity: bool, title: str):
-        """One panel per axis: the named residual series over time, optionally with the scaled
-        reference velocity."""
+        """One panel per axis: the named residual series over time at the samples fitted and scored
+        (``series["used"]``; the others are gaps), optionally with the scaled reference velocity;
+        the legend's RMS is the report's (``legend_rms``: over the same samples)."""
         s, n = self.series, len(self.axes)
         fig, axs = plt.subplots(n, 1, figsize=(11, 3 * n), sharex=True, squeeze=False)
         for i, ax_name in enumerate(self.axes):
-            ax = axs[i, 0]
+            ax, used, unit = axs[i, 0], s["used"][:, i], self.residual[ax_name]["unit"]
             for key, label in series:
-                r = s[key][:, i]
-                ax.plot(s["t"], r, lw=0.7, label=f"{label} (RMS {np.sqrt(np.mean(r ** 2)):.4f} "
-                        f"{self.residual[ax_name]['unit']})")
+                r = np.where(used, s[key][:, i], np.nan)
+                ax.plot(s["t"], r, lw=0.7, label=f"{label} (RMS {self.legend_rms(key, ax_name):.4g} {unit} over the "
+                                                 f"{100 * used.mean():.0f}% of samples fitted)")
             v = s["ref_velocity"][:, i]
             if velocity and np.abs(v).max() > 0:
                 r = s[series[0][0]][:, i]
                 ax.plot(s["t"], v / np.abs(v).max() * np.abs(r).max(), "k--", lw=0.6, alpha=0.6,
                         label="reference velocity (scaled)")
-            ax.set_ylabel(f"{ax_name} [{self.residual[ax_name]['unit']}]")
+            ax.set_ylabel(f"{ax_name} [{unit}]")
             ax.legend(loc="upper right", fontsize=8)
             ax.grid(alpha=0.3)
         axs[-1, 0].set_xlabel("time over all trials [s]")
-        fig.suptitle(title)
+        _title(fig, f"{title} (at the samples fitted, RMS as in the printed report; gaps: trial edges and "
+                    "standstill, left out)")
         return fig
+
+
+def _title(fig, text: str) -> None:
+    """``text`` as the figure's title, wrapped to the figure's width, then the panels laid out
+    below it (``tight_layout``)."""
+    size = 12.0  # pt
+    width = max(20, int(fig.get_figwidth() * 72 / (0.6 * size)))  # characters per line: 0.6 em each
+    fig.suptitle(textwrap.fill(text, width), fontsize=size)
+    fig.tight_layout()
 
 
 def _num(x: float) -> str:

@@ -18,8 +18,9 @@ one, a URDF, a user's Python class). The steps, in order:
    nonlinear parameters as the selection refined them, or for an effect not selected as the
    search found them for the effect alone, step 3) and gives the residual after, computed the
    same way;
-   ``replay`` re-runs the plant the data came from (a built-in machine's simulated data) with the
-   feedforward of the model before and after and compares the tracking errors.
+   ``replay`` re-runs the plant the data came from (a log simulated by lcgym: the IX's plant, or a
+   machine file's, its sidecar's ``plant`` record) with the feedforward of the model before and
+   after and compares the tracking errors.
 """
 
 from __future__ import annotations
@@ -32,13 +33,14 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from .. import systems
-from ..data import UNIFORM_TOLERANCE, log_rate, regularize
+from ..data import UNIFORM_TOLERANCE, another_machine, log_rate, regularize
 from ..metrics import norms as metric_norms
 from ..physics.effects import Effect, parse_key
 from ..physics.kinematics import lowpass_zero_phase, reference_kinematics
 from ..physics.model import PhysicalModel, reduction_memo
 from .candidates import Candidate, candidates_for
 from .layout import edge_outliers, layout, used_samples
+from .machines import machines_with_axes
 from .regions import region_masks, region_table
 from .report import Diagnosis
 from .search import prepare, rank
@@ -68,8 +70,12 @@ def _check_trials(trials, system: systems.System, what: str = "trial") -> list:
     out = []
     for k, tr in enumerate(trials):
         if tuple(tr.axes) != system.axis_names:
+            hint = ""
+            if another_machine(tr.axes, system.axis_names):
+                which = machines_with_axes(tr.axes)
+                hint = f": a log of another machine ({' or '.join(which)} has these axes)" if which else ""
             raise ValueError(f"diagnose: {what} {k} has axes {', '.join(tr.axes)}; machine {system.name} has "
-                             f"{', '.join(system.axis_names)}")
+                             f"{', '.join(system.axis_names)}{hint}")
         uniform = np.allclose(np.diff(tr.t), 1.0 / tr.fs, rtol=UNIFORM_TOLERANCE, atol=0.0)
         out.extend([tr] if uniform else regularize(tr, rate, max_gap=bridged_gap(), where=f"{what} {k}"))
     for k, tr in enumerate(out):
@@ -134,10 +140,7 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
         if abs(validate[0].fs - trials[0].fs) > 1e-6 * trials[0].fs:
             raise ValueError(f"diagnose: the validation data are sampled at {validate[0].fs:g} Hz, the data fitted at "
                              f"{trials[0].fs:g} Hz; resample one of them (--resample)")
-    if replay and not isinstance(trials[0].meta.get("plant"), dict):
-        raise ValueError("--replay needs data simulated by lcgym: the file's sidecar has no 'plant' record")
-    if replay and system.bench is None:
-        raise ValueError(f"--replay needs a built-in machine with a plant; {system.name} has none")
+    plant = replay_plant(trials, system, spec or system.name) if replay else None  # before the work
     moving = moving_axes(trials, system)
     if not moving:
         raise ValueError("diagnose: no axis moves more than its minimum travel (1 deg, 1 mm) in the data")
@@ -231,7 +234,7 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
             report.validation = validation(validate, report, axes, units)
         if replay:
             after_model = report.after_model if report.after_model is not None else report.suggested_model
-            report.replay = replay_tracking(trials, report.model, after_model, system)
+            report.replay = replay_tracking(trials, report.model, after_model, system, plant)
     return report
 
 
@@ -399,18 +402,36 @@ def _step_row(k: int, step, axes, n_rows: np.ndarray) -> dict:
             "picked": picked, "revised": list(step.revised), "candidates": rows}
 
 
-def replay_tracking(trials: Sequence, before: PhysicalModel, after: PhysicalModel,
-                    system: systems.System | None = None) -> dict:
-    """Re-run the plant recorded in the trials' metadata (``System.bench.plant_from_record``) on
-    their references with the feedforward of ``before`` and of ``after``; tracking-error RMS per
-    axis in the axes' display unit (deg, mm)."""
-    system = before.system if system is None else system
+def replay_plant(trials: Sequence, system: systems.System, spec: str | None = None):
+    """The plant recorded in the trials' metadata (``meta["plant"]``: a measurement file's sidecar),
+    rebuilt by the machine's bench (``System.bench.plant_from_record``: the IX's from the record,
+    a machine file's from the file, checked against the record). ``spec``: the machine as the user
+    named it, for the messages."""
+    spec = spec or system.name
     record = trials[0].meta.get("plant")
     if not isinstance(record, dict):
-        raise ValueError("--replay needs data simulated by lcgym: the file's sidecar has no 'plant' record")
+        raise ValueError(f"--replay needs a log of a plant simulated by lcgym (lcgym simulate --system {spec} --out "
+                         "FILE): the file's sidecar has no 'plant' record")
     if system.bench is None or not hasattr(system.bench, "plant_from_record"):
-        raise ValueError(f"--replay: machine {system.name} cannot rebuild a plant from a record")
-    plant = system.bench.plant_from_record(record)
+        named = record.get("machine_file")
+        raise ValueError(f"--replay: machine {system.name} cannot rebuild a plant from a record (the IX and machine "
+                         "files can)" + (f"; the log was simulated on machine file {named}: --system {named}"
+                                         if named else ""))
+    if record.get("system") not in (None, system.name):
+        raise ValueError(f"--replay: the log was simulated on machine {record['system']!r}, not on {system.name}")
+    try:
+        return system.bench.plant_from_record(record)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"--replay: {exc}") from None
+
+
+def replay_tracking(trials: Sequence, before: PhysicalModel, after: PhysicalModel,
+                    system: systems.System | None = None, plant=None) -> dict:
+    """Re-run the plant recorded in the trials' metadata (``replay_plant``; or ``plant``) on their
+    references with the feedforward of ``before`` and of ``after``; tracking-error RMS per axis in
+    the axes' display unit (deg, mm)."""
+    system = before.system if system is None else system
+    plant = replay_plant(trials, system) if plant is None else plant
     refs = [tr.ref for tr in trials]
     out = {}
     for label, m in (("before", before), ("after", after)):

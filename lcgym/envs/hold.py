@@ -14,7 +14,9 @@ whose residual shapes resonances near the hold's rate (the FlexArm: every sample
 ``HoldAction`` wraps a single env, ``VecHoldAction`` a stable-baselines3 vector env: one agent step
 applies the action on ``samples`` consecutive samples and returns the last observation and the
 sum of the samples' rewards (the usual frame-skip convention). An episode that ends inside a hold
-ends the agent step there. ``hold_samples(env)``: the samples per action for ``AGENT_RATE``.
+ends the agent step there. ``hold_samples(env)``: the samples per action for ``AGENT_RATE``. An env
+that holds an action itself, in one call (``step_held(action, samples)``, the same steps: a URDF
+machine's env runs them in compiled code), is asked to when ``HoldAction`` wraps it directly.
 """
 
 from __future__ import annotations
@@ -69,6 +71,8 @@ class HoldAction(gym.Wrapper):
         self.samples = _checked_samples(samples)
 
     def step(self, action):
+        if hasattr(type(self.env), "step_held"):  # the env holds the action itself (a URDF machine's: compiled)
+            return self.env.step_held(action, self.samples)
         total, held = 0.0, 0
         while held < self.samples:
             obs, reward, terminated, truncated, info = self.env.step(action)

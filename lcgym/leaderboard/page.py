@@ -8,15 +8,19 @@ What it shows, top to bottom:
   how the numbers are aggregated (mean over seeds, +- the sample standard deviation over seeds);
 - the overview, one table per machine (system): a row per method, a column per axis of the
   tracking error (and of the TCP position error where the CSV has it), period ``all``; each cell
-  "RMS +- std" in the column's unit, its background coloured by the ratio RMS / RMS of
+  "RMS +- std" (the RMS alone for one seed) in the column's own unit (its axis's: deg on a revolute
+  axis, mm on a prismatic one), its background coloured by the ratio RMS / RMS of
   ``report.REFERENCE_METHOD`` (the physical model; each column's best where the CSV lacks it) on a
   log scale, green better, red worse (``ratio_colour``), the lowest RMS per column bold with a
   marker; the last columns are the geometric mean of the row's ratios and the plant trials the
-  method learned from. Clicking a column header sorts the rows by it (a few lines of inline
-  JavaScript, no library);
+  method learned from; a method that learns on each reference it is scored on (ILC,
+  ``report.learned_on_scored``) is marked, and the marker explained under the legend. Clicking a
+  column header sorts the rows by it (a few lines of inline JavaScript, no library);
 - the details per machine: a compact table per (signal, period) with MA, RMS +- std and Inf per
-  axis, seeds, plant trials, env steps and fit seconds (collapsible; the tracking error open), the
-  bar charts of RMS on a log axis and the tracking-error traces as one small panel per method;
+  axis (each axis headed with its unit), seeds, plant trials, env steps and fit seconds
+  (collapsible; the tracking error open), the bar charts of RMS on a log axis (a panel per unit
+  where the axes' units differ) and the tracking-error traces as one small panel per method and
+  axis, each axis in its unit;
 - failed cells with their errors.
 
 Everything is inline: CSS, the sorting script and the figures (PNG as base64 ``data:`` URIs), so the
@@ -40,9 +44,11 @@ from ..provenance import __version__
 from .report import (
     KEYS,
     REFERENCE_METHOD,
+    SCORED_NOTE,
     bar_figures,
     count_text,
     failures,
+    learned_on_scored,
     method_order,
     notes,
     provenance,
@@ -93,16 +99,28 @@ def ratio_colour(ratio: float) -> str | None:
     return "#" + "".join(f"{int(round(v)):02x}" for v in rgb)
 
 
-def _pm(mean: float, std: float) -> str:
-    """"mean ± std" with three significant digits of the mean and the std to the same decimals."""
+def _pm(mean: float, std: float, seeds: int) -> str:
+    """"mean ± std" with three significant digits of the mean and the std to the same decimals; the
+    mean alone for one seed (whose standard deviation is undefined, not 0)."""
     if not np.isfinite(mean):
         return "–"
     std = 0.0 if not np.isfinite(std) else std
     decimals = 3 if mean == 0 else 2 - int(np.floor(np.log10(abs(mean))))
     if decimals > 7 or abs(mean) >= 1e5:
-        return f"{mean:.3g} ± {std:.2g}"
+        return f"{mean:.3g}" + (f" ± {std:.2g}" if seeds >= 2 else "")
     decimals = max(0, decimals)
-    return f"{mean:.{decimals}f} ± {std:.{decimals}f}"
+    return f"{mean:.{decimals}f}" + (f" ± {std:.{decimals}f}" if seeds >= 2 else "")
+
+
+def _joined_units(part: pd.DataFrame) -> str:
+    """The units of ranking rows, in order of appearance: "deg", or "mm, deg"."""
+    return ", ".join(dict.fromkeys(map(str, part["unit"])))
+
+
+def _method(name: str, scored: set) -> str:
+    """A method's row header: its name, marked where it learned on the references it is scored on."""
+    mark = (f"<sup class='scored' title='{e(SCORED_NOTE)}'>†</sup>" if name in scored else "")
+    return f"<th scope='row' class='method'>{e(name)}{mark}</th>"
 
 
 def _num(v: float, count: bool = False) -> str:
@@ -140,8 +158,9 @@ def _ratios(values: pd.Series, reference: float | None) -> pd.Series:
     return values / base if base and np.isfinite(base) else values * np.nan
 
 
-def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str) -> str:
-    """One machine's overview table (or a note where it has no tracking rows)."""
+def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str, scored: set) -> str:
+    """One machine's overview table (or a note where it has no tracking rows); ``scored``: the methods
+    to mark as learned on the references they are scored on."""
     part = table[(table["system"] == system) & (table["period"] == "all") & table["signal"].isin(OVERVIEW_SIGNALS)]
     if part.empty:
         return f"<section class='machine'><h3>{e(system)}</h3><p class='muted'>no tracking-error rows</p></section>"
@@ -167,8 +186,9 @@ def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str) -> str:
     rows.sort(key=lambda r: (not np.isfinite(r[2]), r[2] if np.isfinite(r[2]) else 0.0))
     ref_name = f"{REFERENCE_METHOD}" if has_reference else "the column's best"
     head = ["<th data-col='0' class='method' scope='col'>method</th>"]
+    unit_of = part.groupby(["signal", "axis"], sort=False)["unit"].first()
     for i, (signal, axis) in enumerate(columns, start=1):
-        unit = str(part.loc[part["signal"] == signal, "unit"].iloc[0])
+        unit = str(unit_of[(signal, axis)])
         label = SIGNAL_LABELS.get(signal, str(signal))
         kind = "" if signal == OVERVIEW_SIGNALS[0] else f"{label.split(' ')[0]}, "
         head.append(f"<th data-col='{i}' scope='col' title='{e(label)}, RMS ± std [{e(unit)}]'>"
@@ -180,7 +200,7 @@ def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str) -> str:
                 f"seeds (their range where seeds differ)'>trials<small>plant</small></th>")
     body = []
     for m, ratios, summary, trials in rows:
-        tds = [f"<th scope='row' class='method'>{e(str(m))}</th>"]
+        tds = [_method(str(m), scored)]
         for col, ratio in zip(columns, ratios, strict=True):
             key = (*col, m)
             if key not in cells.index:
@@ -193,7 +213,7 @@ def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str) -> str:
             tip = f"{ratio:.3g} × {ref_name}; {int(r['seeds'])} seed(s)" if np.isfinite(ratio) else f"{int(r['seeds'])} seed(s)"
             mark = "<span class='best' aria-label='lowest RMS'>★</span>" if best else ""
             tds.append(f"<td data-value='{_value(r['RMS'])}'{style} title='{e(tip)}' class='{'top' if best else ''}'>"
-                       f"{mark}{e(_pm(r['RMS'], r['RMS_std']))}</td>")
+                       f"{mark}{e(_pm(r['RMS'], r['RMS_std'], int(r['seeds'])))}</td>")
         times = "×" if np.isfinite(summary) else ""
         tds.append(f"<td data-value='{_value(summary)}' class='ratio'>{e(_num(summary))}{times}</td>")
         tds.append(f"<td data-value='{_value(trials[0])}' class='count'>{e(trials[1])}</td>")
@@ -203,7 +223,7 @@ def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str) -> str:
     if not failed.empty:
         listed = ", ".join(f"{r['method']} (seed {r['seed']})" for r in failed.to_dict("records"))
         note = f"<p class='failnote'>failed cells, not ranked: {e(listed)} (see <a href='#failed'>below</a>)</p>"
-    shown = " and ".join(f"{SIGNAL_LABELS.get(s, s)} [{part.loc[part['signal'] == s, 'unit'].iloc[0]}]"
+    shown = " and ".join(f"{SIGNAL_LABELS.get(s, s)} [{_joined_units(part[part['signal'] == s])}]"
                          for s in OVERVIEW_SIGNALS if s in set(part["signal"]))
     return (f"<section class='machine' id='overview-{_slug(system)}'><h3>{e(str(system))} "
             f"<span class='muted'>· {e(shown)} per axis, RMS ± std</span></h3>"
@@ -211,17 +231,22 @@ def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str) -> str:
             f"<tbody>{''.join(body)}</tbody></table>{note}</section>")
 
 
-def _legend(has_reference: bool) -> str:
+def _legend(has_reference: bool, scored: list[str]) -> str:
+    """The overview's key: what a cell and its colour say, and the marker of ``scored``'s methods."""
     ref = REFERENCE_METHOD if has_reference else "the column's best"
     swatches = "".join(f"<span style='background:{ratio_colour(r)}'>{r:.2g}×</span>" for r in LEGEND_RATIOS)
-    return (f"<p class='legend'>Cell: RMS ± std over seeds, period all. Colour: RMS / RMS of <b>{e(ref)}</b> "
-            f"(log scale) <span class='swatches'>{swatches}</span> <span class='best'>★</span> lowest per column. "
-            f"Click a header to sort.</p>")
+    marked = (f" <span class='scored-note'><sup class='scored'>†</sup> {e(', '.join(scored))}: {e(SCORED_NOTE)}.</span>"
+              if scored else "")
+    return (f"<p class='legend'>Cell: RMS ± std over seeds (RMS alone for one seed), period all, in the column's unit. "
+            f"Colour: RMS / RMS of <b>{e(ref)}</b> (log scale) <span class='swatches'>{swatches}</span> "
+            f"<span class='best'>★</span> lowest per column. Click a header to sort.{marked}</p>")
 
 
-def _details_table(part: pd.DataFrame, unit: str) -> str:
-    """Methods x axes (RMS ± std coloured like the overview, MA, Inf) and the methods' costs."""
+def _details_table(part: pd.DataFrame, scored: set) -> str:
+    """Methods x axes (RMS ± std coloured like the overview, MA, Inf; each axis in its unit) and the
+    methods' costs; ``scored``: the methods to mark as learned on the references they are scored on."""
     axes_names = list(dict.fromkeys(part["axis"]))
+    unit_of = part.groupby("axis", sort=False)["unit"].first()  # each axis its own: mm on a rail, deg on a joint
     methods = method_order(part)
     cells = part.set_index(["axis", "method"]).sort_index()
     has_reference = REFERENCE_METHOD in set(part["method"])
@@ -229,7 +254,7 @@ def _details_table(part: pd.DataFrame, unit: str) -> str:
     head2 = []
     col = 1
     for a in axes_names:
-        head1.append(f"<th colspan='3' class='group' scope='colgroup'>{e(str(a))} [{e(unit)}]</th>")
+        head1.append(f"<th colspan='3' class='group' scope='colgroup'>{e(str(a))} [{e(str(unit_of[a]))}]</th>")
         head2 += [f"<th data-col='{col}' scope='col'>RMS ± std</th>",
                   f"<th data-col='{col + 1}' scope='col'>MA</th>", f"<th data-col='{col + 2}' scope='col'>Inf</th>"]
         col += 3
@@ -244,7 +269,7 @@ def _details_table(part: pd.DataFrame, unit: str) -> str:
         best_of[a] = rms.idxmin()
     body = []
     for m in methods:
-        tds = [f"<th scope='row' class='method'>{e(str(m))}</th>"]
+        tds = [_method(str(m), scored)]
         for a in axes_names:
             if (a, m) not in cells.index:
                 tds += ["<td data-value=''>–</td>"] * 3
@@ -255,7 +280,7 @@ def _details_table(part: pd.DataFrame, unit: str) -> str:
             best = best_of[a] == m
             mark = "<span class='best' aria-label='lowest RMS'>★</span>" if best else ""
             tds.append(f"<td data-value='{_value(r['RMS'])}'{style} class='{'top' if best else ''}'>{mark}"
-                       f"{e(_pm(r['RMS'], r['RMS_std']))}</td>")
+                       f"{e(_pm(r['RMS'], r['RMS_std'], int(r['seeds'])))}</td>")
             tds.append(f"<td data-value='{_value(r['MA'])}'>{e(_num(r['MA']))}</td>")
             tds.append(f"<td data-value='{_value(r['Inf'])}'>{e(_num(r['Inf']))}</td>")
         first = part[part["method"] == m].iloc[0]
@@ -299,6 +324,7 @@ def render(df: pd.DataFrame, reference_set: str = "validation", source: str = ""
     systems = list(dict.fromkeys(table["system"])) + [s for s in dict.fromkeys(fails["system"])
                                                        if s not in set(table["system"])]
     colours = method_colours(sorted({str(m) for m in df["method"]}))
+    scored = learned_on_scored(table["method"])
     out = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'>"
            f"<meta name='viewport' content='width=device-width, initial-scale=1'>"
            f"<title>lcgym leaderboard</title><style>{CSS}</style></head><body>",
@@ -309,8 +335,9 @@ def render(df: pd.DataFrame, reference_set: str = "validation", source: str = ""
     if table.empty:
         out.append(f"<p class='muted'>No ranked rows: no cell with status ok on the {e(reference_set)} references.</p>")
     else:
-        out.append("<section id='overview'>" + _legend(REFERENCE_METHOD in set(table["method"]))
-                   + "<div class='machines'>" + "".join(_overview(table, fails, s) for s in systems) + "</div></section>")
+        out.append("<section id='overview'>" + _legend(REFERENCE_METHOD in set(table["method"]), scored)
+                   + "<div class='machines'>" + "".join(_overview(table, fails, s, set(scored)) for s in systems)
+                   + "</div></section>")
     trace_of = {system: _figure(stem, caption, fig)
                 for system, stem, caption, fig in (trace_figures(df, source, colours, reference_set) if source else ())}
     bar_of: dict[str, list[str]] = {}
@@ -321,11 +348,11 @@ def render(df: pd.DataFrame, reference_set: str = "validation", source: str = ""
         part = table[table["system"] == system]
         for (signal, period), sub in part.groupby(["signal", "period"], sort=False):
             label = SIGNAL_LABELS.get(signal, str(signal))
-            unit = str(sub["unit"].iloc[0])
+            units = _joined_units(sub)
             is_open = " open" if (signal == OVERVIEW_SIGNALS[0] and period == "all") else ""
             out.append(f"<details{is_open}><summary>{e(label)} <code>{e(str(signal))}</code>, "
-                       f"{e(PERIOD_LABELS.get(period, str(period)))} [{e(unit)}]</summary>"
-                       + _details_table(sub.drop(columns=[k for k in KEYS if k != "axis"]), unit) + "</details>")
+                       f"{e(PERIOD_LABELS.get(period, str(period)))} [{e(units)}]</summary>"
+                       + _details_table(sub.drop(columns=[k for k in KEYS if k != "axis"]), set(scored)) + "</details>")
         figs = bar_of.get(system, []) + ([trace_of[system]] if system in trace_of else [])
         if figs:
             out.append("<h3>Figures</h3><div class='figures'>" + "".join(figs) + "</div>")
@@ -379,6 +406,8 @@ code{font:12px ui-monospace,SFMono-Regular,Menlo,Consolas,monospace}
 .legend{font-size:12.5px;color:var(--muted);margin:4px 0 8px}
 .swatches span{display:inline-block;padding:0 5px;font-size:11px;color:var(--fg);border:1px solid var(--line);margin-left:-1px}
 .best{color:#0b5d1e;font-size:11px;margin-right:3px}
+sup.scored{color:#8a4b00;font-weight:600;margin-left:1px}
+.scored-note{display:block;margin-top:2px}
 .machines{display:flex;flex-wrap:wrap;gap:8px 18px;align-items:flex-start}
 table{border-collapse:collapse;font-variant-numeric:tabular-nums}
 th,td{border:1px solid var(--line);padding:2px 7px;text-align:right;white-space:nowrap}

@@ -8,15 +8,20 @@ Ranking (``ranking``): rows with status ok of one reference set (validation by d
 by (system, signal, period, axis, method). Each row of the CSV holds the norms of one seed over all the
 set's references taken together (dwells included). MA, RMS and Inf are averaged over seeds (so
 Inf is the mean of the per-seed maxima), ``RMS_std`` is the sample standard deviation of RMS over
-seeds (ddof 1; 0 for one seed) and ``seeds`` their count; methods are ranked by mean RMS (1 = best).
-Failed cells are listed separately. The Markdown and HTML pages add bar charts of RMS per method
-and axis (log axis), and the tracking-error traces as one small panel per method when the CSV's
-traces folder is at hand; the HTML page (``page``) opens on an overview per machine and is one
-self-contained file.
+seeds (ddof 1; 0 for one seed, where it is undefined: the text, Markdown and HTML views then show no
+spread) and ``seeds`` their count; methods are ranked by mean RMS (1 = best). Each row keeps its
+axis's unit (a prismatic axis's tracking error in mm beside revolute ones in deg; each axis's input
+unit), and each machine's axes keep the order of its rows. Failed cells are listed separately.
+Methods that learn on each reference they are scored on (``learned_on_scored``: ILC) are named as
+such in every view. The Markdown and HTML pages add bar charts of RMS per method and axis (log
+axis; a panel per unit where the axes' units differ), and the tracking-error traces as one small
+panel per method when the CSV's traces folder is at hand; the HTML page (``page``) opens on an
+overview per machine and is one self-contained file.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
@@ -54,7 +59,8 @@ def select(df: pd.DataFrame, config_hash: str | None = None) -> tuple[pd.DataFra
 
 
 def ranking(df: pd.DataFrame, reference_set: str = "validation") -> pd.DataFrame:
-    """Mean norms over seeds and the rank by RMS per (system, signal, axis)."""
+    """Mean norms over seeds and the rank by RMS per (system, signal, axis); each machine's axes in the
+    order of its rows (the machine's own order)."""
     ok = df[(df["status"] == "ok") & (df["reference_set"] == reference_set)]
     if "period" not in ok.columns:  # a frame of rows made before the column existed
         ok = ok.assign(period="all")
@@ -69,8 +75,11 @@ def ranking(df: pd.DataFrame, reference_set: str = "validation") -> pd.DataFrame
     table["RMS_std"] = table["RMS_std"].fillna(0.0)
     table["rank"] = table.groupby(KEYS)["RMS"].rank(method="min").astype(int)
     order = {"signal": {s: i for i, s in enumerate(SIGNALS)}, "period": {p: i for i, p in enumerate(PERIODS)}}
-    table = table.sort_values([*KEYS, "rank"], key=lambda c: c.map(order[c.name]) if c.name in order else c,
-                              kind="stable")
+    # each machine's axes in the order its rows give them (the machine's: rail, shoulder, elbow), not alphabetical
+    seen = {key: i for i, key in enumerate(dict.fromkeys(zip(ok["system"], ok["signal"], ok["axis"], strict=True)))}
+    table["axis_order"] = [seen[key] for key in zip(table["system"], table["signal"], table["axis"], strict=True)]
+    table = table.sort_values(["system", "signal", "period", "axis_order", "rank"],
+                              key=lambda c: c.map(order[c.name]) if c.name in order else c, kind="stable")
     return table[[*KEYS, "rank", "method", "MA", "RMS", "RMS_std", "Inf", "unit", "seeds", "plant_trials",
                   "env_steps", "fit_seconds", *COUNT_RANGES]].reset_index(drop=True)
 
@@ -136,7 +145,8 @@ def format_shares(df: pd.DataFrame, of: str, base: str, reference_set: str = "va
     table = share_table(df, of, base, reference_set)
     out = [f"\nshare of what {of} changed against {base} (paper 002 Table 6: |RMS - RMS_{base}| / "
            f"|RMS_{of} - RMS_{base}|; signed: whether the method moved the error the way {of} did)"]
-    units = df.groupby(["system", "signal"])["unit"].first().to_dict() if "unit" in df else {}
+    units = ({key: ", ".join(dict.fromkeys(map(str, u.dropna()))) for key, u in df.groupby(["system", "signal"])["unit"]}
+             if "unit" in df else {})  # each unit of the signal's axes
     for (system, signal), part in table.groupby(["system", "signal"], sort=False):
         unit = units.get((system, signal), SIGNAL_UNITS.get(signal, ""))
         out.append(f"\n{system} / {signal} [{unit}] (RMS over its axes together)")
@@ -163,13 +173,34 @@ def _sections(table: pd.DataFrame):
         yield (system, signal if period == "all" else f"{signal} ({period})", axis), part.drop(columns=KEYS)
 
 
+def learned_on_scored(methods: Iterable[str]) -> list[str]:
+    """The methods among ``methods`` (as the results name them) that learn on each reference they are
+    scored on (their class's ``learns_on_scored_references``, ``baselines.protocol.Controller``: ILC
+    iterates on every validation reference before it is scored): their rows show what learning on
+    the task itself reaches, not a prediction for references never seen. Only the built-in methods'
+    classes are asked; a user's ``module:Class`` is not imported to read a results file."""
+    from ..baselines import CONTROLLERS  # light: the methods import their heavy dependencies when used
+
+    return [m for m in dict.fromkeys(map(str, methods))
+            if getattr(CONTROLLERS.get(m), "learns_on_scored_references", False)]
+
+
+SCORED_NOTE = ("learned on each reference it is scored on (it runs the plant on that very reference before "
+               "it is scored), not a prediction for unseen references")
+"""What the views say of the methods of ``learned_on_scored``."""
+
+
 def format_text(df: pd.DataFrame, reference_set: str = "validation") -> str:
-    """Plain-text leaderboard, one table per system, signal and axis."""
+    """Plain-text leaderboard, one table per system, signal and axis; an empty ``RMS_std`` is a
+    method of one seed (no spread)."""
     table = ranking(df, reference_set)
     out = [f"lcgym leaderboard ({reference_set} references; mean over seeds, counts as their range over seeds)"]
+    scored = learned_on_scored(table["method"])
+    if scored:
+        out.append(f"{', '.join(scored)}: {SCORED_NOTE}")
     for (system, signal, axis), part in _sections(table):
         out.append(f"\n{system} / {signal} / {axis}")
-        out.append(_with_counts(part).to_string(index=False, float_format=lambda x: f"{x:.4g}"))
+        out.append(_as_shown(part).to_string(index=False, float_format=lambda x: f"{x:.4g}"))
     said = notes(df)
     if not said.empty:
         out.append("\nnotes of the methods:")
@@ -182,11 +213,61 @@ def format_text(df: pd.DataFrame, reference_set: str = "validation") -> str:
     return "\n".join(out)
 
 
-def _with_counts(part: pd.DataFrame) -> pd.DataFrame:
-    """``ranking`` rows with the counts as ``count_text`` writes them, their ranges' columns dropped."""
+def summary(df: pd.DataFrame, reference_set: str = "validation") -> pd.DataFrame:
+    """Per machine, the method with the lowest RMS tracking error, against the physical model: a
+    method's ``ratio`` is the geometric mean over the machine's tracked axes of its RMS / the RMS of
+    ``REFERENCE_METHOD`` (per axis, so that deg and mm axes weigh alike). ``best``: the lowest ratio
+    (the lowest mean rank where the machine has no physical-model row: ``against`` empty, ratio
+    NaN); ``runner_up`` and ``runner_up_ratio``: the next; ``axes``: the best's RMS per axis as
+    "axis RMS unit" text. Machines in the leaderboard's order."""
+    table = ranking(df, reference_set)
+    table = table[(table["signal"] == "tracking_error") & (table["period"] == "all")]
+    rows = []
+    for system, part in table.groupby("system", sort=False):
+        rms = part.pivot_table(index="method", columns="axis", values="RMS", sort=False)
+        against = REFERENCE_METHOD if REFERENCE_METHOD in rms.index else ""
+        if against:
+            ratio = np.exp(np.log(rms / rms.loc[against]).mean(axis=1)).sort_values(kind="stable")
+        else:
+            ratio = pd.Series(np.nan, index=method_order(part))
+        units = part.drop_duplicates("axis").set_index("axis")["unit"]
+        best = str(ratio.index[0])
+        rows.append({"system": system, "best": best, "ratio": float(ratio.iloc[0]), "against": against,
+                     "runner_up": str(ratio.index[1]) if len(ratio) > 1 else "",
+                     "runner_up_ratio": float(ratio.iloc[1]) if len(ratio) > 1 else np.nan,
+                     "axes": ", ".join(f"{a} {rms.loc[best, a]:.3g} {units[a]}" for a in rms.columns)})
+    return pd.DataFrame(rows, columns=["system", "best", "ratio", "against", "runner_up", "runner_up_ratio", "axes"])
+
+
+def format_summary(df: pd.DataFrame, reference_set: str = "validation") -> str:
+    """``summary`` as one line per machine: the best method, its gain over the physical model, its RMS."""
+    table = summary(df, reference_set)
+    if table.empty:
+        return f"no {reference_set} tracking errors to summarize"
+    width, name = max(len(s) for s in table["system"]), max(len(m) for m in table["best"])
+    lines = [f"best on each machine ({reference_set} references, RMS tracking error):"]
+    for r in table.to_dict("records"):
+        if not r["against"]:
+            gain = "(no physical-model row to compare with)"
+        elif r["best"] == r["against"]:
+            gain = "no method beats the physical model" + (
+                f" ({r['runner_up']}: {r['runner_up_ratio']:.2f}x its RMS)" if r["runner_up"] else "")
+        else:
+            gain = f"{1 / r['ratio']:.1f}x lower than the physical model's"
+        if learned_on_scored([r["best"]]):
+            gain += " (learned on the references it is scored on)"
+        lines.append(f"  {r['system']:<{width}}  {r['best']:<{name}}  {gain}; {r['axes']}")
+    return "\n".join(lines)
+
+
+def _as_shown(part: pd.DataFrame) -> pd.DataFrame:
+    """``ranking`` rows as the text and Markdown tables show them: the counts as ``count_text`` writes
+    them (their ranges' columns dropped), and ``RMS_std`` empty for a method of one seed (its
+    standard deviation is undefined, not 0)."""
     counts = {c: [count_text(lo, hi) for lo, hi in zip(part[f"{c}_min"], part[f"{c}_max"], strict=True)]
               for c in ("plant_trials", "env_steps")}
-    return part.drop(columns=list(COUNT_RANGES)).assign(**counts)
+    spread = ["" if seeds < 2 else f"{std:.4g}" for std, seeds in zip(part["RMS_std"], part["seeds"], strict=True)]
+    return part.drop(columns=list(COUNT_RANGES)).assign(**counts, RMS_std=spread)
 
 
 REFERENCE_METHOD = "physical"
@@ -204,7 +285,9 @@ def method_order(table: pd.DataFrame) -> list[str]:
 
 def bar_figures(df: pd.DataFrame, reference_set: str = "validation", colours: dict | None = None):
     """(system, file stem, caption, Figure) per (system, signal): RMS per method and axis on a log axis, with
-    the seed spread (``plots.rms_bar_figure``; period ``all``, the periods' rows are in the tables)."""
+    the seed spread (``plots.rms_bar_figure``; period ``all``, the periods' rows are in the tables).
+    A signal whose axes differ in unit (mm on a rail, deg on the joints) is one figure with a panel
+    per unit."""
     from .plots import method_colours, rms_bar_figure
 
     table = ranking(df, reference_set)
@@ -223,7 +306,8 @@ def trace_figures(df: pd.DataFrame, csv_path: str | Path, colours: dict | None =
     """(system, file stem, caption, Figure) per system whose traces are beside the CSV
     (``runner.trace_path``): the tracking error of each method on the first validation reference of
     the lowest seed, one small panel per method and axis (``plots.trace_grid_figure``), methods
-    best first by their tracking-error rank."""
+    best first by their tracking-error rank. Each axis is drawn in the unit of its tracking-error
+    rows (deg or mm; the traces are stored in rad or m); an axis without such rows is left out."""
     from .plots import method_colours, trace_grid_figure
     from .runner import trace_path
 
@@ -236,11 +320,16 @@ def trace_figures(df: pd.DataFrame, csv_path: str | Path, colours: dict | None =
                                     & (table["period"] == "all")])
         methods = ranked + [m for m in dict.fromkeys(part["method"]) if m not in ranked]
         traces = {m: trace_path(csv_path, system, m, seed) for m in methods}
+        rows = part[part["signal"] == "tracking_error"]
+        units = rows.groupby("axis", sort=False)["unit"].first().to_dict()
+        keep = ["t", *(f"{kind}_{a}" for a in units for kind in ("ref", "error"))]
         traces = {m: pd.read_parquet(p) for m, p in traces.items() if p.exists()}
-        if not traces:
+        traces = {m: frame[[c for c in keep if c in frame.columns]] for m, frame in traces.items()}
+        if not traces or not any(c.startswith("ref_") for c in next(iter(traces.values())).columns):
             continue
-        caption = f"{system}: tracking error on the first validation reference, seed {seed}"
-        yield system, f"{system}_traces", caption, trace_grid_figure(traces, caption, colours)
+        shown = "; ".join(f"{', '.join(a for a in units if units[a] == u)} in {u}" for u in dict.fromkeys(units.values()))
+        caption = f"{system}: tracking error ({shown}) on the first validation reference, seed {seed}"
+        yield system, f"{system}_traces", caption, trace_grid_figure(traces, caption, colours, units=units)
 
 
 def _save_figures(figures, folder: Path) -> list[Path]:
@@ -279,12 +368,15 @@ def write_markdown(df: pd.DataFrame, path: str | Path, reference_set: str = "val
     table = ranking(df, reference_set)
     lines = [f"# lcgym leaderboard\n\n{_provenance(df, reference_set, source)}"
              + (f" Generated by `lcgym leaderboard {source} --markdown {path}`." if source else "") + "\n"]
+    scored = learned_on_scored(table["method"])
+    if scored:
+        lines.append(f"{', '.join(f'`{m}`' for m in scored)}: {SCORED_NOTE}.\n")
     for (system, signal, axis), part in _sections(table):
         lines.append(f"\n## {system} / {signal} / {axis}\n")
         cols = ["rank", "method", "MA", "RMS", "RMS_std", "Inf", "unit", "seeds", "plant_trials", "env_steps", "fit_seconds"]
         lines.append("| " + " | ".join(cols) + " |")
         lines.append("|" + "---|" * len(cols))
-        for r in _with_counts(part).to_dict("records"):
+        for r in _as_shown(part).to_dict("records"):
             lines.append("| " + " | ".join(_cell(r[c]) for c in cols) + " |")
     lines.append("\n## Figures\n")
     lines += [f"![{p.stem}]({p.parent.name}/{p.name})" for p in figures]
@@ -303,7 +395,8 @@ def write_markdown(df: pd.DataFrame, path: str | Path, reference_set: str = "val
 def _provenance(df: pd.DataFrame, reference_set: str, source: str) -> str:
     configs = ", ".join(sorted(set(map(str, df["config_hash"]))))
     return (f"{reference_set.capitalize()} references; mean over seeds, +- is the sample standard deviation "
-            f"over seeds; counts are integers, or their range over seeds. {'From ' + source + ': ' if source else ''}"
+            f"over seeds (RMS_std, empty for one seed); counts are integers, or their range over seeds. "
+            f"{'From ' + source + ': ' if source else ''}"
             f"configuration {configs}, {df['run_id'].nunique()} run(s), {provenance(df)}; this page made by lcgym "
             f"{__version__}.")
 

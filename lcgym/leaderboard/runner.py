@@ -52,6 +52,8 @@ from ..provenance import __version__, git_commit, source_hash
 from .store import append_rows, completed_cells
 
 EVALUATED_SETS = ("train", "validation")
+QUICK_BUDGET = 0.5
+"""``BenchConfig.quick``'s share of the methods' full learning budgets."""
 
 
 @dataclass(frozen=True)
@@ -61,7 +63,9 @@ class BenchConfig:
     systems: benchmark names (``systems.benchmark_name``: "ix-v1", "two_link", a machine file, a
     URDF, ``module:attr``); methods: the default runs every registered method on the machines it
     runs on (``basic``: the FlexArm only). n_train / n_validation: references per set; duration:
-    seconds of moves per reference (an arm reference is one TCP line out and back; ``FlexArmBench``).
+    seconds of moves per reference (an arm reference is one TCP line out and back; ``FlexArmBench``);
+    budget: the fraction of their full learning budget the methods spend (a method's constructor
+    keyword ``budget``, ``protocol.build_method``: the PGNN's iterations, ILC's trials).
     """
 
     systems: tuple[str, ...] = field(default_factory=systems.newest_benchmarks)
@@ -70,6 +74,7 @@ class BenchConfig:
     n_train: int = 8
     n_validation: int = 4
     duration: float = 40.0
+    budget: float = 1.0
 
     def __post_init__(self):
         # versioned names: "ix" is the newest version ("ix-v1"); an unknown name fails with the list
@@ -86,11 +91,14 @@ class BenchConfig:
             raise ValueError("a benchmark needs at least one system, method and seed")
         if self.n_train < 1 or self.n_validation < 1 or not self.duration > 0:
             raise ValueError("n_train, n_validation must be >= 1 and duration > 0")
+        if not 0 < self.budget <= 1:
+            raise ValueError(f"budget must be a fraction in (0, 1] of the methods' full learning budget, got {self.budget}")
 
     @classmethod
     def quick(cls, **overrides) -> BenchConfig:
-        """Small budgets for a fast look: one seed, two short references per set."""
-        return replace(cls(seeds=(0,), n_train=2, n_validation=2, duration=20.0), **overrides)
+        """A smoke run of every cell: one seed, two short references per set, and the learning methods
+        on ``QUICK_BUDGET`` of their full budget."""
+        return replace(cls(seeds=(0,), n_train=2, n_validation=2, duration=20.0, budget=QUICK_BUDGET), **overrides)
 
     def config_hash(self) -> str:
         """Hash of the budgets, the systems and lcgym's own source code.
@@ -173,7 +181,7 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_th
     stage = ["loading the method"]
     try:
         with _time_limit(timeout, stage):
-            controller = build_method(method, systems.benchmark(system), CONTROLLERS)
+            controller = build_method(method, systems.benchmark(system), CONTROLLERS, config.budget)
             stage[0] = "fit"
             t0 = time.perf_counter()
             controller.fit(train_trials)
@@ -230,9 +238,21 @@ def traces_dir(out: str | Path) -> Path:
     return Path(f"{out}.traces")
 
 
+def _file_name_part(text: str) -> str:
+    """``text`` as part of a file name: kept where it is a plain name ("ix-v1", "my_arm.toml"); a
+    path or ``module:attr`` becomes its last part, made safe, plus a short hash of the whole text,
+    so that two machines of the same file name in different folders do not share a trace."""
+    if text and all(c.isalnum() or c in "-_." for c in text) and not text.startswith("."):
+        return text
+    last = text.replace("\\", "/").rstrip("/").rsplit("/", 1)[-1]
+    safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in last).lstrip(".") or "machine"
+    return f"{safe}-{hashlib.sha256(text.encode()).hexdigest()[:8]}"
+
+
 def trace_path(out: str | Path, system: str, method: str, seed: int) -> Path:
-    safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in method)
-    return traces_dir(out) / f"{system}_{safe}_{seed}.parquet"
+    """Where the trace of a cell is stored: in the results CSV's traces folder, whatever the system's
+    or the method's name (a machine file's relative path, ``module:Class``) holds."""
+    return traces_dir(out) / f"{_file_name_part(system)}_{_file_name_part(method)}_{seed}.parquet"
 
 
 def usable_cores() -> int:

@@ -5,7 +5,9 @@ Columns (``COLUMNS``): identification (``run_id``, ``system``: the machine and i
 ``reference_set``, ``axis``, ``signal``, ``period``: the samples the norms are taken over, ``all``,
 ``dynamic`` while the reference moves or ``static``; older files without the column read as
 ``all``), the norms of paper 000 eqs. (34)-(36) (``MA``, ``RMS``,
-``Inf``) with their ``unit``, the method's cost (``plant_trials``: closed-loop runs it learned
+``Inf``) with their ``unit`` (per row: the tracking error in deg on a revolute axis and mm on a
+prismatic one, the input residual in the axis's input unit: V on the IX, N m on a revolute joint,
+N on a prismatic one), the method's cost (``plant_trials``: closed-loop runs it learned
 from, the shared training runs included; ``env_steps``; ``fit_seconds``: wall time of fit and
 learn, plus that of learning reused from a cache, ``Cost.cached_seconds``), ``nn_rms`` (RMS of
 a neural network's feedforward contribution, where the method has one), ``status`` (``ok`` or
@@ -15,14 +17,16 @@ cell (a method's ``note_``; the ``rl`` safeguard's dropped residual; older files
 
 A failed cell is one row with ``status = failed``, its error message and empty metrics.
 
-Appends are atomic: under an exclusive lock on ``<csv>.lock`` (for concurrent writers), the
-existing rows are read, the new ones added, and the whole table written to a temporary file that
-is renamed over the CSV. An interrupted writer leaves the previous complete file.
+Appends are atomic: under an exclusive lock on the CSV itself (``locked``: for concurrent writers;
+no lock file is left beside it), the existing rows are read, the new ones added, and the whole
+table written to a temporary file that is renamed over the CSV. An interrupted writer leaves the
+previous complete file.
 """
 
 from __future__ import annotations
 
 import fcntl
+import os
 from collections.abc import Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -41,7 +45,8 @@ COLUMNS = (
 SYSTEMS = (*(f"{m}-{v}" for m, versions in systems.VERSIONS.items() for v in versions), *systems.BUILT_IN)
 """Versioned built-in machines ("ix-v1"), and the bare names of files written before versions (their v0).
 Any other non-empty name is a user's machine (a machine file, a URDF, ``module:attr``), whose input
-unit is its own."""
+units are its own: each input-residual row carries its axis's (N m, N, ...; files written before
+the units were per axis carry the machine's joined "N m / N", which still reads)."""
 REFERENCE_SETS = ("train", "validation", "test")
 SIGNALS = {
     "tracking_error": "deg",
@@ -50,6 +55,8 @@ SIGNALS = {
     "ee_acceleration_error": "m/s^2",
     "tcp_position_error": "mm",
 }
+IDENTITY = ("run_id", "system", "method", "signal")
+"""Columns a file must have to be taken for a results CSV at all (``validate``)."""
 STATUS = ("ok", "failed")
 TRACKING_UNITS = {name: {axis.display[1] for axis in systems.get(name).axes} for name in SYSTEMS}
 """The units a built-in machine's tracking-error rows may carry: its axes' display units (deg on a
@@ -61,15 +68,40 @@ class ResultsFileError(ValueError):
 
 
 @contextmanager
-def locked(path: Path):
-    """Exclusive advisory lock on ``<path>.lock`` (held by one writer process at a time)."""
-    lock_path = Path(f"{path}.lock")
-    with open(lock_path, "a") as fh:
-        fcntl.flock(fh, fcntl.LOCK_EX)
+def locked(path: str | Path):
+    """Exclusive advisory lock (``flock``) on the file at ``path`` itself, held by one writer process
+    at a time; the file is created empty where missing, and nothing else is left beside it.
+
+    Writers replace the file (``atomic_write`` renames a new one over it), so a lock won on a file
+    that is no longer the one at ``path`` excludes nobody: it is let go and taken again on the file
+    there now, until the file locked is the file at ``path``. A lock file removed after use would
+    break the exclusion in the same way, hence no lock file."""
+    path = Path(path)
+    while True:
+        fh = open(path, "a")  # kept open (not a with block) while the lock is held
         try:
-            yield
-        finally:
-            fcntl.flock(fh, fcntl.LOCK_UN)
+            fcntl.flock(fh, fcntl.LOCK_EX)
+            if _same_file(fh, path):
+                break
+        except BaseException:
+            fh.close()
+            raise
+        fh.close()  # closing lets go of the lock on the replaced file
+    try:
+        yield
+    finally:
+        fcntl.flock(fh, fcntl.LOCK_UN)
+        fh.close()
+
+
+def _same_file(fh, path: Path) -> bool:
+    """Whether the open file ``fh`` is still the file at ``path`` (not replaced nor removed since)."""
+    try:
+        here = os.stat(path)
+    except FileNotFoundError:
+        return False
+    mine = os.fstat(fh.fileno())
+    return (mine.st_dev, mine.st_ino) == (here.st_dev, here.st_ino)
 
 
 def append_rows(path: str | Path, rows: Sequence[dict]) -> None:
@@ -96,6 +128,7 @@ def read_results(path: str | Path) -> pd.DataFrame:
                                                            "config_hash": str, "note": str})
     except pd.errors.EmptyDataError:
         raise ResultsFileError(f"{path}: empty results file") from None
+    _results_file(df, str(path))  # before the columns added below, so that a stranger's own columns are named
     if "period" not in df.columns and "signal" in df.columns:  # written before the column existed: all samples
         df.insert(int(df.columns.get_loc("signal")) + 1, "period", "all")
     if "note" not in df.columns:  # written before the column existed: no method said anything
@@ -106,6 +139,7 @@ def read_results(path: str | Path) -> pd.DataFrame:
 
 def validate(df: pd.DataFrame, where: str = "results") -> None:
     """Raise ResultsFileError at the first violation of the schema."""
+    _results_file(df, where)
     missing = [c for c in COLUMNS if c not in df.columns]
     if missing:
         raise ResultsFileError(f"{where}: column {missing[0]!r} missing")
@@ -130,12 +164,22 @@ def validate(df: pd.DataFrame, where: str = "results") -> None:
     bad("unit", ok & (df["unit"] != pd.Series(expected_unit, index=df.index)))
 
 
+def _results_file(df: pd.DataFrame, where: str) -> None:
+    """Raise ResultsFileError where ``df`` lacks a column of ``IDENTITY``: a file of something else (a
+    measurement), not a results file short of a column."""
+    absent = [c for c in IDENTITY if c not in df.columns]
+    if absent:
+        has = ", ".join(map(str, df.columns[:6])) + (", ..." if len(df.columns) > 6 else "")
+        raise ResultsFileError(f"{where}: not an lcgym results file (no column {', '.join(map(repr, absent))}; "
+                               f"its columns: {has or 'none'}); lcgym bench writes one")
+
+
 def _unit(signal: str, system: str, unit: str):
     """The unit a row of ``signal`` on ``system`` must carry (``unit``, the row's, where it may be its own:
-    a user machine's input residual; a prismatic axis's tracking error in mm)."""
+    a user machine's input residual, its axis's; a prismatic axis's tracking error in mm)."""
     expected = SIGNALS.get(signal)
-    if signal == "tracking_error" and system in SYSTEMS and unit in TRACKING_UNITS[system]:
-        return unit
+    if signal == "tracking_error" and system in SYSTEMS:  # its axes' display units (the EMPS's: mm only)
+        return unit if unit in TRACKING_UNITS[system] else sorted(TRACKING_UNITS[system])[0]
     if system not in SYSTEMS:
         if signal == "input_residual" and isinstance(unit, str) and unit.strip():
             return unit

@@ -15,11 +15,18 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
+from numba.core.options import DefaultOptions
 
 # LLVM fast-math flags for the kernels: fused multiply-add, reciprocals, reassociation. Not
 # 'nnan'/'ninf': the plant's divergence check must still see NaN and inf. Results stay
 # deterministic on one machine; they may differ in the last bits between CPUs.
 FASTMATH = {"contract", "arcp", "reassoc", "nsz", "afn"}
+
+# Kernels that allocate nothing compile without numba's runtime (its reference counts): every array
+# a function passes on otherwise costs two atomic operations, which made the URDF plant's rigid
+# body 3x slower per call (``rigid_body``). numba's ``_nrt`` option; an empty set where a numba
+# no longer has it.
+NO_REFCOUNTS = {"_nrt": False} if hasattr(DefaultOptions, "_nrt") else {}
 
 
 def cache_dir(*files: str) -> str:

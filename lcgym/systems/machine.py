@@ -51,6 +51,7 @@ scored tables) and a Gymnasium env (``lcgym/Machine-v0``, ``systems.machine_env`
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -60,6 +61,7 @@ import numpy as np
 
 from .feedback import FeedbackGains
 from .system import System
+from .urdf_bench import URDFBench
 
 MACHINE_ENV = "lcgym/Machine-v0"
 """The Gymnasium id of every machine given by a machine file or by ``benchmark_machine``."""
@@ -157,11 +159,10 @@ def benchmark_machine(machine: System | str | Path, settings: MachineSettings | 
     its ``System.bench`` (``URDFBench``), its Gymnasium ids (``envs``; default ``MACHINE_ENV``) and
     the settings' hints."""
     from .urdf import from_urdf
-    from .urdf_bench import URDFBench
 
     settings = settings or MachineSettings(**kwargs)
     system = machine if isinstance(machine, System) else from_urdf(machine, joints=joints, name=name)
-    bench = type(f"{system.name}Bench", (URDFBench,), {"settings": settings})
+    bench = type(f"{system.name}Bench", (MachineBench,), {"settings": settings})
     hints = {**system.hints, **{k: dict(v) for k, v in settings.hints.items()}}
     made = dataclasses.replace(system, fs=settings.fs, bench=bench, hints=hints,
                                observation_error=slice(-system.n_axes, None),  # the env's error columns
@@ -169,6 +170,70 @@ def benchmark_machine(machine: System | str | Path, settings: MachineSettings | 
                                envs=envs or {MACHINE_ENV: {"kwargs": {"machine": settings.source or system.name}}})
     bench.system = made
     return made
+
+
+class MachineBench(URDFBench):
+    """The bench of a machine of ``benchmark_machine`` (a machine file): a URDF bench whose runs
+    record their plant (``plant_record``, in each trial's ``meta["plant"]``, so in a measurement
+    file's sidecar), from which ``plant_from_record`` rebuilds it: ``lcgym diagnose --replay``
+    re-runs a simulated log of the machine."""
+
+    def run(self, references, feedforward=None, offsets=None):
+        trials = super().run(references, feedforward, offsets)
+        record = plant_record(self.plant, self.settings)
+        for trial in trials:
+            trial.meta["plant"] = record
+        return trials
+
+    @classmethod
+    def plant_from_record(cls, record: Mapping):
+        """The plant of the machine's settings, after checking that it is the one ``record``
+        describes (else a ValueError says what differs: the log was simulated on another machine,
+        or the machine file changed since)."""
+        return plant_from_record(cls.system, cls.settings, record)
+
+
+def plant_record(plant, settings: MachineSettings) -> dict:
+    """A JSON-ready description of a machine's plant (``URDFPlant``): the machine, its machine file,
+    the plant's seed and everything its runs depend on (``repr(plant)``: effects, gains, fs,
+    sensors, limits) with a SHA-256 of the URDF (the rigid body). ``plant_from_record`` checks a
+    rebuilt plant against it."""
+    return {"system": plant.name, "machine_file": settings.source, "seed": plant.seed, "description": repr(plant),
+            "urdf_sha256": hashlib.sha256(plant.robot.path.read_bytes()).hexdigest()}
+
+
+def plant_from_record(system: System, settings: MachineSettings, record: Mapping):
+    """``settings.plant(system)`` with the seed of ``record`` (``plant_record``), refused with the
+    difference named when it is not the plant that ``record`` describes."""
+    what = settings.source or system.name
+    if not isinstance(record, Mapping) or not {"system", "description", "urdf_sha256"} <= set(record):
+        raise ValueError(f"the log's plant record is not one of a machine file's plant (no system, description and "
+                         f"urdf_sha256); it cannot be re-run on {what}")
+    if record["system"] != system.name:
+        raise ValueError(f"the log was simulated on machine {record['system']!r}, not on {system.name} ({what})")
+    plant = settings.plant(system, seed=int(record.get("seed", 0)))
+    now = plant_record(plant, settings)
+    changed = [part for part, key in (("its URDF", "urdf_sha256"),
+                                      ("its hidden effects, feedback, sensors or limits", "description"))
+               if now[key] != record[key]]
+    if changed:
+        was = record.get("machine_file") or record["system"]
+        raise ValueError(f"the log was simulated on the plant of {was}; {what} describes another ({' and '.join(changed)} "
+                         f"differ): replay on the machine file the log was simulated on, or simulate it again "
+                         f"(lcgym simulate --system {what} --out FILE)")
+    return plant
+
+
+def hidden_effects(system: System) -> dict[str, type]:
+    """The effects a machine file's ``[[hidden]]`` accepts on ``system``, by name: those its plant
+    simulates (``urdf_plant.bind_effects``: a torque of q and qd, ``physics.plant_effects.KINDS``,
+    and the rotor inertia, an armature) whose formula applies to one of its axes at least."""
+    from ..physics import effects as fx
+    from ..physics import plant_effects
+
+    return {name: cls for name, cls in sorted(system.effect_classes().items())
+            if (cls in plant_effects.KINDS or issubclass(cls, fx.RotorInertia))
+            and any(cls.applies_to(a) for a in system.axes)}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -254,8 +319,9 @@ def _hidden_effect(system: System, i: int, entry: Mapping):
         raise ValueError(f"hidden[{i}]: give effect = \"<name>\" and axis = \"<axis>\" (e.g. coulomb_friction, "
                          f"{system.axis_names[0]})")
     classes = system.effect_classes()
-    if name not in classes:
-        raise ValueError(f"hidden[{i}]: unknown effect {name!r}; known: {', '.join(sorted(classes))}")
+    if name not in classes:  # a library effect the plant cannot simulate is refused by the plant, with why
+        raise ValueError(f"hidden[{i}]: unknown effect {name!r}; a machine file's plant simulates "
+                         f"{', '.join(hidden_effects(system))} (lcgym effects)")
     fields = {f.name for f in dataclasses.fields(classes[name]) if f.init and f.name not in ("axis", "index")}
     bad = [k for k in entry if k not in fields]
     if bad:
@@ -271,5 +337,5 @@ def _hints(table) -> dict:
     return {"benchmark": table} if table else {}
 
 
-__all__ = ["MACHINE_ENV", "FeedbackSettings", "MachineFileError", "MachineSettings", "ReferenceSettings",
-           "benchmark_machine", "load_machine"]
+__all__ = ["MACHINE_ENV", "FeedbackSettings", "MachineBench", "MachineFileError", "MachineSettings", "ReferenceSettings",
+           "benchmark_machine", "hidden_effects", "load_machine", "plant_from_record", "plant_record"]

@@ -227,6 +227,34 @@ class Episode:
         truncated = self.k >= self.length and not terminated
         return reward, terminated, truncated, info
 
+    def hold(self, action: np.ndarray, samples: int) -> tuple[float, bool, bool, dict]:
+        """``samples`` calls of ``step(action)`` with the plant's samples in one compiled loop
+        (``ClosedLoopRun.advance``): the same run, observations and info, and the sum of the
+        rewards. It stops early where the reference ends or the plant leaves its safe range."""
+        t, k, r = self.task, self.k, self.r
+        clipped = np.clip(action, -t.bound, t.bound)
+        ff = t.base_ff[r][k : k + min(samples, self.length - k)] + clipped
+        self.run.set_feedforward(k, ff)
+        end, status = self.run.advance(k, k + len(ff))
+        terminated = status != OK
+        last = end if terminated else end - 1  # the last sample stepped; those before `end` ran on
+        self.clipped += (last - k + 1) * int(np.any(clipped != action))
+        # the encoders after each sample that ran on: what the next sample's control read, then the reading now
+        readings = np.vstack([self.run.measured_readings(k + 1, end), self.run.reading(end)[None, :]])[: end - k]
+        e_next = t.positions[r][np.minimum(np.arange(k + 1, end + 1), self.length - 1)] - readings
+        total = 0.0
+        for reward in (-0.5 * np.sum((e_next / t.reward_scale) ** 2, axis=1)).tolist():  # as steps one by one add them
+            total += reward
+        pos, u, _ = self.run.measured(last)
+        info = {"pos": pos, "u": u, "ff": ff[last - k], "error": t.positions[r][last] - pos, "clipped_actions": self.clipped}
+        self.k = last + 1
+        nxt = min(self.k, self.length - 1)
+        if terminated:
+            total += -0.5 * ERR_CLIP**2 * len(pos)
+        e_last = t.positions[r][nxt] - pos if terminated else e_next[-1]
+        self.obs = np.concatenate([t.feats[r][nxt], t.error_columns(e_last)])
+        return total, terminated, self.k >= self.length and not terminated, info
+
     def trial(self) -> Trial:
         return self.run.trial(self.k, base_feedforward=self.task.base_feedforward, clipped_actions=self.clipped)
 
@@ -277,13 +305,39 @@ class MachineEnv(gym.Env):
                 "action_scale": self.action_scale.copy()}
 
     def step(self, action):
+        reward, terminated, run_ended, info = self._episode_now().step(self._checked(action))
+        return self._finish(reward, terminated, run_ended, info)
+
+    def step_held(self, action, samples: int):
+        """``samples`` steps with one action, as ``envs.hold.HoldAction`` makes them (the summed
+        reward, the last step's observation, flags and info with ``held_samples``), the plant's
+        samples in one compiled loop: what ``HoldAction`` calls when it wraps this env itself. An
+        episode that ends inside the hold ends it there."""
+        ep = self._episode_now()
+        k = ep.k
+        a = self._checked(action)
+        window = self._window
+        limit = samples if window.steps is None else min(samples, window.start + window.steps - k)
+        out = self._finish(*ep.hold(a, limit))
+        out[4]["held_samples"] = ep.k - k
+        return out
+
+    def _episode_now(self) -> Episode:
         if not self._running:
             raise RuntimeError(f"{self.label}: call reset() before step()")
+        return self._episode
+
+    def _checked(self, action) -> np.ndarray:
+        """The action in machine units, or the error naming the step."""
         ep, n = self._episode, self.task.plant.n_axes
         a = checked_action(action, (n,), self.label, ep.k, self._what()).astype(float)
         if not np.all(np.isfinite(a)):
             raise ValueError(f"{self.label}: action {a.tolist()} at step {ep.k} is NaN or inf")
-        reward, terminated, run_ended, info = ep.step(a * self.action_scale)
+        return a * self.action_scale
+
+    def _finish(self, reward: float, terminated: bool, run_ended: bool, info: dict):
+        """The step's return after the episode stepped: window and run ends, the trial, rendering."""
+        ep = self._episode
         run_ended = run_ended or terminated
         window_ended = not run_ended and self._window.ends(ep.k)
         truncated = (run_ended or window_ended) and not terminated

@@ -85,15 +85,12 @@ class URDFBench:
         return trial.error
 
     def tables(self, trials, feedforward, references=None) -> list[pd.DataFrame]:
-        """The tracking error per axis [deg or mm] and the input residual u - f [input unit]."""
-        parts = []
-        for unit in dict.fromkeys(a.display[1] for a in self.system.axes):
-            cols = [i for i, a in enumerate(self.system.axes) if a.display[1] == unit]
-            factor = self.system.axes[cols[0]].display[0]
-            e = factor * np.concatenate([t.error[:, cols] for t in trials])
-            parts.append(norms_table(e, [self.axes[i] for i in cols], "tracking_error", unit))
-        return [pd.concat(parts, ignore_index=True),
-                input_residual_table(trials, feedforward, unit=self.system.input_unit)]
+        """The tracking error per axis [deg or mm] and the input residual u - f [each axis's input unit:
+        N m on a revolute joint, N on a prismatic one]."""
+        factors, units = zip(*(a.display for a in self.system.axes), strict=True)
+        e = np.asarray(factors) * np.concatenate([t.error for t in trials])
+        return [norms_table(e, self.axes, "tracking_error", units),
+                input_residual_table(trials, feedforward, unit=self.system.input_units)]
 
     def trace(self, trial) -> pd.DataFrame:
         """Every TRACE_DECIMATION-th sample of the reference and the tracking error [rad or m]."""

@@ -17,14 +17,18 @@ does, per sample k (Ts = 1 / fs):
    +-``u_max``).
 3. u[k] is held over [t_k, t_{k+1}) (zero-order hold, no computation delay: the feedforward's
    kinematics are best evaluated half a sample ahead, ``System.advance`` = 0.5) while the dynamics
-   advance by ``substeps`` classical RK4 steps, the accelerations by pinocchio's ``aba``.
+   advance by ``substeps`` classical RK4 steps, the accelerations from the rigid body's forward
+   dynamics (``rigid_body.accelerations``: the URDF's model as pinocchio reads it, in arrays).
+
+All of it runs in one compiled loop (``closed_loop``; ``ClosedLoopRun.advance`` runs any stretch of
+samples, ``sample`` one, as the Gymnasium env steps it), at a few microseconds a sample.
 
 The effects whose torque depends on q and qd (viscous, Coulomb, Stribeck and asymmetric friction,
 offsets, cable springs and drapes, gear harmonics, tabulated forces: ``physics.plant_effects.KINDS``)
 act through ``physics.plant_effects.axis_torque``, the one compiled torque every plant adds. A
 load-dependent friction (``load_friction``) reads the plant's own gravity torque g(q) at each RK4
-stage (pinocchio's ``computeGeneralizedGravity``). A rotor inertia J (``rotor_inertia``) is added to
-pinocchio's ``armature`` of its joint, which ``aba`` adds to the diagonal of M(q). Effects with
+stage (``rigid_body.gravity_torque``). A rotor inertia J (``rotor_inertia``) is added to the model's
+``armature`` of its joint, which adds to the diagonal of M(q). Effects with
 internal state or that need qdd or the input otherwise (stiction, drivetrain flexibility, cable
 inertia, torque ripple) are refused.
 
@@ -55,9 +59,10 @@ import pinocchio as pin
 from ..data import Trial
 from ..physics import effects as fx
 from ..physics import plant_effects
-from ..physics.compiled import FASTMATH, cache_dir
+from ..physics.compiled import FASTMATH, NO_REFCOUNTS, cache_dir
 from ..physics.lti import rigid_axis
 from ..references import Reference, random_moves
+from . import rigid_body
 from .feedback import FeedbackGains
 from .system import SimulationDiverged, System
 from .urdf import URDFRobot, urdf_robot
@@ -68,12 +73,11 @@ STEP_RATE = 1.0  # h times the fastest effect rate (RK4's real-axis stability li
 INERTIA_SAMPLES = 64  # random configurations for the axis inertias (gains, step size)
 DEFAULT_MAX_ERROR = {"revolute": 30 * math.pi / 180, "prismatic": 0.1}  # rad, m
 
-# controller and mapping slots, one row per axis
-KP, KD, KI, ALPHA, UMAX, RES, MAXERR, IQ, CONT, DERIV = range(10)
-N_CTRL = 10
-# workspace rows: state, input, stage state, pinocchio configuration, RK4 stage derivatives, controller
-# state, stage position
-Q, V, U, VS, TAU, QPIN, W0, A0, EPREV, EDOT, INTEG, QS, EPREV2 = 0, 1, 2, 3, 4, 5, 6, 10, 14, 15, 16, 17, 18
+# controller slots, one row per axis
+KP, KD, KI, ALPHA, UMAX, RES, MAXERR, DERIV = range(8)
+N_CTRL = 8
+# workspace rows: state, input, stage state, net torque, RK4 stage derivatives, controller state, stage position
+Q, V, U, VS, TAU, W0, A0, EPREV, EDOT, INTEG, QS, EPREV2, GRAV = 0, 1, 2, 3, 4, 5, 9, 13, 14, 15, 16, 17, 18
 N_ROWS = 19
 # what the derivative term differentiates (FeedbackGains.derivative), slot DERIV
 D_ERROR, D_MEASUREMENT, D_FIR2 = 0.0, 1.0, 2.0
@@ -83,63 +87,52 @@ OUT_Y, OUT_U, OUT_Q = range(3)
 OK, TOO_FAR, NOT_FINITE = range(3)
 
 _previous_cache_dir = numba.config.CACHE_DIR  # numba reads CACHE_DIR when a function is decorated
-numba.config.CACHE_DIR = cache_dir(__file__, fx.__file__, plant_effects.__file__)
+numba.config.CACHE_DIR = cache_dir(__file__, fx.__file__, plant_effects.__file__, rigid_body.__file__)
 
 
-@numba.njit(cache=True, fastmath=FASTMATH)
-def rk4_stage(k, a_prev, S, E, C, h):
-    """Prepare RK4 stage k (0..3) of one step of size h [s]: store the previous stage's
-    acceleration a_prev, form the stage's position S[QS], velocity S[VS], pinocchio configuration
-    S[QPIN] and net torque S[TAU] = u - effects (E: their records, ``physics.plant_effects``),
-    for ``aba`` to evaluate."""
-    n = C.shape[0]
-    if k > 0:
-        S[A0 + k - 1, :n] = a_prev
-    c = 0.0 if k == 0 else (0.5 * h if k < 3 else h)
+@numba.njit(cache=True, fastmath=FASTMATH, **NO_REFCOUNTS)
+def rk4_step(S, E, L, h, parent, kind, axis, rotation, translation, mass, com, inertia, armature, gravity,
+             R, p, VV, AA, F, cm, cc, cI, M, hh, T):
+    """One classical RK4 step of size h [s] of the state S[Q], S[V] with the input S[U] held: at each
+    stage, the net torque S[TAU] = u - effects(q, qd) (E: their records, ``physics.plant_effects``;
+    L: the load-dependent ones, at the stage's gravity torque S[GRAV]) and the rigid body's
+    accelerations (``rigid_body.accelerations``; the arrays from parent on: the body and its scratch)."""
+    n = S.shape[1]
+    reads_load = False
     for i in range(n):
-        qs, vs = S[Q, i], S[V, i]
-        if k > 0:
-            qs += c * S[W0 + k - 1, i]
-            vs += c * S[A0 + k - 1, i]
-        S[W0 + k, i] = vs
-        S[VS, i] = vs
-        S[QS, i] = qs
-        iq = int(C[i, IQ])
-        if C[i, CONT] > 0.0:
-            S[QPIN, iq] = math.cos(qs)
-            S[QPIN, iq + 1] = math.sin(qs)
-        else:
-            S[QPIN, iq] = qs
-        S[TAU, i] = S[U, i] - plant_effects.axis_torque(E[i], qs, vs, 0.0, 0.0)
-
-
-@numba.njit(cache=True, fastmath=FASTMATH)
-def subtract_load_effects(S, L, g):
-    """S[TAU] -= the torque of the load-dependent effects L (records per row) at the stage's
-    gravity torque g (pinocchio's velocity order)."""
-    for i in range(L.shape[0]):
-        if L[i, 0] != 0.0:
-            S[TAU, i] -= plant_effects.axis_torque(L[i], S[QS, i], S[VS, i], g[i], 0.0)
-
-
-@numba.njit(cache=True, fastmath=FASTMATH)
-def rk4_finish(a_last, S, h):
-    """Complete the RK4 step: the state S[Q], S[V] advances by h from the four stages."""
-    n = a_last.shape[0]
-    S[A0 + 3, :n] = a_last
+        reads_load = reads_load or L[i, 0] != 0.0
+    for k in range(4):
+        c = 0.0 if k == 0 else (0.5 * h if k < 3 else h)
+        for i in range(n):
+            qs, vs = S[Q, i], S[V, i]
+            if k > 0:
+                qs += c * S[W0 + k - 1, i]
+                vs += c * S[A0 + k - 1, i]
+            S[W0 + k, i] = vs
+            S[VS, i] = vs
+            S[QS, i] = qs
+            S[TAU, i] = S[U, i] - plant_effects.axis_torque(E[i], qs, vs, 0.0, 0.0)
+        if reads_load:
+            rigid_body.gravity_torque(S[QS], parent, kind, axis, rotation, translation, mass, com, inertia, armature,
+                                      gravity, R, p, VV, AA, F, cm, cc, cI, M, hh, T, S[GRAV])
+            for i in range(n):
+                if L[i, 0] != 0.0:
+                    S[TAU, i] -= plant_effects.axis_torque(L[i], S[QS, i], S[VS, i], S[GRAV, i], 0.0)
+        rigid_body.accelerations(S[QS], S[VS], S[TAU], parent, kind, axis, rotation, translation, mass, com, inertia,
+                                 armature, gravity, R, p, VV, AA, F, cm, cc, cI, M, hh, T, S[A0 + k])
     for i in range(n):
         S[Q, i] += h / 6.0 * (S[W0, i] + 2.0 * S[W0 + 1, i] + 2.0 * S[W0 + 2, i] + S[W0 + 3, i])
         S[V, i] += h / 6.0 * (S[A0, i] + 2.0 * S[A0 + 1, i] + 2.0 * S[A0 + 2, i] + S[A0 + 3, i])
 
 
-@numba.njit(cache=True, fastmath=FASTMATH)
+@numba.njit(cache=True, fastmath=FASTMATH, **NO_REFCOUNTS)
 def encoder(q, resolution, noise):
     """The encoder's reading of position q [rad or m]: quantized to ``resolution`` (0: exact), plus
     ``noise``."""
     return (math.floor(q / resolution + 0.5) * resolution if resolution > 0.0 else q) + noise
 
 
-@numba.njit(cache=True, fastmath=FASTMATH)
+@numba.njit(cache=True, fastmath=FASTMATH, **NO_REFCOUNTS)
 def control(k, S, C, ref, ff, noise, out, ts):
     """Sample k: encoder reading, PID and saturation (module docstring); S[U] receives u[k], out[k]
     the measured position, the input and the true position. Returns OK, TOO_FAR (a tracking error
@@ -172,6 +165,24 @@ def control(k, S, C, ref, ff, noise, out, ts):
         if abs(ref[k, i] - q) > C[i, MAXERR]:
             status = TOO_FAR
     return status
+
+
+@numba.njit(cache=True, fastmath=FASTMATH, **NO_REFCOUNTS)
+def closed_loop(first, last, S, C, E, L, ref, ff, noise, out, ts, substeps, parent, kind, axis, rotation, translation,
+                mass, com, inertia, armature, gravity, R, p, VV, AA, F, cm, cc, cI, M, hh, T):
+    """Samples first .. last - 1 of a run (rows of ref, ff, noise, out; pre-roll included): the
+    control of each sample (``control``), then ``substeps`` RK4 steps to the next. Returns (the
+    sample reached, OK), or (the sample, status) of the first whose control was not OK (the state
+    did not advance past it)."""
+    h = ts / substeps
+    for k in range(first, last):
+        status = control(k, S, C, ref, ff, noise, out, ts)
+        if status != OK:
+            return k, status
+        for _ in range(substeps):
+            rk4_step(S, E, L, h, parent, kind, axis, rotation, translation, mass, com, inertia, armature, gravity,
+                     R, p, VV, AA, F, cm, cc, cI, M, hh, T)
+    return last, OK
 
 
 numba.config.CACHE_DIR = _previous_cache_dir
@@ -342,7 +353,6 @@ class URDFPlant:
         self.fs, self.preroll, self.seed = float(fs), float(preroll), seed
         self.parameters = None if parameters is None else tuple(np.asarray(parameters, dtype=float).ravel().tolist())
         self.model, viscous = self._true_model(parameters)
-        self.data = self.model.createData()
         self.effects = tuple(effects)
         self.bound_effects = bind_effects(self.effects, system)
         # the torques of q and qd, in records per row of pinocchio's velocity order; those that read the
@@ -361,7 +371,7 @@ class URDFPlant:
             for e in rotor:
                 armature[self.robot.v_index[e.index]] += e.J
             self.model.armature = armature
-            self.data = self.model.createData()
+        self.body = rigid_body.RigidBody.from_model(self.model)  # what the compiled loop integrates
         self.gains = (gains if gains is not None else tuned_gains(system, fs=fs)).require("derivative", "URDFPlant")
         if len(self.gains.kp) != self.n_axes:
             raise ValueError(f"gains for {len(self.gains.kp)} axes, but {system.name} has {self.n_axes}")
@@ -458,13 +468,12 @@ class URDFPlant:
         return n
 
     def _controller_rows(self) -> np.ndarray:
-        """Controller, limits and configuration map per axis, rows in pinocchio's velocity order."""
+        """Controller and limits per axis, rows in pinocchio's velocity order."""
         r, g = self.robot, self.gains
         C = np.zeros((self.n_axes, N_CTRL))
         for k, row in enumerate(r.v_index):
             alpha = math.exp(-2 * math.pi * g.f_lp[k] / self.fs)
             C[row] = (g.kp[k], g.kd[k], g.ki[k], alpha, self.u_max[k], self.encoder_resolution[k], self.max_error[k],
-                      r.q_index[k], float(r.continuous[k]),
                       {"error": D_ERROR, "measurement": D_MEASUREMENT, "measurement_fir2": D_FIR2}[g.derivative])
         return C
 
@@ -503,10 +512,9 @@ class URDFPlant:
 
     def _run_one(self, name: str, ref: np.ndarray, ff: np.ndarray) -> Trial:
         run = ClosedLoopRun(self, name, ref, ff)
-        for k in range(-run.preroll, ref.shape[0]):
-            status = run.sample(k)
-            if status != OK:
-                run.diverged(k, status)
+        k, status = run.advance(-run.preroll, ref.shape[0])
+        if status != OK:
+            run.diverged(k, status)
         return run.trial()
 
     def free_response(self, q0, qd0, inputs) -> tuple[np.ndarray, np.ndarray]:
@@ -518,62 +526,22 @@ class URDFPlant:
             raise ValueError(f"inputs must have shape (T, {self.n_axes}), got {u.shape}")
         order, back = np.argsort(self.robot.v_index), self.robot.v_index
         S = self.workspace(np.asarray(q0, dtype=float)[order], np.asarray(qd0, dtype=float)[order])
-        views = self.views(S)
+        work = rigid_body.scratch(self.n_axes)
         q, qd = np.empty((u.shape[0] + 1, self.n_axes)), np.empty((u.shape[0] + 1, self.n_axes))
-        q[0], qd[0] = S[Q, :self.n_axes][back], S[V, :self.n_axes][back]
+        q[0], qd[0] = S[Q][back], S[V][back]
         h = 1.0 / (self.fs * self.substeps)
         for k in range(u.shape[0]):
-            S[U, :self.n_axes] = u[k, order]
-            self.interval(S, h, views)
-            q[k + 1], qd[k + 1] = S[Q, :self.n_axes][back], S[V, :self.n_axes][back]
+            S[U] = u[k, order]
+            for _ in range(self.substeps):
+                rk4_step(S, self._E, self._L, h, *self.body.packed(), *work)
+            q[k + 1], qd[k + 1] = S[Q][back], S[V][back]
         return q, qd
 
     def workspace(self, q0: np.ndarray, v0: np.ndarray) -> np.ndarray:
         """Workspace rows (module constants) for a start at q0 with velocity v0 (pinocchio order)."""
-        n, nq = self.n_axes, self.model.nq
-        S = np.zeros((N_ROWS, max(n, nq)))
-        S[Q, :n], S[V, :n] = q0, v0
+        S = np.zeros((N_ROWS, self.n_axes))
+        S[Q], S[V] = q0, v0
         return S
-
-    def views(self, S: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The rows of S that ``aba`` reads: configuration, stage velocity, net torque (made once per run)."""
-        n, nq = self.n_axes, self.model.nq
-        return S[QPIN, :nq], S[VS, :n], S[TAU, :n]
-
-    def interval(self, S: np.ndarray, h: float, views: tuple) -> None:
-        """One sample interval: ``substeps`` RK4 steps of size h with S[U] held; ``views``: ``views(S)``."""
-        if self._reads_load:  # the slower path: a load-dependent friction reads g(q) at every stage
-            self._interval_with_load(S, h, views)
-            return
-        model, data, aba, E, C = self.model, self.data, pin.aba, self._E, self._C
-        qpin, vs, tau = views
-        for _ in range(self.substeps):
-            rk4_stage(0, vs, S, E, C, h)
-            a = aba(model, data, qpin, vs, tau)
-            rk4_stage(1, a, S, E, C, h)
-            a = aba(model, data, qpin, vs, tau)
-            rk4_stage(2, a, S, E, C, h)
-            a = aba(model, data, qpin, vs, tau)
-            rk4_stage(3, a, S, E, C, h)
-            rk4_finish(aba(model, data, qpin, vs, tau), S, h)
-
-    def _interval_with_load(self, S: np.ndarray, h: float, views: tuple) -> None:
-        """``interval`` with the load-dependent effects (``_L``) subtracted from each stage's net
-        torque at g, the plant's gravity torque at the stage."""
-        model, data, E, L, C = self.model, self.data, self._E, self._L, self._C
-        qpin, vs, tau = views
-
-        def stage(k, a):
-            rk4_stage(k, a, S, E, C, h)
-            subtract_load_effects(S, L, pin.computeGeneralizedGravity(model, data, qpin))
-            return pin.aba(model, data, qpin, vs, tau)
-
-        for _ in range(self.substeps):
-            a = stage(0, vs)
-            a = stage(1, a)
-            a = stage(2, a)
-            a = stage(3, a)
-            rk4_finish(a, S, h)
 
     def _diverged(self, name: str, k: int, S: np.ndarray, ref: np.ndarray, status: int):
         back, n = self.robot.v_index, self.n_axes
@@ -608,21 +576,27 @@ class ClosedLoopRun:
         if np.any(plant.noise_rms > 0):
             self.noise = plant._rng.standard_normal((P + T, n)) * plant.noise_rms[self.order]
         self.S = plant.workspace(self.REF[0], np.zeros(n))
-        self.views = plant.views(self.S)
+        self.work = rigid_body.scratch(n)
         self.out = np.zeros((P + T, 3, n))
-        self.ts, self.h = 1.0 / plant.fs, 1.0 / (plant.fs * plant.substeps)
+        self.ts = 1.0 / plant.fs
 
-    def set_feedforward(self, k: int, row: np.ndarray) -> None:
-        """The feedforward of sample k (n_axes,), axis order."""
-        self.FF[self.preroll + k] = row[self.order]
+    def set_feedforward(self, k: int, rows: np.ndarray) -> None:
+        """The feedforward of sample k (n_axes,), or of samples k, k + 1, ... (m, n_axes); axis order."""
+        rows = np.atleast_2d(rows)
+        self.FF[self.preroll + k : self.preroll + k + len(rows)] = rows[:, self.order]
 
     def sample(self, k: int) -> int:
         """Sample k: encoder, feedback and input (``control``), then the interval to the next
         sample. Returns OK, TOO_FAR or NOT_FINITE (then the state did not advance)."""
-        status = control(self.preroll + k, self.S, self.plant._C, self.REF, self.FF, self.noise, self.out, self.ts)
-        if status == OK:
-            self.plant.interval(self.S, self.h, self.views)
-        return status
+        return self.advance(k, k + 1)[1]
+
+    def advance(self, first: int, last: int) -> tuple[int, int]:
+        """Samples first .. last - 1 (``sample`` each, in one compiled loop: ``closed_loop``).
+        Returns (last, OK), or (k, status) of the sample k whose control was not OK."""
+        P, plant = self.preroll, self.plant
+        k, status = closed_loop(P + first, P + last, self.S, plant._C, plant._E, plant._L, self.REF, self.FF, self.noise,
+                                self.out, self.ts, plant.substeps, *plant.body.packed(), *self.work)
+        return k - P, status
 
     def state(self) -> np.ndarray:
         """A copy of the loop's state (the plant's and the controller's)."""
@@ -635,6 +609,10 @@ class ClosedLoopRun:
         """(encoder reading, input, true position) of sample k, axis order."""
         row = self.out[self.preroll + k][:, self.plant.robot.v_index]
         return row[OUT_Y], row[OUT_U], row[OUT_Q]
+
+    def measured_readings(self, first: int, last: int) -> np.ndarray:
+        """The encoder readings (last - first, n_axes) of samples first .. last - 1 (run), axis order."""
+        return self.out[self.preroll + first : self.preroll + last, OUT_Y][:, self.plant.robot.v_index]
 
     def reading(self, k: int) -> np.ndarray:
         """The encoders' reading (n_axes,) [rad or m], axis order, of the current state as sample k

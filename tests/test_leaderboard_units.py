@@ -1,0 +1,87 @@
+"""Each axis's own unit in the results of a machine with a prismatic axis.
+
+``tests/data/rail_arm/``: a user's machine file of a rail (prismatic, m) carrying a shoulder and an
+elbow (revolute, rad), with a hidden Coulomb friction in the elbow. Its benchmark rows carry the
+tracking error in mm on the rail and deg on the joints, and the input residual in N on the rail and
+N m on the joints (not the machine's joined "N / N m"); its traces are stored in SI (m and rad).
+The built-in machines' rows keep their one unit, and the store reads per-axis units of a user's
+machine as well as the joined unit of files written before.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from lcgym import systems
+from lcgym.leaderboard.report import format_text
+from lcgym.leaderboard.runner import BenchConfig, run_benchmark, trace_path
+from lcgym.leaderboard.store import COLUMNS, SIGNALS, SYSTEMS, ResultsFileError, append_rows, read_results
+
+RAIL_ARM = Path(__file__).parent / "data" / "rail_arm" / "rail_arm.toml"
+UNITS = {"rail": ("mm", "N"), "shoulder": ("deg", "N m"), "elbow": ("deg", "N m")}
+"""axis -> (tracking-error unit, input unit)."""
+
+
+def test_a_rail_arms_rows_carry_each_axis_unit(tmp_path):
+    out = tmp_path / "r.csv"
+    config = BenchConfig(systems=(str(RAIL_ARM),), methods=("feedback",), seeds=(0,), n_train=1, n_validation=1,
+                         duration=3.0)
+    assert run_benchmark(config, out, progress=False)["cells_failed"] == 0
+    df = read_results(out)
+    rows = df[df["reference_set"] == "validation"].set_index(["signal", "axis"])
+    assert list(rows.loc["tracking_error"].index) == list(UNITS)  # the machine's order
+    for axis, (error_unit, input_unit) in UNITS.items():
+        assert rows.loc[("tracking_error", axis), "unit"] == error_unit
+        assert rows.loc[("input_residual", axis), "unit"] == input_unit
+    # the trace in SI: its rail error in m is the row's mm figure / 1000 (one reference, decimated)
+    trace = pd.read_parquet(trace_path(out, str(RAIL_ARM), "feedback", 0))
+    for axis, factor in (("rail", 1000.0), ("shoulder", 180 / np.pi)):
+        rms = factor * float(np.sqrt(np.mean(trace[f"error_{axis}"].to_numpy(dtype=float) ** 2)))
+        assert rms == pytest.approx(rows.loc[("tracking_error", axis), "RMS"], rel=0.2), axis
+    text = format_text(df)
+    rail = text.split(f"{RAIL_ARM} / input_residual / rail\n")[1].splitlines()[1]
+    assert rail.split()[1] == "feedback" and " N " in f" {rail} " and "N m" not in rail
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.csv", "r.csv.traces"]  # no lock file left
+
+
+def test_built_in_machines_keep_their_one_input_unit():
+    """Per-axis input units give the built-in machines' rows the unit they always had."""
+    expected = {"ix": "V", "flexarm": "N m", "two_link": "N m", "emps_sim": "N"}
+    for name in SYSTEMS:
+        machine = systems.get(name)
+        assert set(machine.input_units) == {SIGNALS["input_residual"][name]} == {expected[systems.family_of(name)]}
+
+
+def _row(system: str, signal: str, axis: str, unit: str) -> dict:
+    return {"run_id": "r1", "system": system, "method": "feedback", "seed": 0, "reference_set": "validation",
+            "axis": axis, "signal": signal, "period": "all", "MA": 0.1, "RMS": 0.2, "Inf": 0.5, "unit": unit,
+            "plant_trials": 2, "env_steps": 0, "fit_seconds": 0.1, "status": "ok", "error": "", "config_hash": "c"}
+
+
+def test_the_store_reads_per_axis_and_older_joined_units(tmp_path):
+    out = tmp_path / "r.csv"
+    rows = [_row("rail_arm.toml", signal, axis, unit)
+            for axis, units in UNITS.items() for signal, unit in zip(("tracking_error", "input_residual"), units,
+                                                                     strict=True)]
+    rows.append(_row("old_arm.toml", "input_residual", "rail", "N / N m"))  # written before units were per axis
+    append_rows(out, rows)
+    df = read_results(out)
+    assert list(df["unit"]) == [r["unit"] for r in rows]
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize(("system", "signal", "unit"), [
+    ("two_link-v0", "input_residual", "N"),  # a built-in machine's unit is its own
+    ("emps_sim-v0", "tracking_error", "deg"),  # the EMPS's carriage is prismatic: mm
+    ("rail_arm.toml", "tracking_error", "m"),  # a tracking error is shown in deg or mm
+    ("rail_arm.toml", "input_residual", " "),
+])
+def test_the_store_refuses_a_unit_that_is_not_the_axis(tmp_path, system, signal, unit):
+    out = tmp_path / "r.csv"
+    out.write_text(pd.DataFrame([_row(system, signal, "x", unit)]).reindex(columns=COLUMNS).to_csv(index=False))
+    with pytest.raises(ResultsFileError, match="column 'unit', row 1"):
+        read_results(out)
