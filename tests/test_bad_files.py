@@ -257,9 +257,13 @@ def test_missing_file(tmp_path):
 
 @pytest.mark.bad_input
 def test_axes_the_file_lacks(tmp_path):
+    """One axis the file lacks is named as a missing column; a file that has none of the axes, nor a
+    near-miss of one, is named the log of another machine."""
     path = write_csv(tmp_path, rows_csv(good_rows()))
-    message = refused(path, "pos_carriage", axes=("carriage", "elbow"))
-    assert "the file's axes are propeller, roll" in message
+    message = refused(path, "pos_carriage", axes=("carriage", "roll"))
+    assert "the file's axes are propeller" in message
+    message = refused(path, axes=("carriage", "elbow"))
+    assert "the file's axes (propeller, roll) are not the axes expected (carriage, elbow)" in message
 
 
 # ---------------------------------------------------------------------------------------------
