@@ -21,16 +21,17 @@ import numpy as np
 import pinocchio as pin
 
 from lcgym import systems
+from lcgym.physics.compiled import NO_REFCOUNTS
 from lcgym.systems import rigid_body
 from lcgym.systems.urdf import urdf_robot
 from lcgym.systems.urdf_plant import URDFPlant, random_references
 
 
-@numba.njit(cache=False)
+@numba.njit(cache=False, **NO_REFCOUNTS)  # as the plant compiles its loop
 def _physics_only(calls, q, qd, tau, parent, kind, axis, rotation, translation, mass, com, inertia, armature, gravity,
                   R, p, V, A, F, cm, cc, cI, M, h, T, qdd):
     """``calls`` evaluations of the accelerations at slightly moving states (so none is skipped)."""
-    for k in range(calls):
+    for _ in range(calls):
         q[0] += 1e-9
         rigid_body.accelerations(q, qd, tau, parent, kind, axis, rotation, translation, mass, com, inertia, armature,
                                  gravity, R, p, V, A, F, cm, cc, cI, M, h, T, qdd)

@@ -260,3 +260,17 @@ def test_the_loose_comparison_is_loose_only_in_numbers():
     assert _normalized("  1. coulomb_friction@roll [friction]: 64%") not in have
     urdf = "lcgym/systems/two_link/two_link.urdf"
     assert shlex.split(_script(f"x {urdf} y"))[1] == str(ROOT / urdf)
+
+
+def test_the_test_count_on_the_tests_page_is_current(request):
+    """docs/tests.md states how many tests ``python -m pytest -q`` runs; where this session runs every
+    test file (the default selection), that count must be within 2 % of the tests it selected."""
+    selected = request.session.items
+    files = {Path(str(item.fspath)).name for item in selected}
+    if files != {p.name for p in (ROOT / "tests").glob("test_*.py")} or request.config.getoption("markexpr") != "not slow":
+        pytest.skip("a partial run: the page's count is of the whole default selection")
+    stated = re.search(r"`python -m pytest -q` \(([\d,]+) tests", (DOCS / "tests.md").read_text())
+    assert stated, "docs/tests.md no longer states the count as `python -m pytest -q` (N tests"
+    count = int(stated.group(1).replace(",", ""))
+    assert abs(count - len(selected)) <= 0.02 * len(selected), (
+        f"docs/tests.md says {count} tests, the default selection has {len(selected)}: update the page")

@@ -14,7 +14,7 @@ its parent's frame, and body inertia. ``accelerations`` computes qdd from those 
   Algorithms*, 2008, Table 5.1), gravity as an acceleration of the base;
 * M(q) by the composite-rigid-body algorithm (ibid., Table 6.2), the composite inertias kept as
   (mass, centre of mass, inertia about it);
-* qdd by a Cholesky solve (M + diag(armature) is symmetric positive definite).
+* qdd by a Cholesky solve (``physics.linalg``; M + diag(armature) is symmetric positive definite).
 
 Spatial vectors are pairs of 3-vectors in each body's frame: a motion (angular w, linear v of the
 frame's origin), a force (moment n about the origin, force f). Pinocchio's ``aba`` (the
@@ -34,7 +34,9 @@ import numba
 import numpy as np
 import pinocchio as pin
 
+from ..physics import linalg
 from ..physics.compiled import FASTMATH, NO_REFCOUNTS, cache_dir
+from ..physics.linalg import solve_spd_in_place
 
 REVOLUTE, PRISMATIC = 0, 1
 
@@ -113,7 +115,7 @@ def _joint_kind(model, i: int) -> tuple[int, np.ndarray]:
 
 
 _previous_cache_dir = numba.config.CACHE_DIR  # numba reads CACHE_DIR when a function is decorated
-numba.config.CACHE_DIR = cache_dir(__file__)
+numba.config.CACHE_DIR = cache_dir(__file__, linalg.__file__)
 
 
 def scratch(n: int) -> tuple:
@@ -327,33 +329,6 @@ def _add_composite(cm, cc, cI, k, i, R, p):
     cc[k, 0], cc[k, 1], cc[k, 2] = x0, x1, x2
 
 
-@numba.njit(cache=True, fastmath=FASTMATH, **NO_REFCOUNTS)
-def _solve_spd(M, b, x):
-    """x = M^-1 b for a symmetric positive definite M (Cholesky, in M's lower triangle)."""
-    n = b.size
-    for j in range(n):
-        d = M[j, j]
-        for k in range(j):
-            d -= M[j, k] * M[j, k]
-        d = math.sqrt(d)
-        M[j, j] = d
-        for i in range(j + 1, n):
-            s = M[i, j]
-            for k in range(j):
-                s -= M[i, k] * M[j, k]
-            M[i, j] = s / d
-    for i in range(n):
-        s = b[i]
-        for k in range(i):
-            s -= M[i, k] * x[k]
-        x[i] = s / M[i, i]
-    for i in range(n - 1, -1, -1):
-        s = x[i]
-        for k in range(i + 1, n):
-            s -= M[k, i] * x[k]
-        x[i] = s / M[i, i]
-
-
 @numba.njit(cache=True, fastmath=FASTMATH, inline="always", **NO_REFCOUNTS)
 def accelerations(q, qd, tau, parent, kind, axis, rotation, translation, mass, com, inertia, armature, gravity,
                   R, p, V, A, F, cm, cc, cI, M, h, T, qdd):
@@ -363,8 +338,8 @@ def accelerations(q, qd, tau, parent, kind, axis, rotation, translation, mass, c
     _bias_forces(qd, parent, kind, axis, mass, com, inertia, gravity, R, p, V, A, F, T, h)
     _mass_matrix(parent, kind, axis, mass, com, inertia, armature, R, p, cm, cc, cI, T, M)
     for i in range(h.size):
-        h[i] = tau[i] - h[i]
-    _solve_spd(M, h, qdd)
+        qdd[i] = tau[i] - h[i]
+    solve_spd_in_place(M, qdd)
 
 
 @numba.njit(cache=True, fastmath=FASTMATH, inline="always", **NO_REFCOUNTS)

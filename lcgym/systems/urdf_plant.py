@@ -58,7 +58,7 @@ import pinocchio as pin
 
 from ..data import Trial
 from ..physics import effects as fx
-from ..physics import plant_effects
+from ..physics import linalg, plant_effects
 from ..physics.compiled import FASTMATH, NO_REFCOUNTS, cache_dir
 from ..physics.lti import rigid_axis
 from ..references import Reference, random_moves
@@ -87,7 +87,7 @@ OUT_Y, OUT_U, OUT_Q = range(3)
 OK, TOO_FAR, NOT_FINITE = range(3)
 
 _previous_cache_dir = numba.config.CACHE_DIR  # numba reads CACHE_DIR when a function is decorated
-numba.config.CACHE_DIR = cache_dir(__file__, fx.__file__, plant_effects.__file__, rigid_body.__file__)
+numba.config.CACHE_DIR = cache_dir(__file__, fx.__file__, plant_effects.__file__, rigid_body.__file__, linalg.__file__)
 
 
 @numba.njit(cache=True, fastmath=FASTMATH, **NO_REFCOUNTS)

@@ -38,8 +38,9 @@ import numpy as np
 from numba.extending import register_jitable
 
 from ...physics import effects as fx
-from ...physics import plant_effects
+from ...physics import linalg, plant_effects
 from ...physics.compiled import cache_dir
+from ...physics.linalg import solve_spd_in_place
 
 N_JOINTS = 6
 N_PARAMS_LINK = 10
@@ -401,37 +402,6 @@ def bias_torques(dh, pi, q, qd, gravity):
 
 
 @register_jitable
-def solve_spd_in_place(M, b):
-    """b <- M^-1 b for a symmetric positive definite M (n, n) and b (n,), by Cholesky M = L L^T on
-    M's lower triangle, written out, L overwriting that triangle (no allocation): for n = 6 this
-    takes a fifth of numba's ``np.linalg.solve`` (LAPACK, whose calls also serialize across
-    threads). A matrix that is not positive definite gives NaN (which the plant's loop reports as
-    leaving the safe range)."""
-    n = b.shape[0]
-    for j in range(n):
-        s = M[j, j]
-        for k in range(j):
-            s -= M[j, k] * M[j, k]
-        d = math.sqrt(s) if s > 0.0 else math.nan
-        M[j, j] = d
-        for i in range(j + 1, n):
-            s = M[i, j]
-            for k in range(j):
-                s -= M[i, k] * M[j, k]
-            M[i, j] = s / d
-    for i in range(n):  # L y = b
-        s = b[i]
-        for k in range(i):
-            s -= M[i, k] * b[k]
-        b[i] = s / M[i, i]
-    for i in range(n - 1, -1, -1):  # L^T x = y
-        s = b[i]
-        for k in range(i + 1, n):
-            s -= M[k, i] * b[k]
-        b[i] = s / M[i, i]
-
-
-@register_jitable
 def solve_spd(M, b):
     """x = M^-1 b (``solve_spd_in_place`` on copies)."""
     x = b.copy()
@@ -483,7 +453,7 @@ def energy(dh, pi, q, qd, gravity):
 # numba reads CACHE_DIR when a function is decorated: this module's kernels cache in a folder named
 # by a hash of the sources they call (``physics.compiled.cache_dir``), so an edited equation recompiles
 _previous_cache_dir = numba.config.CACHE_DIR
-numba.config.CACHE_DIR = cache_dir(__file__, fx.__file__, plant_effects.__file__)
+numba.config.CACHE_DIR = cache_dir(__file__, fx.__file__, plant_effects.__file__, linalg.__file__)
 
 
 @numba.njit(cache=True)

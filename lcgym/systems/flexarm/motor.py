@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
+from ...physics import linalg
 from ...physics.compiled import cache_dir
 from ..system import RegressorCache
 from . import dynamics as arm
@@ -108,7 +109,7 @@ cached_regressors = _CACHE.active  # the FlexArm's ``System.caching``
 # numba reads CACHE_DIR when a function is decorated: this module's kernels cache in a folder named
 # by a hash of the sources they call (``physics.compiled.cache_dir``), so an edited equation recompiles
 _previous_cache_dir = numba.config.CACHE_DIR
-numba.config.CACHE_DIR = cache_dir(__file__, arm.__file__)
+numba.config.CACHE_DIR = cache_dir(__file__, arm.__file__, linalg.__file__)
 
 
 @numba.njit(cache=True)

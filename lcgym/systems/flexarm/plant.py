@@ -68,7 +68,7 @@ import numpy as np
 
 from ...data import Trial
 from ...physics import effects as fx
-from ...physics import plant_effects
+from ...physics import linalg, plant_effects
 from ...physics.compiled import cache_dir
 from ...references import Reference
 from ..system import SimulationDiverged
@@ -261,7 +261,7 @@ N_SIG = 24
 # numba reads CACHE_DIR when a function is decorated: this module's kernels cache in a folder named
 # by a hash of the sources they call (``physics.compiled.cache_dir``), so an edited equation recompiles
 _previous_cache_dir = numba.config.CACHE_DIR
-numba.config.CACHE_DIR = cache_dir(__file__, arm.__file__, fx.__file__, plant_effects.__file__)
+numba.config.CACHE_DIR = cache_dir(__file__, arm.__file__, fx.__file__, plant_effects.__file__, linalg.__file__)
 
 
 @numba.njit(cache=True)

@@ -19,6 +19,7 @@ import math
 import numba
 import numpy as np
 
+from ...physics import linalg
 from ...physics.compiled import cache_dir
 from ...references import AxisProfile, Reference, stream
 from . import dynamics as arm
@@ -34,7 +35,7 @@ START_GUESS = arm.HOME  # the IK starts from the home pose (elbow up, tool down)
 # numba reads CACHE_DIR when a function is decorated: this module's kernels cache in a folder named
 # by a hash of the sources they call (``physics.compiled.cache_dir``), so an edited equation recompiles
 _previous_cache_dir = numba.config.CACHE_DIR
-numba.config.CACHE_DIR = cache_dir(__file__, arm.__file__)
+numba.config.CACHE_DIR = cache_dir(__file__, arm.__file__, linalg.__file__)
 
 
 _fk = numba.njit(cache=True)(arm.forward_kinematics)

@@ -17,12 +17,13 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from ...physics import linalg
 from ...physics.compiled import cache_dir
 from . import dynamics as arm
 from . import plant as F
 
 _previous_cache_dir = numba.config.CACHE_DIR
-numba.config.CACHE_DIR = cache_dir(__file__, F.__file__, arm.__file__)
+numba.config.CACHE_DIR = cache_dir(__file__, F.__file__, arm.__file__, linalg.__file__)
 
 SCALES = ("pos", "vel", "acc", "ff", "err", "err_clip", "reward", "obs_bound", "preview", "action_bound")
 ENV_OK, ENV_DIVERGED = 0, 1
