@@ -114,6 +114,15 @@ def test_training_curve_rows_and_plot(tmp_path):
     assert (tmp_path / f"{rl.record_['key']}.png").is_file()
 
 
+def test_training_leaves_no_folder_in_the_temp_dir(ix_data, tmp_path, monkeypatch):
+    import tempfile
+    temp = tmp_path / "temp"
+    temp.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(temp))
+    trained(ix_data, tmp_path / "cache", cache=False)
+    assert list(temp.glob("SB3-*")) == []  # SB3's default logger made an SB3-<date> folder per training
+
+
 def test_error_blind_policy_is_a_pure_feedforward(ix_data, tmp_path):
     bench, trials, val = ix_data
     rl = trained(ix_data, tmp_path, observe_error=False)

@@ -303,6 +303,7 @@ class RLFeedforward(Controller):
 
     def _train(self, plant) -> dict:
         from stable_baselines3.common.callbacks import BaseCallback
+        from stable_baselines3.common.logger import Logger
 
         cfg = self._config()
         algorithm = _algorithm_class(cfg.algorithm)
@@ -337,6 +338,8 @@ class RLFeedforward(Controller):
                 agent_steps = -(-self.budget() // hold)
                 model = algorithm("MlpPolicy", venv, seed=cfg.seed, device="cpu", verbose=0,
                                   **cfg.agent_kwargs(agent_steps, venv.num_envs))
+                # SB3's default logger makes an empty folder in the temp dir on every learn()
+                model.set_logger(Logger(folder=None, output_formats=[]))
                 t0 = time.perf_counter()
                 model.learn(agent_steps, callback=TrainingCurve(), progress_bar=False)
                 seconds = time.perf_counter() - t0
