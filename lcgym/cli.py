@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 import tempfile
 import time
@@ -108,6 +109,13 @@ def _positive(text: str) -> int:
     v = _number(text, int, "an integer")
     if v < 1:
         raise argparse.ArgumentTypeError(f"must be >= 1, got {v}")
+    return v
+
+
+def _share(text: str) -> float:
+    v = _number(text, float, "a number")
+    if not 0 < v < 1:
+        raise argparse.ArgumentTypeError(f"must be a share in (0, 1), got {text}")
     return v
 
 
@@ -235,7 +243,7 @@ def build_parser() -> argparse.ArgumentParser:
     diag.add_argument("--replay", action="store_true",
                       help="re-run the plant the data were simulated on with the model before/after (a log of lcgym "
                            "simulate on ix or a machine file: its sidecar records the plant)")
-    diag.add_argument("--min-explained", type=float, default=0.1, help="significance: share of residual energy (default 0.1)")
+    diag.add_argument("--min-explained", type=_share, default=0.1, help="significance: share of residual energy (default 0.1)")
     diag.add_argument("--kinematics", choices=("reference", "measured"), default="reference",
                       help="velocity and acceleration from the reference corrected by the measured error (default; "
                            "a file without ref_ columns uses the measured position) or from the measured position")
@@ -250,7 +258,7 @@ def build_parser() -> argparse.ArgumentParser:
     imp.add_argument("--out", required=True, type=_file_of(".csv", ".parquet", ".pq"), help="measurement file to write")
     eff = sub.add_parser("effects", help="list the effects diagnose can rank and add, and those a machine file's "
                          "[[hidden]] takes")
-    eff.add_argument("--system", default="ix", metavar="MACHINE", help=_machine_help() + " (default ix)")
+    eff.add_argument("--system", metavar="MACHINE", help=_machine_help() + " (default ix)")
     eff.add_argument("--data", type=Path, help="a measurement file whose pos_<joint> columns name a URDF's axes")
     return parser
 
@@ -322,10 +330,12 @@ def cmd_effects(args) -> int:
     from .systems.machine import hidden_effects
     from .systems.urdf import urdf_robot
 
-    system = _machine(args.system, args.data)
+    system = _machine(args.system or "ix", args.data)
     cands = candidates_for(system)
     model = system.diagnosis_model(fs=system.fs or 1000.0).parts()
-    print(f"effects diagnose ranks and --add accepts on {system.name} (axes: {', '.join(system.axis_names)}):")
+    print(f"effects diagnose ranks and --add accepts on {system.name} (axes: {', '.join(system.axis_names)})"
+          + (", the default machine; --system names another (my_arm.toml, a .urdf, ...)" if args.system is None else "")
+          + ":")
     for cand in cands:
         searched = [*cand.grid, *([cand.period] if cand.period else [])]
         print(f"  {cand.name:30s} [{cand.family}] {_summary(cand.effect)}"
@@ -360,10 +370,15 @@ def cmd_effects(args) -> int:
     return 0
 
 
-def _summary(effect: type) -> str:
-    """The first paragraph of an effect's docstring, on one line of at most 100 characters."""
+def _summary(effect: type, limit: int = 100) -> str:
+    """The first sentence of an effect's docstring, on one line of at most ``limit`` characters (cut
+    at a word, with "..."); a sentence that leads into a formula (ends with ":") ends with "." here."""
     doc = " ".join((effect.__doc__ or "").strip().split("\n\n")[0].split())
-    return doc if len(doc) <= 100 else doc[:97] + "..."
+    first = re.split(r"(?<=[.:])\s", doc, maxsplit=1)[0]
+    first = first[:-1] + "." if first.endswith(":") else first
+    if len(first) <= limit:
+        return first
+    return first[:limit - 3].rsplit(" ", 1)[0].rstrip(",;:(") + "..."
 
 
 def cmd_simulate(args) -> int:

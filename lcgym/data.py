@@ -463,6 +463,10 @@ def _check_header(names: list[str], axes: tuple[str, ...], where: str) -> tuple[
     if len(names) == 1 and any(sep in names[0] for sep in ";\t|"):
         raise MeasurementFileError(f"{where}: the header is one column {names[0][:60]!r}: lcgym reads "
                                    "comma-separated files; convert the file (e.g. pandas.read_csv(path, sep=';'))")
+    if {"run_id", "system", "method", "signal"} <= set(names):
+        raise MeasurementFileError(f"{where}: an lcgym bench results file (lcgym leaderboard reads it), not a "
+                                   "measurement log: a log has t, pos_<axis> and u_<axis> columns "
+                                   "(docs/measurement-format.md)")
     if not axes:
         axes = tuple(c[4:] for c in names if c.startswith("pos_"))
         if not axes:

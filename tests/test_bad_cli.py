@@ -89,8 +89,8 @@ CASES = [
     # diagnose and effects
     (["diagnose", "{data}", "--system", "ix", "--add", "magic@roll"], "'magic' is not an effect"),
     (["diagnose", "{data}", "--system", "ix", "--add", "coulomb_friction@elbow"], "ix has no axis 'elbow'"),
-    (["diagnose", "{data}", "--system", "ix", "--min-explained", "nan"], "min_explained must be in (0, 1)"),
-    (["diagnose", "{data}", "--system", "ix", "--min-explained", "3"], "min_explained must be in (0, 1)"),
+    (["diagnose", "{data}", "--system", "ix", "--min-explained", "nan"], "argument --min-explained: must be a share in (0, 1)"),
+    (["diagnose", "{data}", "--system", "ix", "--min-explained", "3"], "argument --min-explained: must be a share in (0, 1)"),
     (["diagnose", "{data}", "--system", "flexarm"], "the file's axes (propeller, roll) are not those of machine flexarm "
                                                     "(j1, j2, j3, j4, j5, j6): it is a log of another machine; give "
                                                     "--system ix"),

@@ -219,6 +219,16 @@ def test_empty_file(tmp_path):
 
 
 @pytest.mark.bad_input
+def test_a_bench_results_file_is_named_as_such(tmp_path):
+    path = tmp_path / "results.csv"
+    path.write_text("run_id,system,method,seed,reference_set,axis,signal,MA,RMS\nab12,ix-v1,ilc,0,train,roll,"
+                    "tracking_error,0.1,0.2\n")
+    with pytest.raises(MeasurementFileError, match=r"results.csv: an lcgym bench results file \(lcgym leaderboard "
+                       r"reads it\), not a measurement log"):
+        read_trials(path)
+
+
+@pytest.mark.bad_input
 def test_header_only(tmp_path):
     path = write_csv(tmp_path, HEADER + "\n")
     message = refused(path, axes=IX)

@@ -64,7 +64,8 @@ def test_replay_runs_on_a_simulated_log_of_a_machine_file(machine_log, tmp_path,
     run, _ = machine_log
     report = tmp_path / "report.json"
     assert main(["diagnose", str(run), "--system", str(TWO_LINK_FILE), "--replay", "--json", str(report)]) == 0
-    assert "replay on the plant, tracking-error RMS [deg]" in capsys.readouterr().out
+    assert "replay on the plant, tracking-error RMS [deg] with the model's feedforward, before and with " \
+        "coulomb_friction@elbow" in capsys.readouterr().out  # --replay alone: says what "after" holds
     replay = json.loads(report.read_text())["replay"]
     assert set(replay["before"]) == set(replay["after"]) == {"shoulder", "elbow"}
     assert replay["after"]["elbow"] < replay["before"]["elbow"]  # the friction found: the elbow tracks closer
@@ -134,3 +135,19 @@ def test_a_log_of_another_machine_names_both_machines_axes_and_whose_it_is(machi
     typo.write_text(run.read_text().replace("pos_elbow", "pos_elbw"))
     assert main(["diagnose", str(typo), "--system", "two_link"]) == 1
     assert "required column 'pos_elbow' missing; did you mean 'pos_elbw'" in capsys.readouterr().err
+
+
+def test_replay_gives_each_axis_its_own_unit(tmp_path, capsys):
+    """A machine with a prismatic rail: the replay's rail row in mm, the revolute joints' in deg."""
+    machine = Path(__file__).parent / "data" / "rail_arm" / "rail_arm.toml"
+    run = tmp_path / "run.csv"
+    assert main(["simulate", "--system", str(machine), "--controller", "feedback", "--n-train", "1",
+                 "--n-validation", "1", "--duration", "5", "--out", str(run)]) == 0
+    capsys.readouterr()
+    report = tmp_path / "report.json"
+    assert main(["diagnose", str(run), "--system", str(machine), "--replay", "--json", str(report)]) == 0
+    lines = capsys.readouterr().out.split("replay on the plant", 1)[1].splitlines()
+    assert lines[0].startswith(", tracking-error RMS with")  # no one unit for all axes in the heading
+    assert lines[2].split()[0] == "rail" and lines[2].endswith(" mm")
+    assert lines[3].endswith(" deg") and lines[4].endswith(" deg")
+    assert json.loads(report.read_text())["replay"]["unit"] == {"rail": "mm", "shoulder": "deg", "elbow": "deg"}

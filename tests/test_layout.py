@@ -32,7 +32,7 @@ LAYERS = [
     {"systems", "systems.*"},  # systems.*: a machine's folder (systems/ix/, systems/two_link/, ...)
     {"envs"},
     {"physics", "references", "datasets"},
-    {"data", "metrics", "provenance"},
+    {"data", "figures", "metrics", "provenance"},
 ]
 SAME_LAYER = {  # imports allowed within one layer (unit -> units)
     "simulate": {"leaderboard"},

@@ -85,3 +85,19 @@ def test_the_store_refuses_a_unit_that_is_not_the_axis(tmp_path, system, signal,
     out.write_text(pd.DataFrame([_row(system, signal, "x", unit)]).reindex(columns=COLUMNS).to_csv(index=False))
     with pytest.raises(ResultsFileError, match="column 'unit', row 1"):
         read_results(out)
+
+
+def test_a_long_title_stays_within_a_one_axis_trace_figure():
+    """The EMPS page's trace figure (one axis, narrow): its title wrapped, not cut at both edges."""
+    from lcgym.leaderboard.plots import trace_grid_figure
+
+    t = np.arange(200) / 100.0
+    trace = pd.DataFrame({"t": t, "ref_x": np.sin(t), "error_x": 1e-4 * np.cos(t)})
+    title = "emps_sim-v0: tracking error (x in mm) on the first validation reference, seed 0"
+    fig = trace_grid_figure({"feedback": trace, "physical": trace}, title, units={"x": "mm"})
+    fig.canvas.draw()
+    box = fig._suptitle.get_window_extent()
+    assert 0 <= box.x0 and box.x1 <= fig.bbox.width and box.y1 <= fig.bbox.height
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)

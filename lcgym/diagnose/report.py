@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import json
 import math
-import textwrap
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..data import atomic_write
+from ..figures import wrapped_title
 
 DEG = math.pi / 180.0
 NOTHING_FOUND = "no missing effect found"
@@ -204,10 +204,16 @@ class Diagnosis:
                 change = f"{100 * (a - b) / b:+7.0f}%" if b > 0 else "       -"
                 lines.append(f"  {ax:{w}s} {_num(b)} {_num(a)} {change}" + ("" if one_unit else f" {unit[ax]}"))
         if self.replay is not None:
-            lines += ["", f"replay on the plant, tracking-error RMS [{self.replay.get('unit', 'deg')}] with the model's "
-                      "feedforward:", f"  {'axis':{w}s} {'before':>9s} {'after':>9s}"]
+            replay_unit = self.replay["unit"]
+            same = len(set(replay_unit.values())) == 1
+            added = self.replay.get("after_with", [])
+            lines += ["", "replay on the plant, tracking-error RMS" + (f" [{next(iter(replay_unit.values()))}]" if same else "")
+                      + " with the model's feedforward, before and " + (f"with {', '.join(added)}" if added else
+                                                                         "after (no effect added)") + ":",
+                      f"  {'axis':{w}s} {'before':>9s} {'after':>9s}"]
             for ax in self.axes:
-                lines.append(f"  {ax:{w}s} {_num(self.replay['before'][ax])} {_num(self.replay['after'][ax])}")
+                lines.append(f"  {ax:{w}s} {_num(self.replay['before'][ax])} {_num(self.replay['after'][ax])}"
+                             + ("" if same else f" {replay_unit[ax]}"))
         return "\n".join(lines)
 
     def refused(self) -> list[dict]:
@@ -294,7 +300,7 @@ class Diagnosis:
             fig.colorbar(im, ax=ax, label=f"mean residual [{self.residual[ax_name]['unit']}]")
             ax.set_xlabel(f"{ax_name} position [{pos_unit}]")
             ax.set_ylabel(f"{ax_name} velocity [{pos_unit}/s]")
-        _title(fig, "Where the model fails: mean residual over (position, velocity), at the samples fitted")
+        wrapped_title(fig, "Where the model fails: mean residual over (position, velocity), at the samples fitted")
         figs["residual_map.png"] = fig
 
         if s.get("effects"):
@@ -328,7 +334,7 @@ class Diagnosis:
             ax.set_ylabel(f"torque [{self.residual[axis]['unit']}]")
             ax.set_title(f"{c['effect']} [{c['family']}]", fontsize=10)
             ax.grid(alpha=0.3)
-        _title(fig, "The effects added, as fitted: torque over the variable each acts on")
+        wrapped_title(fig, "The effects added, as fitted: torque over the variable each acts on")
         return fig
 
     def _time_panels(self, plt, series: list[tuple[str, str]], velocity: bool, title: str):
@@ -352,18 +358,11 @@ class Diagnosis:
             ax.legend(loc="upper right", fontsize=8)
             ax.grid(alpha=0.3)
         axs[-1, 0].set_xlabel("time over all trials [s]")
-        _title(fig, f"{title} (at the samples fitted, RMS as in the printed report; gaps: trial edges and "
+        wrapped_title(fig, f"{title} (at the samples fitted, RMS as in the printed report; gaps: trial edges and "
                     "standstill, left out)")
         return fig
 
 
-def _title(fig, text: str) -> None:
-    """``text`` as the figure's title, wrapped to the figure's width, then the panels laid out
-    below it (``tight_layout``)."""
-    size = 12.0  # pt
-    width = max(20, int(fig.get_figwidth() * 72 / (0.6 * size)))  # characters per line: 0.6 em each
-    fig.suptitle(textwrap.fill(text, width), fontsize=size)
-    fig.tight_layout()
 
 
 def _num(x: float) -> str:

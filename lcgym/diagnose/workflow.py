@@ -235,6 +235,8 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
         if replay:
             after_model = report.after_model if report.after_model is not None else report.suggested_model
             report.replay = replay_tracking(trials, report.model, after_model, system, plant)
+            report.replay["after_with"] = [e.key for e in after_model.effects
+                                           if e.key not in {f.key for f in report.model.effects}]
     return report
 
 
@@ -438,5 +440,5 @@ def replay_tracking(trials: Sequence, before: PhysicalModel, after: PhysicalMode
         runs = plant.run(refs, [m.predict(r) for r in refs])
         e = np.concatenate([r.error for r in runs])
         out[label] = {a.name: float(a.display[0] * np.sqrt(np.mean(e[:, i] ** 2))) for i, a in enumerate(system.axes)}
-    out["unit"] = system.axes[0].display[1]
+    out["unit"] = {a.name: a.display[1] for a in system.axes}
     return out

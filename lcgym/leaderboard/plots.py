@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..data import atomic_write
+from ..figures import wrapped_title
 
 DISPLAY_FACTORS = {"deg": 180.0 / math.pi, "mm": 1000.0}
 """A tracking error's shown unit -> the factor from its stored SI value (rad -> deg, m -> mm)."""
@@ -204,6 +205,6 @@ def trace_grid_figure(traces: dict, title: str, colours: dict | None = None, out
             if i == 0:
                 ax.set_title(f"e {ax_name} [{units[ax_name]}]", fontsize=8)
         axs[-1, j].set_xlabel("time [s]", fontsize=7)
-    fig.suptitle(title + "; grey: reference velocity, scaled", fontsize=8.5)
+    wrapped_title(fig, title + "; grey: reference velocity, scaled", size=8.5)
     fig.tight_layout(h_pad=0.25, w_pad=0.6)
     return fig

@@ -245,7 +245,8 @@ def format_summary(df: pd.DataFrame, reference_set: str = "validation") -> str:
     if table.empty:
         return f"no {reference_set} tracking errors to summarize"
     width, name = max(len(s) for s in table["system"]), max(len(m) for m in table["best"])
-    lines = [f"best on each machine ({reference_set} references, RMS tracking error):"]
+    lines = [f"best on each machine ({reference_set} references, RMS tracking error; several axes: the geometric "
+             "mean of the per-axis ratios):"]
     for r in table.to_dict("records"):
         if not r["against"]:
             gain = "(no physical-model row to compare with)"

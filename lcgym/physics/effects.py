@@ -688,7 +688,7 @@ class GearHarmonic(Effect):
 
 @dataclass(frozen=True)
 class CableDrape(Effect):
-    """Weight of a hanging cable on an axis: s sin q + c cos q [V] (= A sin(q + phi)). s, c linear.
+    """Weight of a hanging cable on an axis: s sin q + c cos q [input unit] (= A sin(q + phi)). s, c linear.
     Revolute axes only.
 
     On the propeller it lies in the span of the rigid model's gravity terms, so a rigid-model fit
