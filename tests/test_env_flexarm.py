@@ -1,4 +1,5 @@
-"""lcgym/FlexArm-v0: conformance, agreement with the plant (bad actions: test_bad_actions.py)."""
+"""lcgym/FlexArm-v0: conformance, agreement with the plant, the base feedforwards (bad actions:
+test_bad_actions.py)."""
 
 import gymnasium as gym
 import numpy as np
@@ -20,7 +21,7 @@ def refs():
     return arm_reference_set("validation", seed=0, n_references=1)
 
 
-@pytest.mark.parametrize("base", ["basic", "none"])
+@pytest.mark.parametrize("base", ["basic", "none", "physical"])
 def test_check_env_gymnasium_and_sb3(refs, base):
     gym_check_env(gym.make("lcgym/FlexArm-v0", references=refs, base_feedforward=base).unwrapped, skip_render_check=True)
     sb3_check_env(FlexArmEnv(references=refs, base_feedforward=base), warn=False)
@@ -72,9 +73,11 @@ def _short_lines():
                                                           (10, AutoresetMode.SAME_STEP, "basic", None),
                                                           (9, AutoresetMode.NEXT_STEP, "none", None),
                                                           (3, AutoresetMode.NEXT_STEP, "basic", 120),
-                                                          (10, AutoresetMode.SAME_STEP, "basic", 120)],
+                                                          (10, AutoresetMode.SAME_STEP, "basic", 120),
+                                                          (3, AutoresetMode.NEXT_STEP, "physical", None),
+                                                          (8, AutoresetMode.SAME_STEP, "physical", 120)],
                          ids=["serial-next-step", "parallel-same-step", "parallel-feedback-only",
-                              "windows-next-step", "windows-same-step"])
+                              "windows-next-step", "windows-same-step", "serial-physical", "parallel-physical-windows"])
 def test_vector_env_is_n_single_envs_bit_for_bit(num_envs, mode, base, steps):
     """``FlexArmVectorEnv``: every sub-env's observation, reward, episode end and motor torque equal
     those of a single ``FlexArmEnv`` on the same reference with the same actions, bit for bit,
@@ -120,6 +123,92 @@ def test_vector_env_is_n_single_envs_bit_for_bit(num_envs, mode, base, steps):
         pending = done if mode == AutoresetMode.NEXT_STEP else pending
     assert ends >= num_envs and info["clipped_actions"].sum() > 0
     assert any(went_on) == (steps is not None) and (steps is None or not all(went_on))  # both kinds of reset met
+
+
+def test_physical_base_observes_the_fitted_model_and_runs_it_as_the_benchmark_does():
+    """``base_feedforward="physical"``: the physical model fitted on feedback-only runs of the
+    training references (``baselines.PhysicalFeedforward``'s fit on the benchmark's training
+    trials); the first observation's base-feedforward entries are its torque / FF_SCALE, and an
+    all-zero action episode is ``FlexArmBench.run`` with the model's feedforward and offset."""
+    from lcgym.systems.flexarm import FLEXARM
+    from lcgym.systems.flexarm.bench import FlexArmBench
+    from lcgym.systems.flexarm.env import ACTION_BOUND, FF_SCALE, physical_model
+
+    line = _short_lines()[0]
+    env = FlexArmEnv(references=[line], base_feedforward="physical", episode_steps=None)
+    model = physical_model(env.plant, 0)
+    assert isinstance(model, FLEXARM.model) and env.base_feedforward == "physical"
+    assert env.bound == ACTION_BOUND and np.all(env.action_scale == np.float32(ACTION_BOUND))
+    ff, offset = model.predict(line), model.reference_offset(line)
+    obs, _ = env.reset(seed=0)
+    np.testing.assert_array_equal(obs[18:24], (ff[0] / FF_SCALE).astype(np.float32))
+    assert np.any(obs[18:24] != 0) and np.any(offset != 0)
+    done, info = False, {}
+    while not done:
+        _, _, terminated, truncated, info = env.step(np.zeros(6, dtype=np.float32))
+        done = terminated or truncated
+    assert truncated and not terminated
+    trial = info["trial"]
+    assert trial.meta["base_feedforward"] == "physical"
+    run = FlexArmBench().run([line], [ff], [offset])[0]
+    np.testing.assert_array_equal(trial.u, run.u)
+    np.testing.assert_array_equal(FlexArmBench.load_error(trial), FlexArmBench.load_error(run))
+
+
+def test_a_given_model_is_the_base():
+    """A fitted model object (``predict``, optional ``reference_offset``) or a fitted controller
+    (``feedforward`` and ``reference_offset``, as ``PhysicalFeedforward``) is the base, named
+    "physical (given model)"; a model without ``reference_offset`` leaves the motor reference alone."""
+    from lcgym.systems.flexarm.env import physical_model
+
+    lines = _short_lines()
+    model = physical_model(FlexArmPlant.of_version("v1"), 0)
+
+    class Controller:  # a fitted PhysicalFeedforward's interface
+        def feedforward(self, reference):
+            return model.predict(reference)
+
+        def reference_offset(self, reference):
+            return model.reference_offset(reference)
+
+    class TorqueOnly:
+        def predict(self, reference):
+            return model.predict(reference)
+
+    physical = FlexArmEnv(references=lines, base_feedforward="physical")
+    first = [physical.reset(options={"reference": i})[0] for i in range(2)]
+    for given in (model, Controller()):
+        env = FlexArmEnv(references=lines, base_feedforward=given)
+        assert env.base_feedforward == "physical (given model)"
+        for i in range(2):
+            np.testing.assert_array_equal(env.reset(options={"reference": i})[0], first[i])
+            np.testing.assert_array_equal(env._base_of(i)[1], physical._base_of(i)[1])
+    env = FlexArmEnv(references=lines, base_feedforward=TorqueOnly())
+    np.testing.assert_array_equal(env._base_of(0)[0], physical._base_of(0)[0])
+    assert not np.any(env._base_of(0)[1]) and np.any(physical._base_of(0)[1])
+    gym_check_env(FlexArmEnv(references=lines, base_feedforward=model), skip_render_check=True)
+
+
+@pytest.mark.parametrize("base, match", [("Physical", "'basic', 'none', 'physical' or a fitted model, got 'Physical'"),
+                                         ("nominal", "got 'nominal'"), (object(), "with predict.*got object"),
+                                         (None, "got NoneType"), (3, "got int")])
+def test_bad_base_feedforward_is_refused(base, match):
+    lines = _short_lines()
+    for make in (lambda: FlexArmEnv(references=lines, base_feedforward=base),
+                 lambda: FlexArmVectorEnv(2, references=lines, base_feedforward=base),
+                 lambda: gym.make("lcgym/FlexArm-v1", references=lines, base_feedforward=base)):
+        with pytest.raises(ValueError, match=match):
+            make()
+
+
+def test_a_model_of_the_wrong_shape_is_refused():
+    class Wrong:
+        def predict(self, reference):
+            return np.zeros((reference.n_samples, 2))
+
+    env = FlexArmEnv(references=_short_lines(), base_feedforward=Wrong())
+    with pytest.raises(ValueError, match=r"feedforward \(predict\) of piece-600 must be finite with shape \(500, 6\)"):
+        env.reset(options={"reference": 0})
 
 
 def test_vector_env_refuses_nan_and_trains_sb3():

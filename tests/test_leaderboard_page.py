@@ -246,7 +246,8 @@ def _rail_csv(folder: Path) -> Path:
             shown = norms(factor * trace[f"error_{axis}"].to_numpy(dtype=float))
             for reference_set in ("train", "validation"):
                 rows.append({**base, "method": method, "reference_set": reference_set, "axis": axis,
-                             "signal": "tracking_error", "unit": unit, **{m: float(v) for m, v in shown.items()}})
+                             "signal": "tracking_error", "unit": unit, **{m: float(v) for m, v in shown.items()},
+                             "base": "physical" if method == "ilc" else ""})
                 rows.append({**base, "method": method, "reference_set": reference_set, "axis": axis,
                              "signal": "input_residual", "unit": input_unit, "MA": scale, "RMS": 1.2 * scale,
                              "Inf": 3 * scale})
@@ -349,12 +350,14 @@ def test_one_seed_shows_no_spread_and_ilc_is_marked_in_the_text_and_markdown(tmp
     assert "ilc: learned on each reference it is scored on" in text
     section = text.split(f"{RAIL} / tracking_error / rail\n")[1].split("\n\n")[0].splitlines()
     header, rows = section[0].split(), {r.split()[1]: r.split() for r in section[1:]}
-    assert header[:7] == ["rank", "method", "MA", "RMS", "RMS_std", "Inf", "unit"]
-    assert len(rows["feedback"]) == len(header) and rows["feedback"][6] == "mm"  # two seeds: a spread
-    assert len(rows["physical"]) == len(header) - 1 and rows["physical"][5] == "mm"  # one seed: none
+    assert header[:9] == ["rank", "method", "base", "vs_base", "MA", "RMS", "RMS_std", "Inf", "unit"]
+    assert len(rows["feedback"]) == len(header) and rows["feedback"][8] == "mm"  # two seeds: a spread
+    assert len(rows["physical"]) == len(header) - 1 and rows["physical"][7] == "mm"  # one seed: none
+    assert rows["ilc"][2] == "physical" and rows["ilc"][3].endswith("x")  # its gain over its base
+    assert float(rows["ilc"][3].rstrip("x")) == pytest.approx(float(rows["ilc"][5]) / float(rows["physical"][5]), abs=0.006)
     assert f"{RAIL} / input_residual / rail" in text and f"{RAIL} / input_residual / elbow" in text
     md = write_markdown(df, tmp_path / "board.md", source=str(csv)).read_text()
     assert "`ilc`: learned on each reference it is scored on" in md
     table = md.split(f"## {RAIL} / tracking_error / shoulder\n")[1].split("\n\n")[0].splitlines()
     cells = {r.split("|")[2].strip(): [c.strip() for c in r.split("|")[1:-1]] for r in table[2:]}
-    assert cells["physical"][4] == "" and cells["feedback"][4] != "" and cells["physical"][6] == "deg"
+    assert cells["physical"][6] == "" and cells["feedback"][6] != "" and cells["physical"][8] == "deg"

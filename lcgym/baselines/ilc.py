@@ -58,13 +58,16 @@ history instead of returning garbage (as does a trial that drives the plant out 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from .. import systems
 from ..systems import SimulationDiverged
+from .bases import DEFAULT_BASE, base_controller
 from .protocol import Controller, Cost, given_system
+from .safeguard import Safeguard, dropped_note, mixed, scored_axes
 
 
 class ILCDiverged(RuntimeError):
@@ -73,15 +76,16 @@ class ILCDiverged(RuntimeError):
 
 @dataclass(frozen=True)
 class ILCConfig:
-    """trials: learning trials per reference (the IX; the arm's default is one LCS iteration,
-    ``arm_trials``); q_hz [Hz], q_order: the zero-phase Q filter (the arm: ``arm_q_hz``, the
-    paper's 20 Hz); gain: scales L (1: full inversion, as eq. 16). The IX's 5 Hz, order 4, is a
+    """trials: learning trials per reference on a machine without a nominal structure (the IX, a
+    URDF machine); arm_trials: on the FlexArm (paper 002's LCS is one, ``PaperLCS``); q_hz [Hz],
+    q_order: the zero-phase Q filter (the arm: ``arm_q_hz``, the paper's 20 Hz); gain: scales L
+    (1: full inversion, as eq. 16). The IX's 5 Hz, order 4, is a
     measured choice (``studies/ilc_ix.py``): at 12 Hz the learning diverges on some references
     (the drivetrain modes at 15-34 Hz are not in L's model), and a gain below 1 leaves a larger
     error where Q < 1."""
 
     trials: int = 10
-    arm_trials: int = 1
+    arm_trials: int = 8
     q_hz: float = 5.0
     arm_q_hz: float = 20.0
     q_order: int = 4
@@ -166,14 +170,25 @@ def _check_divergence(history: list[np.ndarray], name: str) -> None:
                           f"RMS per trial {[f'{h:.3g}' for h in total]}")
 
 
+def best_trial(history: Sequence[np.ndarray], scored: Sequence[int]) -> int:
+    """The trial to keep: among those measured no worse than trial 0 (the base) on any ``scored`` axis,
+    the one of the lowest RMS over those axes; trial 0 where none is better. ``history``: per trial,
+    the measured error RMS per axis."""
+    h = np.asarray(history)[:, list(scored)]
+    eligible = np.flatnonzero((h <= h[0]).all(axis=1))
+    return int(eligible[np.argmin(np.sqrt(np.mean(np.square(h[eligible]), axis=1)))])
+
+
 class IterativeLearningControl(Controller):
-    """Method ``ilc``: learns on each evaluation reference itself (``learn``), starting from the
-    machine's physical model fitted on the training trials (the IX) or from its nominal structure
-    (the FlexArm's Basic, tau_nl update of eq. 16). ``history_[name]``: (trials, n_axes) error RMS
-    per trial and axis, trial 0 the start (IX: tracking error as measured [rad]; arm: e_pl from the
-    accelerometer [rad/s^2]); ``true_history_[name]``: the same for the simulation's true load-side
-    error where the trials carry it (IX: ``load_<axis>``; arm: ``e_pl_true_<joint>``). ``system``:
-    the machine (a ``System`` or a spec for ``systems.get``, such as "ix")."""
+    """Method ``ilc``: learns on each evaluation reference itself (``learn``), starting from its base
+    (``base``, ``bases``: the machine's physical model fitted on the training trials, the default;
+    or the FlexArm's nominal structure "basic", where it updates tau_nl as eq. 16 does), and keeps
+    its best trial as measured by the machine's sensors (``best_trial``: never one measured worse
+    than the base on a scored axis). ``history_[name]``: (trials, n_axes) error RMS per trial and
+    axis as measured, trial 0 the base (tracking error [rad]; the arm: e_pl from the accelerometer
+    [rad/s^2]); ``true_history_[name]``: the same for the simulation's true error where the trials
+    carry it (IX: ``load_<axis>``; arm: ``e_pl_true_<joint>``), for reports only; ``best_[name]``:
+    the trial kept. ``system``: the machine (a ``System`` or a spec for ``systems.get``)."""
 
     name = "ilc"
     relative_cost = 10.0  # seconds of a quick cell (protocol.Controller)
@@ -181,10 +196,11 @@ class IterativeLearningControl(Controller):
     learns_on_scored_references = True
 
     def __init__(self, config: ILCConfig | None = None, system: systems.System | str | None = None,
-                 budget: float = 1.0):
+                 budget: float = 1.0, base: str = DEFAULT_BASE):
         self.config = config
         self.system = system
         self.budget = budget
+        self.base = base
 
     @property
     def config_(self) -> ILCConfig:
@@ -197,65 +213,91 @@ class IterativeLearningControl(Controller):
                        arm_trials=max(1, math.ceil(cfg.arm_trials * self.budget)))
 
     def fit(self, trials) -> IterativeLearningControl:
-        from .physical import PhysicalFeedforward
-
         self.system_ = given_system(self)
+        self.base_ = base_controller(self.system_, self.base).fit(trials)
         self.nominal_ = self.system_.nominal
-        self.start_ = PhysicalFeedforward(system=self.system_).fit(trials) if self.nominal_ is None else None
-        self.learned_, self.history_, self.true_history_ = {}, {}, {}
+        self.learned_, self.history_, self.true_history_, self.best_ = {}, {}, {}, {}
         self.cost_ = Cost()
         return self
 
     def learn(self, plant, reference) -> IterativeLearningControl:
         if not hasattr(self, "learned_"):
             raise RuntimeError("ILC: call fit(trials) before learn()")
-        learn = self._learn_tracking if self.nominal_ is None else self._learn_model_following
+        if self.base == "basic":
+            learn = self._learn_model_following
+        elif self.nominal_ is not None:
+            learn = self._learn_arm
+        else:
+            learn = self._learn_tracking
         learned, history, true_history, used = learn(plant, reference)
         self.learned_[reference.name] = learned
         self.history_[reference.name], self.true_history_[reference.name] = np.array(history), np.array(true_history)
         self.cost_.plant_trials += used
         return self
 
+    def _scored(self, n_axes: int) -> list[int]:
+        return scored_axes(self.system_, n_axes)
+
+    def _start(self, reference) -> tuple[np.ndarray, np.ndarray | None]:
+        """The base's (feedforward, load-side reference offset or None) of ``reference``."""
+        return np.asarray(self.base_.feedforward(reference), dtype=float), self.base_.reference_offset(reference)
+
     def _learn_tracking(self, plant, reference):
         """Plant-inversion ILC on the measured tracking error, from the fitted physical model."""
         cfg = self.config_
-        f0 = np.asarray(self.start_.feedforward(reference), dtype=float)
+        f0 = self._start(reference)[0]
         f = f0
         # the plant holds the first sample's feedforward through its pre-roll: a learned change there
         # would move the initial state, which L's linear model does not describe (the error at the
         # start then alternates from trial to trial); the update fades in over FADE_IN seconds
         inverse, q, fade = learning_filters(plant, reference, cfg)
-        history, true_history = [], []
-        for j in range(cfg.trials + 1):  # the last trial measures the learned feedforward
+        history, true_history, tried = [], [], []
+        for j in range(cfg.trials + 1):  # the last trial measures the last update
             try:
                 trial = plant.run(reference, f)
             except SimulationDiverged as exc:
                 raise ILCDiverged(f"ILC on {reference.name}: trial {j}'s feedforward drove the plant out of its safe "
                                   f"range ({exc})") from None
+            tried.append(f)
             history.append(_rms(trial.error))
             true_history.append(_rms(trial.ref - np.column_stack([trial.extra[f"load_{a}"] for a in trial.axes])))
             _check_divergence(history, reference.name)
             if j < cfg.trials:
                 e = deadzone(trial.error, 0.5 * np.asarray(plant.encoder_resolution))
                 f = f0 + fade * (frequency_update(f, e, inverse, q, cfg.gain) - f0)
-        return {"feedforward": f}, history, true_history, cfg.trials + 1
+        best = self.best_[reference.name] = best_trial(history, self._scored(f0.shape[1]))
+        return {"feedforward": tried[best]}, history, true_history, cfg.trials + 1
 
     def _learn_model_following(self, plant, reference):
-        """Paper 002's LCS: the nominal structure's tau_nl updated with the model-following error."""
+        """Paper 002's LCS iterated on Basic: its tau_nl updated with the model-following error
+        (eq. 16), ``arm_trials`` updates, each measured, the best kept."""
         cfg, nominal = self.config_, self.nominal_
         basic = nominal.compute(reference.positions, reference.fs)
         update = np.zeros(reference.positions.shape)
-        history, true_history = [], []
-        for _ in range(cfg.arm_trials):
+        history, true_history, tried = [], [], []
+        for j in range(cfg.arm_trials + 1):
             trial = nominal.run(plant, reference, update)
+            tried.append(update)
             e_pl = np.column_stack([trial.extra[f"e_pl_{a}"] for a in trial.axes])
             history.append(_rms(e_pl))
             true_history.append(_rms(np.column_stack([trial.extra[f"e_pl_true_{a}"] for a in trial.axes])))
             _check_divergence(history, reference.name)
-            # eq. (16): tau_nl,k+1 = Q_u [tau_nl,k + P_lu^-1 e_pl,k]; tau_nl,0 is Basic's
-            update = nominal_update(nominal, basic["tau_nl"] + update, e_pl, plant.fs, cfg) - basic["tau_nl"]
-        return {"feedforward": basic["tau_ff"] + update, "offset": basic["reference_offset"]}, history, true_history, \
-            cfg.arm_trials
+            if j < cfg.arm_trials:
+                # eq. (16): tau_nl,k+1 = Q_u [tau_nl,k + P_lu^-1 e_pl,k]; tau_nl,0 is Basic's
+                update = nominal_update(nominal, basic["tau_nl"] + update, e_pl, plant.fs, cfg) - basic["tau_nl"]
+        best = self.best_[reference.name] = best_trial(history, self._scored(update.shape[1]))
+        return ({"feedforward": basic["tau_ff"] + tried[best], "offset": basic["reference_offset"]}, history,
+                true_history, cfg.arm_trials + 1)
+
+    def _learn_arm(self, plant, reference):
+        """The FlexArm on its physical model (``ilc_arm``)."""
+        from .ilc_arm import learn_on_base
+
+        f0, o0 = self._start(reference)
+        learned, history, true_history, used = learn_on_base(plant, reference, f0, o0, self.nominal_,
+                                                             trials=self.config_.arm_trials)
+        self.best_[reference.name] = learned.pop("trial")
+        return learned, history, true_history, used
 
     def _learned(self, reference) -> dict:
         if reference.name not in getattr(self, "learned_", {}):
@@ -269,12 +311,46 @@ class IterativeLearningControl(Controller):
         return self._learned(reference).get("offset")
 
 
+class PaperLCS(IterativeLearningControl):
+    """Method ``paper002-lcs``: paper 002's LCS as the paper ran it (section 5.3): one ILC iteration
+    of eq. (16) on Basic, the updated feedforward returned unmeasured (no trial is kept or
+    compared). What ``lcgym leaderboard --share-of paper002-lcs --base basic`` measures Table 6's
+    shares against."""
+
+    name = "paper002-lcs"
+    base = "basic"  # fixed: the paper's
+    relative_cost = 3.0  # seconds of a quick cell (protocol.Controller)
+    systems = ("flexarm",)
+
+    def __init__(self, config: ILCConfig | None = None, system: systems.System | str | None = None):
+        super().__init__(config, system, base="basic")
+
+    @property
+    def config_(self) -> ILCConfig:
+        """The configuration given, with one iteration (the paper's)."""
+        return replace(self.config or ILCConfig(), arm_trials=1)
+
+    def _learn_model_following(self, plant, reference):
+        cfg, nominal = self.config_, self.nominal_
+        basic = nominal.compute(reference.positions, reference.fs)
+        trial = nominal.run(plant, reference)
+        e_pl = np.column_stack([trial.extra[f"e_pl_{a}"] for a in trial.axes])
+        history = [_rms(e_pl)]
+        true_history = [_rms(np.column_stack([trial.extra[f"e_pl_true_{a}"] for a in trial.axes]))]
+        # eq. (16): tau_nl,1 = Q_u [tau_nl,0 + P_lu^-1 e_pl,0]
+        update = nominal_update(nominal, basic["tau_nl"], e_pl, plant.fs, cfg) - basic["tau_nl"]
+        return {"feedforward": basic["tau_ff"] + update, "offset": basic["reference_offset"]}, history, true_history, 1
+
+
 class ILCTransfer(IterativeLearningControl):
     """Method ``ilc-transfer``: ILC learns once, on the first training reference, and its learned
-    correction (the learned feedforward minus the starting one: physical model on the IX, Basic on
-    the arm) is then added, as the time signal it is, to the starting feedforward of any other
-    reference (cut, or held at its last value, to that reference's length). What ILC learns belongs
-    to one trajectory; this shows how little of it carries over (paper 002, section 1)."""
+    correction (the learned feedforward and reference offset minus the base's) is then added, as
+    the time signal it is, to the base's of any other reference (cut, or held at its last value, to
+    that reference's length). What ILC learns belongs to one trajectory; this shows how little of it
+    carries over (paper 002, section 1). It cannot measure a reference before it is scored on it:
+    the training-reference safeguard (``safeguard``) keeps the correction only on the axes where it
+    lowers the error of every other training reference (its plant runs counted); ``note_`` says what
+    it dropped."""
 
     name = "ilc-transfer"
     relative_cost = 3.0  # seconds of a quick cell (protocol.Controller)
@@ -284,26 +360,47 @@ class ILCTransfer(IterativeLearningControl):
         super().fit(trials)
         from ..references import references_of
 
-        self.source_ = references_of(trials[:1])[0]
+        self.training_ = references_of(trials)
+        self.source_ = self.training_[0]
+        self.note_ = ""
         return self
 
     def learn(self, plant, reference) -> ILCTransfer:
-        if not hasattr(self, "correction_"):
+        if not hasattr(self, "kept_"):
             super().learn(plant, self.source_)
-            self.correction_ = super().feedforward(self.source_) - self._start(self.source_)
+            f0, o0 = self._start(self.source_)
+            learned = self._learned(self.source_)
+            self.correction_ = learned["feedforward"] - f0
+            offset = learned.get("offset")
+            self.offset_correction_ = None if offset is None else offset - (0.0 if o0 is None else o0)
+            # judged on the training references it did not learn on (the source alone where there is no other)
+            others = self.training_[1:] or self.training_
+            guard = Safeguard(self.system_)
+            self.kept_ = guard.choose(plant, others, self._start, self._transferred)
+            self.cost_.plant_trials += guard.trials_
+            self.note_ = dropped_note(self.name, self.kept_, self.source_.axes, guard.references_worse_, len(others))
         return self
 
-    def _start(self, reference) -> np.ndarray:
-        if self.nominal_ is not None:
-            return self.nominal_.compute(reference.positions, reference.fs)["tau_ff"]
-        return np.asarray(self.start_.feedforward(reference), dtype=float)
+    def _transferred(self, reference) -> tuple[np.ndarray, np.ndarray | None]:
+        """The base's (feedforward, offset) plus the correction, fitted to ``reference``'s length."""
+        f0, o0 = self._start(reference)
+        f = f0 + _fitted(self.correction_, reference.n_samples)
+        if self.offset_correction_ is None:
+            return f, o0
+        return f, (0.0 if o0 is None else o0) + _fitted(self.offset_correction_, reference.n_samples)
+
+    def _signals(self, reference) -> tuple[np.ndarray, np.ndarray | None]:
+        if not hasattr(self, "kept_"):
+            raise RuntimeError("ilc-transfer: call learn(plant, reference) first")
+        return mixed(self._start(reference), self._transferred(reference), self.kept_)
 
     def feedforward(self, reference) -> np.ndarray:
-        if not hasattr(self, "correction_"):
-            raise RuntimeError("ilc-transfer: call learn(plant, reference) first")
-        c, T = self.correction_, reference.n_samples
-        fitted = c[:T] if c.shape[0] >= T else np.vstack([c, np.repeat(c[-1:], T - c.shape[0], axis=0)])
-        return self._start(reference) + fitted
+        return self._signals(reference)[0]
 
     def reference_offset(self, reference) -> np.ndarray | None:
-        return None if self.nominal_ is None else self.nominal_.reference_offset(reference)
+        return self._signals(reference)[1]
+
+
+def _fitted(c: np.ndarray, T: int) -> np.ndarray:
+    """A (T0, n) signal cut to T samples, or held at its last value to T."""
+    return c[:T] if c.shape[0] >= T else np.vstack([c, np.repeat(c[-1:], T - c.shape[0], axis=0)])

@@ -19,6 +19,14 @@ measured with ``studies/pgnn_protocol.py`` on IX-v1's leaderboard data):
   at most ``MAX_ITERATIONS`` on the benchmark's 8 training runs, in proportion to the runs otherwise
   (``max_iterations``: 25 on ``--quick``'s 2 at the full budget; ``--quick`` trains for half of that).
 
+* **never worse than the physical model** (issue 48): after training, on the training references,
+  the plant is run with the least-squares physical model, with the PGNN's physical part alone
+  (``use_network = False``) and with the whole PGNN, and each axis keeps the first of them that the
+  next one does not beat on every training reference (``safeguard``: physical part over the
+  physical model, then the network over that). The training references are not held out: the
+  choice cannot promise the validation result, and the row's ``note`` says what was dropped.
+  ``pgnn.gate = False`` switches it off (paper 000's protocol as it was).
+
 The leaderboard trains with one torch thread (benchmark cells run in parallel workers);
 ``nn_contribution`` gives f^C for the results' ``nn_rms`` column.
 """
@@ -36,6 +44,7 @@ from .. import systems
 from ..references import references_of
 from .physical import PhysicalFeedforward
 from .protocol import Controller, Cost, given_system
+from .safeguard import Safeguard, mixed
 
 if TYPE_CHECKING:  # lcgym.pgnn (torch) is imported where a PGNN is trained: the bench's main process needs none
     from ..pgnn import PGNN, PGNNConfig
@@ -84,8 +93,10 @@ class PGNNFeedforward(Controller):
     """
 
     name = "pgnn"
+    base = "physical"  # fixed: its physical part starts from the least-squares physical model
     relative_cost = 10.0  # seconds of a quick cell (protocol.Controller)
     regularize = True
+    gate = True
     uses_plant = True
     learns_once = True  # learn's plant runs happen on its first call (the training data), not per reference
 
@@ -114,7 +125,59 @@ class PGNNFeedforward(Controller):
             data = plant.run(refs, [physical.feedforward(r) for r in refs])
             self.cost_ = Cost(plant_trials=len(refs))
             self._train(data)
+        if not hasattr(self, "part_kept_"):
+            self._gate(plant)
         return self
+
+    def _gate(self, plant) -> None:
+        """The safeguard of the module docstring: sets ``part_kept_`` and ``net_kept_`` (per axis)."""
+        refs = references_of(self.trials_)
+        n = refs[0].positions.shape[1]
+        self.part_kept_ = self.net_kept_ = np.ones(n, dtype=bool)
+        self.note_ = ""
+        if not self.gate:
+            return
+        self.physical_ = PhysicalFeedforward(system=self.system_).fit(self.trials_)
+        axes = refs[0].axes
+        guard = Safeguard(self.system_)
+        self.part_kept_ = guard.choose(plant, refs, self._physical, self._part)
+        guard_net = Safeguard(self.system_)
+        self.net_kept_ = guard_net.choose(plant, refs, self._chosen_part, self._whole)
+        self.cost_.plant_trials += guard.trials_ + guard_net.trials_
+        dropped = [i for i in range(n) if not self.net_kept_[i]]
+        if dropped:
+            acts = {"its physical part": [axes[i] for i in dropped if self.part_kept_[i]],
+                    "the least-squares physical model": [axes[i] for i in dropped if not self.part_kept_[i]]}
+            self.note_ = (f"{self.name}: network dropped on {', '.join(axes[i] for i in dropped)} (it raised the tracking "
+                          f"error on {guard_net.references_worse_} of {len(refs)} training references); there acts "
+                          + ", ".join(f"{what} on {', '.join(on)}" for what, on in acts.items() if on))
+
+    def _physical(self, reference):
+        return self.physical_.feedforward(reference), self.physical_.reference_offset(reference)
+
+    def _part(self, reference):
+        model = self._model()
+        model.use_network = False
+        try:
+            return model.predict(reference), model.reference_offset(reference)
+        finally:
+            model.use_network = True
+
+    def _chosen_part(self, reference):
+        if self.part_kept_.all():
+            return self._part(reference)
+        return mixed(self._physical(reference), self._part(reference), self.part_kept_)
+
+    def _whole(self, reference):
+        model = self._model()
+        return model.predict(reference), model.reference_offset(reference)
+
+    def _signals(self, reference):
+        if not hasattr(self, "part_kept_") or not self.gate:
+            return self._whole(reference)
+        if self.net_kept_.all():
+            return self._whole(reference)
+        return mixed(self._chosen_part(reference), self._whole(reference), self.net_kept_)
 
     def training_config(self, n_trials: int = REFERENCE_TRIALS) -> PGNNConfig:
         """The configuration it trains with on ``n_trials`` runs: the one given (with this method's
@@ -141,13 +204,15 @@ class PGNNFeedforward(Controller):
         return self.pgnn_
 
     def feedforward(self, reference) -> np.ndarray:
-        return self._model().predict(reference)
+        return self._signals(reference)[0]
 
     def nn_contribution(self, reference) -> np.ndarray:
-        return self._model().nn_contribution(reference)
+        """f^C (T, n_axes) on the axes where the network acts (zero where the safeguard dropped it)."""
+        f_c = self._model().nn_contribution(reference)
+        return f_c * getattr(self, "net_kept_", True)
 
     def reference_offset(self, reference) -> np.ndarray | None:
-        return self._model().reference_offset(reference)
+        return self._signals(reference)[1]
 
 
 class PGNNLSFeedforward(PGNNFeedforward):

@@ -16,7 +16,9 @@ A feedforward controller has
   seconds a quick cell of it takes (default 1), which only orders the parallel workers' cells;
 * optionally a constructor keyword ``budget`` (default 1): the fraction of its full learning budget
   a method spends (the PGNN's iterations, ILC's trials), which ``lcgym bench --quick`` lowers
-  (``BenchConfig.budget``) for a smoke run of every cell.
+  (``BenchConfig.budget``) for a smoke run of every cell;
+* optionally a constructor keyword ``base`` (the learning methods: default "physical"): the
+  feedforward it builds on (``bases``), which ``METHOD@BASE`` on the command line sets.
 
 Subclassing ``Controller`` gives the no-op defaults; duck typing works too. A user's class is
 named on the command line as ``module:Class`` (see ``load_method``).
@@ -44,6 +46,7 @@ import numpy as np
 
 from .. import systems
 from ..envs.actions import short_repr
+from .bases import split_spec
 
 
 @dataclass
@@ -84,7 +87,17 @@ class Controller:
 
 
 def load_method(spec: str, registry: dict[str, type]) -> type:
-    """A controller class from a method id of ``registry`` or from ``module:Class``."""
+    """A controller class from a method id of ``registry`` or from ``module:Class``, either with an
+    optional ``@BASE`` (``bases.split_spec``; a class that takes no ``base`` is refused one)."""
+    spec, base = split_spec(spec)
+    cls = _load_class(spec, registry)
+    if base is not None and not takes_keyword(cls, "base"):
+        raise ValueError(f"method {spec!r} builds on no base: write it without @{base} (the learning methods take "
+                         f"one: {', '.join(sorted(n for n, c in registry.items() if takes_keyword(c, 'base')))})")
+    return cls
+
+
+def _load_class(spec: str, registry: dict[str, type]) -> type:
     if spec in registry:
         return registry[spec]
     module_name, sep, class_name = spec.partition(":")
@@ -126,26 +139,43 @@ def takes_system(cls: type) -> bool:
                for p in parameters)
 
 
-def takes_budget(cls: type) -> bool:
-    """Whether ``cls``'s constructor names a ``budget`` keyword (``**kwargs`` alone does not count:
-    a class that does not know the word is not handed it)."""
+def takes_keyword(cls: type, name: str) -> bool:
+    """Whether ``cls``'s constructor names the keyword ``name`` (``budget``, ``base``; ``**kwargs``
+    alone does not count: a class that does not know the word is not handed it)."""
     try:
         parameters = inspect.signature(cls).parameters
     except (TypeError, ValueError):
         return False
-    return "budget" in parameters and parameters["budget"].kind in (inspect.Parameter.POSITIONAL_OR_KEYWORD,
-                                                                    inspect.Parameter.KEYWORD_ONLY)
+    return name in parameters and parameters[name].kind in (inspect.Parameter.POSITIONAL_OR_KEYWORD,
+                                                            inspect.Parameter.KEYWORD_ONLY)
+
+
+def method_base(spec: str, registry: dict[str, type]) -> str:
+    """The base a method of ``spec`` builds on: the one after "@", else its class's default (the
+    constructor's ``base`` default, ``bases.DEFAULT_BASE`` for the learners), or the fixed one a class
+    without that keyword declares as its ``base`` attribute; "" for a method with none (feedback,
+    physical, basic, a user's class without ``base``)."""
+    base = split_spec(spec)[1]
+    cls = load_method(spec, registry)
+    if not takes_keyword(cls, "base"):  # a fixed base, declared as a class attribute (the paper variants, the PGNN)
+        fixed = getattr(cls, "base", "")
+        return fixed if isinstance(fixed, str) else ""
+    return base or inspect.signature(cls).parameters["base"].default
 
 
 def build_method(spec: str, system: systems.System, registry: dict[str, type], budget: float = 1.0):
-    """The controller of method ``spec`` (an id of ``registry`` or ``module:Class``, ``load_method``)
-    for ``system``: ``cls(system=system)``; a user's class whose constructor takes no ``system`` is
-    built without arguments. ``budget``: the fraction of its full learning budget, handed to a class
+    """The controller of method ``spec`` (an id of ``registry`` or ``module:Class``, with an
+    optional ``@BASE``, ``load_method``) for ``system``: ``cls(system=system)`` (and
+    ``base=BASE``); a user's class whose constructor takes no ``system`` is built without arguments.
+    ``budget``: the fraction of its full learning budget, handed to a class
     whose constructor names ``budget`` (``Controller``) where it is not 1."""
     cls = load_method(spec, registry)
     kwargs = {"system": system} if takes_system(cls) else {}
-    if budget != 1.0 and takes_budget(cls):
+    if budget != 1.0 and takes_keyword(cls, "budget"):
         kwargs["budget"] = budget
+    base = split_spec(spec)[1]
+    if base is not None:
+        kwargs["base"] = base
     return cls(**kwargs)
 
 

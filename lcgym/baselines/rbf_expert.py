@@ -15,6 +15,13 @@ plant-inversion update,
   that feedforward; L, Q (5 Hz) and the fade-in are those of the tracking-error ILC
   (``ilc.learning_filters``).
 
+Base (``bases``): the machine's fitted physical model by default; the FlexArm's Basic
+(``rbf-expert@basic``) for eq. (17) as the paper writes it. On the FlexArm's physical model the
+prediction enters the same update as ILC's there (``ilc_arm``). A training-reference safeguard
+(``safeguard``, as RL's) keeps the predicted correction only on the axes where it lowers the
+tracking error on every training reference; ``note_`` says what it dropped. ``paper002-nnp`` is the
+paper's protocol: on Basic, no safeguard.
+
 The motion influence Phi comes from the machine's joint axes at its reference pose
 (``System.joint_axes``, ``influence.task_influence``): on the arm the entries of eq. (25), on the IX
 the 2 x 2 identity (the two axes are perpendicular).
@@ -32,40 +39,44 @@ import numpy as np
 from .. import systems
 from ..rbf_expert.influence import task_influence
 from ..rbf_expert.predictor import RBFExpertConfig, RBFExpertPredictor
+from .bases import DEFAULT_BASE, base_controller, closed_loop
 from .ilc import ILCConfig, frequency_update, learning_filters, nominal_update
 from .protocol import Controller, Cost, given_system
+from .safeguard import Safeguard, dropped_note, mixed
 
 MOVING_TOL = 1e-6  # rad/s: a joint whose reference velocity never exceeds this gets no networks
 
 
 class RBFExpertFeedforward(Controller):
-    """``fit(trials)`` keeps the training references (and fits the physical model where the machine
-    has no nominal structure);
-    ``learn(plant, reference)`` trains the predictor on the first call; ``feedforward(reference)``
-    applies the predicted update. Learned: ``predictor_``, ``plant_`` (the one trained on: its
-    loop defines L), ``outside_``, ``cost_``. ``system``: the machine (a ``System`` or a spec for
-    ``systems.get``, such as "flexarm")."""
+    """``fit(trials)`` keeps the training references and fits the base (``base``: "physical", the
+    default, or "basic" on the FlexArm); ``learn(plant, reference)`` trains the predictor on the
+    first call (and runs the safeguard); ``feedforward(reference)`` applies the predicted update.
+    Learned: ``predictor_``, ``plant_`` (the one trained on: its loop defines L), ``outside_``,
+    ``kept_`` (per axis: the correction acts there), ``note_``, ``cost_``. ``system``: the machine (a
+    ``System`` or a spec for ``systems.get``, such as "flexarm")."""
 
     name = "rbf-expert"
     relative_cost = 1.3  # seconds of a quick cell (protocol.Controller)
     uses_plant = True
+    safeguard = True
 
     def __init__(self, config: RBFExpertConfig | None = None, learning: ILCConfig | None = None,
-                 system: systems.System | str | None = None):
+                 system: systems.System | str | None = None, base: str = DEFAULT_BASE):
         self.config = config
         self.learning = learning
         self.system = system
+        self.base = base
 
     def fit(self, trials) -> RBFExpertFeedforward:
         from ..references import references_of
-        from .physical import PhysicalFeedforward
 
         self.system_ = given_system(self)
         self.nominal_ = self.system_.nominal
-        self.start_ = PhysicalFeedforward(system=self.system_).fit(trials) if self.nominal_ is None else None
+        self.base_ = base_controller(self.system_, self.base).fit(trials)
         self.training_ = references_of(trials)
         self.cost_ = Cost()
         self.outside_ = {}
+        self.note_ = ""
         return self
 
     def learn(self, plant, reference) -> RBFExpertFeedforward:
@@ -74,17 +85,33 @@ class RBFExpertFeedforward(Controller):
         if not hasattr(self, "predictor_"):
             self.plant_ = plant
             self._train(plant)
+            self.kept_ = np.ones(reference.positions.shape[1], dtype=bool)
+            if self.safeguard:
+                guard = Safeguard(self.system_)
+                self.kept_ = guard.choose(plant, self.training_, self._start, self._predicted)
+                self.cost_.plant_trials += guard.trials_
+                self.note_ = dropped_note(self.name, self.kept_, self.training_[0].axes, guard.references_worse_,
+                                          len(self.training_))
         return self
+
+    def _start(self, reference) -> tuple[np.ndarray, np.ndarray | None]:
+        """The base's (feedforward, load-side reference offset or None)."""
+        return np.asarray(self.base_.feedforward(reference), dtype=float), self.base_.reference_offset(reference)
 
     def _train(self, plant) -> None:
         refs = self.training_
-        if self.nominal_ is not None:
+        if self.base == "basic":
             errors = []
             for r in refs:
                 tr = self.nominal_.run(plant, r)
                 errors.append(np.column_stack([tr.extra[f"e_pl_{a}"] for a in tr.axes]))
+        elif self.nominal_ is not None:
+            from .ilc_arm import model_following_error
+
+            errors = [model_following_error(plant, closed_loop(plant, r, *self._start(r)), r, self.nominal_,
+                                            *self._start(r)) for r in refs]
         else:
-            errors = [t.error for t in plant.run(refs, [self.start_.feedforward(r) for r in refs])]
+            errors = [t.error for t in plant.run(refs, [self._start(r)[0] for r in refs])]
         phi = task_influence(refs, None if self.system_.joint_axes is None else self.system_.joint_axes())
         v = np.concatenate([r.velocities for r in refs])
         joints = tuple(int(j) for j in np.flatnonzero(np.abs(v).max(axis=0) > MOVING_TOL))
@@ -99,16 +126,45 @@ class RBFExpertFeedforward(Controller):
         self.outside_[reference.name] = dict(self.predictor_.outside_share_)
         return e_hat
 
-    def feedforward(self, reference) -> np.ndarray:
+    def _predicted(self, reference) -> tuple[np.ndarray, np.ndarray | None]:
+        """(feedforward, offset) of the base updated once with the predicted error."""
         e_hat = self.predict(reference)
         learning = self.learning or ILCConfig()
-        if self.nominal_ is not None:
+        f0, o0 = self._start(reference)
+        if self.base == "basic":
             basic = self.nominal_.compute(reference.positions, reference.fs)
             return basic["tau_ff"] - basic["tau_nl"] + nominal_update(self.nominal_, basic["tau_nl"], e_hat, reference.fs,
-                                                                      learning)
-        f0 = np.asarray(self.start_.feedforward(reference), dtype=float)
+                                                                      learning), o0
+        if self.nominal_ is not None:
+            from .ilc_arm import predicted_update
+
+            return predicted_update(self.nominal_, f0, o0, e_hat, reference.fs, self.plant_.gains)
         inverse, q, fade = learning_filters(self.plant_, reference, learning)
-        return f0 + fade * (frequency_update(f0, e_hat, inverse, q, learning.gain) - f0)
+        return f0 + fade * (frequency_update(f0, e_hat, inverse, q, learning.gain) - f0), o0
+
+    def _signals(self, reference) -> tuple[np.ndarray, np.ndarray | None]:
+        if not hasattr(self, "kept_"):
+            raise RuntimeError("rbf-expert: call learn(plant, reference) first (it trains the predictor)")
+        if self.kept_.all():
+            return self._predicted(reference)
+        return mixed(self._start(reference), self._predicted(reference), self.kept_)
+
+    def feedforward(self, reference) -> np.ndarray:
+        return self._signals(reference)[0]
 
     def reference_offset(self, reference) -> np.ndarray | None:
-        return None if self.nominal_ is None else self.nominal_.reference_offset(reference)
+        return self._signals(reference)[1]
+
+
+class PaperNNP(RBFExpertFeedforward):
+    """Method ``paper002-nnp``: paper 002's NN prediction with expert logic as the paper ran it: on
+    Basic, eq. (17) applied as predicted, no safeguard."""
+
+    name = "paper002-nnp"
+    base = "basic"  # fixed: the paper's
+    systems = ("flexarm",)
+    safeguard = False
+
+    def __init__(self, config: RBFExpertConfig | None = None, learning: ILCConfig | None = None,
+                 system: systems.System | str | None = None):
+        super().__init__(config, learning, system, base="basic")

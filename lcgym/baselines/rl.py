@@ -6,10 +6,11 @@ each action held for several samples (``RLConfig.agent_rate``, else the machine'
 ``System.hints["benchmark"]["rl"]["agent_rate"]``: 50 Hz on the IX, the two-link arm and the
 EMPS, ``envs.hold``; every sample on the FlexArm, whose residual shapes 10-15 Hz resonances).
 
-* **Residual** (default, ``RLConfig.residual``): the action is added to the machine's starting
-  feedforward, bounded: its nominal structure where it has one (``System.nominal``: the FlexArm's
-  Basic, tau_nl update +-2 N m, with Basic's motor reference offset), else the cell's fitted
-  physical model (the IX, +-1 V). ``residual=False``: from scratch, the action is the whole
+* **Residual** (default, ``RLConfig.residual``): the action is added to the method's base
+  feedforward (``bases``), bounded: the cell's fitted physical model (``base="physical"``, the
+  default; IX +-1 V; FlexArm +-2 N m, with the model's joint-torsion reference offset) or the
+  FlexArm's nominal structure (``base="basic"``: paper 002's Basic, tau_nl update +-2 N m, with
+  Basic's motor reference offset). ``residual=False``: from scratch, the action is the whole
   feedforward (IX +-5 V; arm +-u_max, no offset).
 * **Budget**: ``passes`` x the training references' samples env steps (``RLConfig.passes``, else
   the machine's ``System.hints["benchmark"]["rl"]["passes"]``, else ``PASSES``; ``total_steps``
@@ -69,7 +70,9 @@ from tqdm.auto import tqdm
 
 from .. import systems
 from ..provenance import source_hash
+from .bases import DEFAULT_BASE, base_controller
 from .protocol import Controller, Cost, given_system
+from .safeguard import dropped_note, keep_axes, scored_axes
 
 ALGORITHMS = ("ppo", "sac", "td3")
 PASSES = 1.0  # env steps per training sample on a machine that sets none (System.hints["benchmark"]["rl"])
@@ -195,8 +198,8 @@ def _vec_env(system: systems.System, references, plant, base, config: RLConfig, 
 
 
 class RLFeedforward(Controller):
-    """``fit(trials)`` keeps the training references (and fits the physical model where the machine
-    has no nominal structure);
+    """``fit(trials)`` keeps the training references (and fits the physical model on the base
+    "physical"; ``base``: the feedforward the residual adds to, ``bases``);
     ``learn(plant, reference)`` trains (or loads from the cache) on the first call, then rolls the
     policy out deterministically on ``reference``; ``feedforward(reference)`` returns that
     rollout's feedforward. Learned: ``model_`` (the SB3 agent), ``curve_`` (training curve),
@@ -209,9 +212,11 @@ class RLFeedforward(Controller):
     relative_cost = 17.0  # seconds of a quick cell (protocol.Controller)
     uses_plant = True
 
-    def __init__(self, config: RLConfig | None = None, system: systems.System | str | None = None):
+    def __init__(self, config: RLConfig | None = None, system: systems.System | str | None = None,
+                 base: str = DEFAULT_BASE):
         self.config = config
         self.system = system
+        self.base = base
 
     # --- fit: what the training data gives -------------------------------------------------
     def fit(self, trials) -> RLFeedforward:
@@ -220,10 +225,10 @@ class RLFeedforward(Controller):
         self.system_ = given_system(self)
         cfg = self._config()
         self.base_ = None
-        if cfg.residual and self.system_.nominal is None:
-            from .physical import PhysicalFeedforward
-
-            self.base_ = PhysicalFeedforward(system=self.system_).fit(trials).model_
+        if cfg.residual and self.base == "physical":
+            self.base_ = base_controller(self.system_, "physical").fit(trials).model_
+        elif cfg.residual:
+            base_controller(self.system_, self.base)  # a clear error where the machine lacks it
         self.training_ = references_of(trials)
         self.cost_ = Cost()
         self.rollouts_: dict = {}
@@ -236,7 +241,7 @@ class RLFeedforward(Controller):
         """The env's ``base_feedforward`` argument."""
         if not self._config().residual:
             return "none"
-        return self.base_ if self.system_.nominal is None else self.system_.nominal.name
+        return self.base_ if self.base == "physical" else self.system_.nominal.name
 
     def hold(self) -> int:
         """Control samples per agent action (``RLConfig.agent_rate`` on the machine's rate)."""
@@ -360,43 +365,26 @@ class RLFeedforward(Controller):
         self.note_ = ""
         if not (self._config().safeguard and self._config().residual):
             return
+        scored = self._scored()
         base = self._training_rms(plant, np.zeros(n, dtype=bool))
         full = self._training_rms(plant, self.kept_)
-        figures = {"base": base, "policy": full}
-        worse = (full > base).any(axis=0)  # per scored axis: worse on some training reference
-        if worse.any():
-            kept = self._action_axes(~worse)
-            figures["masked"] = masked = self._training_rms(plant, kept) if kept.any() and not worse.all() else full
-            self.kept_ = kept if kept.any() and not (masked > base).any() else np.zeros(n, dtype=bool)
+        self.kept_, figures = keep_axes(base, full, lambda kept: self._training_rms(plant, kept), scored, n,
+                                        learned_key="policy")
         samples = [r.n_samples for r in self.training_]
         factor = np.array([f for f, _ in self._display()])  # to deg or mm
         self.safeguard_ = {k: (factor * np.sqrt(np.average(np.square(v), axis=0, weights=samples))).round(6).tolist()
                            for k, v in figures.items()}  # RMS over all training samples [deg or mm]
         self.safeguard_["references_worse"] = int((full > base).any(axis=1).sum())
-        names = list(self.training_[0].axes)
-        dropped = [names[i] for i in range(n) if not self.kept_[i]]
-        if dropped:
-            kept_names = [names[i] for i in range(n) if self.kept_[i]]
-            self.note_ = (f"rl: residual dropped on {', '.join(dropped)} (it raised the tracking error on "
-                          f"{self.safeguard_['references_worse']} of {len(self.training_)} training references); "
-                          f"the base acts alone there"
-                          + (f", the residual on {', '.join(kept_names)}" if kept_names else ""))
+        self.note_ = dropped_note("rl", self.kept_, list(self.training_[0].axes), self.safeguard_["references_worse"],
+                                  len(self.training_), what="residual")
 
     def _scored(self) -> list[int]:
         """The axes (indices) the machine's benchmark scores: the safeguard compares those."""
-        scored = self.system_.bench.scored
-        return list(range(len(self.training_[0].axes))) if scored is None else list(scored)
+        return scored_axes(self.system_, len(self.training_[0].axes))
 
     def _display(self) -> list[tuple[float, str]]:
         """Per scored axis, (factor from rad or m, unit) of the figures it reports: deg or mm."""
         return [self.system_.axes[i].display for i in self._scored()]
-
-    def _action_axes(self, better) -> np.ndarray:
-        """Per action axis, whether to keep the residual: on scored axes where it was ``better``
-        (per scored axis), and on unscored ones where it was better on every scored one."""
-        kept = np.full(len(self.training_[0].axes), bool(np.all(better)))
-        kept[self._scored()] = better
-        return kept
 
     def _training_rms(self, plant, kept: np.ndarray) -> np.ndarray:
         """RMS tracking error [rad or m] (references, scored axes) of the rollouts on the training
@@ -446,8 +434,10 @@ class RLFeedforward(Controller):
         return np.asarray(self.rollouts_[reference.name].ff, dtype=float)
 
     def reference_offset(self, reference) -> np.ndarray | None:
-        if self.system_.nominal is None or not self._config().residual:
+        if not self._config().residual:
             return None
+        if self.base == "physical":
+            return self.base_.reference_offset(reference) if hasattr(self.base_, "reference_offset") else None
         return self.system_.nominal.reference_offset(reference)
 
     def load_model(self, path: str | Path, _verified: str | None = None):

@@ -182,7 +182,10 @@ def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str, scored: set
         summary = float(np.exp(np.mean(np.log(finite)))) if len(finite) == len(columns) else np.nan
         own = part[part["method"] == m]
         trials = (own["plant_trials"].mean(), count_text(own["plant_trials_min"].min(), own["plant_trials_max"].max()))
-        rows.append((m, ratios, summary, trials))
+        versus = own["vs_base"].to_numpy(dtype=float) if "vs_base" in own else np.array([np.nan])
+        gain = (float(np.exp(np.mean(np.log(versus)))) if len(versus) == len(columns) and np.isfinite(versus).all()
+                and (versus > 0).all() else np.nan, str(own["base"].iloc[0]) if "base" in own and len(own) else "")
+        rows.append((m, ratios, summary, trials, gain))
     rows.sort(key=lambda r: (not np.isfinite(r[2]), r[2] if np.isfinite(r[2]) else 0.0))
     ref_name = f"{REFERENCE_METHOD}" if has_reference else "the column's best"
     head = ["<th data-col='0' class='method' scope='col'>method</th>"]
@@ -195,11 +198,13 @@ def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str, scored: set
                     f"{e(str(axis))}<small>{e(kind)}{e(unit)}</small></th>")
     n = len(columns)
     head.append(f"<th data-col='{n + 1}' scope='col' aria-sort='ascending' title='geometric mean over the columns of RMS / "
-                f"RMS of {e(ref_name)}'>× {e(REFERENCE_METHOD if has_reference else 'best')}<small>geo. mean</small></th>")
+                f"RMS of {e(ref_name)}: for a learner built on the physical model, its gain over its base (a learner "
+                f"on another base gives its ratio to that base below)'>× {e(REFERENCE_METHOD if has_reference else 'best')}"
+                f"<small>geo. mean</small></th>")
     head.append(f"<th data-col='{n + 2}' scope='col' title='closed-loop plant runs the method learned from, over "
                 f"seeds (their range where seeds differ)'>trials<small>plant</small></th>")
     body = []
-    for m, ratios, summary, trials in rows:
+    for m, ratios, summary, trials, (gain, base) in rows:
         tds = [_method(str(m), scored)]
         for col, ratio in zip(columns, ratios, strict=True):
             key = (*col, m)
@@ -215,7 +220,9 @@ def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str, scored: set
             tds.append(f"<td data-value='{_value(r['RMS'])}'{style} title='{e(tip)}' class='{'top' if best else ''}'>"
                        f"{mark}{e(_pm(r['RMS'], r['RMS_std'], int(r['seeds'])))}</td>")
         times = "×" if np.isfinite(summary) else ""
-        tds.append(f"<td data-value='{_value(summary)}' class='ratio'>{e(_num(summary))}{times}</td>")
+        other_base = (f"<small title='geometric mean of RMS / RMS of its base, {e(base)}'>{e(_num(gain))}× {e(base)}"
+                      f"</small>" if base and base != REFERENCE_METHOD and np.isfinite(gain) else "")
+        tds.append(f"<td data-value='{_value(summary)}' class='ratio'>{e(_num(summary))}{times}{other_base}</td>")
         tds.append(f"<td data-value='{_value(trials[0])}' class='count'>{e(trials[1])}</td>")
         body.append("<tr>" + "".join(tds) + "</tr>")
     failed = fails[fails["system"] == system]
@@ -421,6 +428,7 @@ th.method,td.method{text-align:left}
 tbody th{font-weight:500}
 td.top{font-weight:700}
 td.ratio,td.count{color:var(--muted)}
+td.ratio small{display:block;font-size:11px}
 table.overview{font-size:12.5px}
 table.overview th,table.overview td{padding:1px 5px}
 table.details{font-size:12.5px;margin:4px 0 10px}

@@ -64,15 +64,21 @@ def ranking(df: pd.DataFrame, reference_set: str = "validation") -> pd.DataFrame
     ok = df[(df["status"] == "ok") & (df["reference_set"] == reference_set)]
     if "period" not in ok.columns:  # a frame of rows made before the column existed
         ok = ok.assign(period="all")
+    if "base" not in ok.columns:
+        ok = ok.assign(base="")
     if ok.empty:
-        return pd.DataFrame(columns=[*KEYS, "rank", "method", "MA", "RMS", "RMS_std", "Inf", "unit", "seeds"])
+        return pd.DataFrame(columns=[*KEYS, "rank", "method", "base", "vs_base", "MA", "RMS", "RMS_std", "Inf", "unit",
+                                     "seeds"])
     g = ok.groupby([*KEYS, "method"], sort=False)
     table = g.agg(MA=("MA", "mean"), RMS=("RMS", "mean"), RMS_std=("RMS", "std"), Inf=("Inf", "mean"),
-                  unit=("unit", "first"), seeds=("seed", "nunique"), plant_trials=("plant_trials", "mean"),
+                  unit=("unit", "first"), base=("base", "first"), seeds=("seed", "nunique"),
+                  plant_trials=("plant_trials", "mean"),
                   plant_trials_min=("plant_trials", "min"), plant_trials_max=("plant_trials", "max"),
                   env_steps=("env_steps", "mean"), env_steps_min=("env_steps", "min"),
                   env_steps_max=("env_steps", "max"), fit_seconds=("fit_seconds", "mean")).reset_index()
     table["RMS_std"] = table["RMS_std"].fillna(0.0)
+    table["base"] = table["base"].fillna("").astype(str)
+    table["vs_base"] = _versus_base(table)
     table["rank"] = table.groupby(KEYS)["RMS"].rank(method="min").astype(int)
     order = {"signal": {s: i for i, s in enumerate(SIGNALS)}, "period": {p: i for i, p in enumerate(PERIODS)}}
     # each machine's axes in the order its rows give them (the machine's: rail, shoulder, elbow), not alphabetical
@@ -80,8 +86,18 @@ def ranking(df: pd.DataFrame, reference_set: str = "validation") -> pd.DataFrame
     table["axis_order"] = [seen[key] for key in zip(table["system"], table["signal"], table["axis"], strict=True)]
     table = table.sort_values(["system", "signal", "period", "axis_order", "rank"],
                               key=lambda c: c.map(order[c.name]) if c.name in order else c, kind="stable")
-    return table[[*KEYS, "rank", "method", "MA", "RMS", "RMS_std", "Inf", "unit", "seeds", "plant_trials",
-                  "env_steps", "fit_seconds", *COUNT_RANGES]].reset_index(drop=True)
+    return table[[*KEYS, "rank", "method", "base", "vs_base", "MA", "RMS", "RMS_std", "Inf", "unit", "seeds",
+                  "plant_trials", "env_steps", "fit_seconds", *COUNT_RANGES]].reset_index(drop=True)
+
+
+def _versus_base(table: pd.DataFrame) -> pd.Series:
+    """Per ranking row, its RMS / the RMS of its base's row (the method named as its ``base``,
+    "physical" or "basic", on the same system, signal, period and axis): below 1, the learner
+    improved on what it built on. NaN for a method with no base or whose base was not run."""
+    rms = table.set_index([*KEYS, "method"])["RMS"]
+    keys = list(zip(*(table[k] for k in KEYS), table["base"], strict=True))
+    base = [rms.get(k, np.nan) if k[-1] else np.nan for k in keys]
+    return pd.Series(table["RMS"].to_numpy() / np.asarray(base, dtype=float), index=table.index)
 
 
 COUNT_RANGES = ("plant_trials_min", "plant_trials_max", "env_steps_min", "env_steps_max")
@@ -182,7 +198,7 @@ def learned_on_scored(methods: Iterable[str]) -> list[str]:
     from ..baselines import CONTROLLERS  # light: the methods import their heavy dependencies when used
 
     return [m for m in dict.fromkeys(map(str, methods))
-            if getattr(CONTROLLERS.get(m), "learns_on_scored_references", False)]
+            if getattr(CONTROLLERS.get(m.rpartition("@")[0] or m), "learns_on_scored_references", False)]
 
 
 SCORED_NOTE = ("learned on each reference it is scored on (it runs the plant on that very reference before "
@@ -263,12 +279,15 @@ def format_summary(df: pd.DataFrame, reference_set: str = "validation") -> str:
 
 def _as_shown(part: pd.DataFrame) -> pd.DataFrame:
     """``ranking`` rows as the text and Markdown tables show them: the counts as ``count_text`` writes
-    them (their ranges' columns dropped), and ``RMS_std`` empty for a method of one seed (its
-    standard deviation is undefined, not 0)."""
+    them (their ranges' columns dropped), ``RMS_std`` empty for a method of one seed (its
+    standard deviation is undefined, not 0), and the base and the RMS / the base's as "0.52x" ("–"
+    for a method with no base)."""
     counts = {c: [count_text(lo, hi) for lo, hi in zip(part[f"{c}_min"], part[f"{c}_max"], strict=True)]
               for c in ("plant_trials", "env_steps")}
     spread = ["" if seeds < 2 else f"{std:.4g}" for std, seeds in zip(part["RMS_std"], part["seeds"], strict=True)]
-    return part.drop(columns=list(COUNT_RANGES)).assign(**counts, RMS_std=spread)
+    versus = ["–" if not np.isfinite(v) else f"{v:.2f}x" for v in part["vs_base"]]
+    base = [b or "–" for b in part["base"]]
+    return part.drop(columns=list(COUNT_RANGES)).assign(**counts, RMS_std=spread, base=base, vs_base=versus)
 
 
 REFERENCE_METHOD = "physical"
@@ -374,7 +393,8 @@ def write_markdown(df: pd.DataFrame, path: str | Path, reference_set: str = "val
         lines.append(f"{', '.join(f'`{m}`' for m in scored)}: {SCORED_NOTE}.\n")
     for (system, signal, axis), part in _sections(table):
         lines.append(f"\n## {system} / {signal} / {axis}\n")
-        cols = ["rank", "method", "MA", "RMS", "RMS_std", "Inf", "unit", "seeds", "plant_trials", "env_steps", "fit_seconds"]
+        cols = ["rank", "method", "base", "vs_base", "MA", "RMS", "RMS_std", "Inf", "unit", "seeds", "plant_trials",
+                "env_steps", "fit_seconds"]
         lines.append("| " + " | ".join(cols) + " |")
         lines.append("|" + "---|" * len(cols))
         for r in _as_shown(part).to_dict("records"):

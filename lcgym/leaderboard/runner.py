@@ -46,7 +46,8 @@ from tqdm.auto import tqdm
 
 from .. import systems
 from ..baselines import CONTROLLERS, Cost, load_method, protocol
-from ..baselines.protocol import apply, build_method
+from ..baselines.bases import display_name, runs_on, split_spec
+from ..baselines.protocol import apply, build_method, method_base
 from ..data import atomic_write
 from ..provenance import __version__, git_commit, source_hash
 from .store import append_rows, completed_cells
@@ -81,8 +82,10 @@ class BenchConfig:
         object.__setattr__(self, "systems", tuple(dict.fromkeys(systems.benchmark_name(s) for s in self.systems)))
         families = {systems.family_of(s) for s in self.systems}
         every = tuple(self.methods) == tuple(CONTROLLERS)  # the default: each method where it runs (cells)
+        # "ilc@physical" is "ilc" (the default base): one name per cell, so that --resume finds it
+        object.__setattr__(self, "methods", tuple(dict.fromkeys(display_name(*split_spec(m)) for m in self.methods)))
         for m in self.methods:
-            where = getattr(load_method(m, CONTROLLERS), "systems", None)  # fails early with a clear message
+            where = _runs_on(m)  # fails early with a clear message
             if where is not None and not set(where) & families and not every:
                 raise ValueError(f"method {m!r} runs on {', '.join(where)} only, not on {', '.join(self.systems)}")
         if any(s < 0 for s in self.seeds):
@@ -114,9 +117,14 @@ class BenchConfig:
 
     def cells(self) -> list[tuple[str, str, int]]:
         """(system, method, seed) of every cell; a method with ``systems`` only on those."""
-        runs_on = {m: getattr(load_method(m, CONTROLLERS), "systems", None) for m in self.methods}
+        runs_on = {m: _runs_on(m) for m in self.methods}
         return [(s, m, k) for s in self.systems for m in self.methods for k in self.seeds
                 if runs_on[m] is None or systems.family_of(s) in runs_on[m]]
+
+
+def _runs_on(method: str) -> tuple[str, ...] | None:
+    """The machines (families) a method id, with its base, runs on (None: all)."""
+    return runs_on(getattr(load_method(method, CONTROLLERS), "systems", None), split_spec(method)[1])
 
 
 def _single_thread() -> None:
@@ -173,7 +181,8 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_th
     long; past it the cell is recorded as failed with ``CellTimeout`` and the stage it was in."""
     if single_thread:
         _single_thread()
-    key = {"system": system, "method": method, "seed": seed, "config_hash": config.config_hash()}
+    key = {"system": system, "method": method, "base": method_base(method, CONTROLLERS), "seed": seed,
+           "config_hash": config.config_hash()}
     bench = systems.make_bench(system)
     refs = {name: bench.references(name, seed, n, config.duration)
             for name, n in (("train", config.n_train), ("validation", config.n_validation))}

@@ -1,7 +1,8 @@
 """The results store: one tidy CSV, one row per (run, system, method, seed, reference set, axis, signal).
 
 Columns (``COLUMNS``): identification (``run_id``, ``system``: the machine and its version,
-``ix-v1``, ``method``, ``seed``,
+``ix-v1``, ``method``, ``base``: the feedforward a learning method builds on, ``physical`` or
+``basic`` (``baselines.bases``; empty for a method with none; older files: empty), ``seed``,
 ``reference_set``, ``axis``, ``signal``, ``period``: the samples the norms are taken over, ``all``,
 ``dynamic`` while the reference moves or ``static``; older files without the column read as
 ``all``), the norms of paper 000 eqs. (34)-(36) (``MA``, ``RMS``,
@@ -38,7 +39,7 @@ from ..data import atomic_write
 from ..metrics import PERIODS
 
 COLUMNS = (
-    "run_id", "system", "method", "seed", "reference_set", "axis", "signal", "period", "MA", "RMS", "Inf", "unit",
+    "run_id", "system", "method", "base", "seed", "reference_set", "axis", "signal", "period", "MA", "RMS", "Inf", "unit",
     "plant_trials", "env_steps", "fit_seconds", "nn_rms", "status", "error",
     "lcgym_version", "git_commit", "timestamp", "config_hash", "note",
 )
@@ -125,7 +126,7 @@ def read_results(path: str | Path) -> pd.DataFrame:
     path = Path(path)
     try:
         df = pd.read_csv(path, keep_default_na=True, dtype={"error": str, "git_commit": str, "run_id": str,
-                                                           "config_hash": str, "note": str})
+                                                           "config_hash": str, "note": str, "base": str})
     except pd.errors.EmptyDataError:
         raise ResultsFileError(f"{path}: empty results file") from None
     _results_file(df, str(path))  # before the columns added below, so that a stranger's own columns are named
@@ -133,6 +134,9 @@ def read_results(path: str | Path) -> pd.DataFrame:
         df.insert(int(df.columns.get_loc("signal")) + 1, "period", "all")
     if "note" not in df.columns:  # written before the column existed: no method said anything
         df["note"] = ""
+    if "base" not in df.columns:  # written before the column existed: no base recorded
+        df.insert(int(df.columns.get_loc("method")) + 1, "base", "")
+    df["base"] = df["base"].fillna("")
     validate(df, str(path))
     return df
 

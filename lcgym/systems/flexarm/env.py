@@ -13,7 +13,22 @@ Action (float32, shape (6,)): motor torque per joint, added to the feedforward o
     Fig. 1 (motor reference with F1 and r_q,0, feedforward tau_ff,0; ``systems/flexarm/nominal.py``)
     and the action is an update of tau_nl, scale ``ACTION_BOUND`` (2 N m; the largest
     nominal feedforward on the validation lines is about 7 N m).
+    ``base_feedforward="physical"``: residual learning on the machine's physical model
+    (``model.ArmModel``: the motor-side rigid-joint model fitted by least squares on feedback-only
+    runs of the training references of ``reference_seed`` on the env's plant, once per process, as
+    ``baselines.PhysicalFeedforward`` fits it on the benchmark's training trials): the plant runs
+    the model's motor torque as feedforward and its joint-torsion ``reference_offset`` [rad, load
+    side] as motor offset N * offset (as ``FlexArmBench.run`` applies a method's offset), and the
+    action is added to that feedforward, scale ``ACTION_BOUND`` as for Basic (the fitted model
+    also supplies up to about 7 N m on the validation lines). A fitted model itself may be given
+    instead of "physical": anything with ``predict(reference) -> (T, 6)`` [N m] (called with the
+    ``Reference``) and optionally ``reference_offset(reference) -> (T, 6)`` [rad, load side], e.g.
+    a benchmark cell's ``ArmModel`` (``PhysicalFeedforward(...).fit(trials).model_``), or a fitted
+    controller with ``feedforward(reference)`` (and ``reference_offset``) such as
+    ``PhysicalFeedforward`` itself: residual learning on that model, ``env.base_feedforward`` (and
+    the episode trial's meta) "physical (given model)".
     ``base_feedforward="none"``: feedback only plus the action, scale ``plant.u_max``.
+    Any other value raises ``ValueError``.
     Out-of-bound actions are clipped and counted (``info["clipped_actions"]``); NaN, inf, a
     wrong shape or non-numbers raise ``ValueError`` naming the step, before the plant moves.
     The total torque is saturated at +-``plant.u_max``.
@@ -37,8 +52,9 @@ Episode end: ``truncated`` after ``episode_steps`` samples (default ``EPISODE_ST
 
 Info: per step ``u`` (motor torques [N m]) and ``clipped_actions``; at the end of a reference run
     ``trial``: the whole run as a ``Trial`` (motor angles, accelerometer, TCP and true load angles as
-    extras, like ``FlexArmPlant.run``) and ``tracking_rms``: the RMS load-side tracking error [rad]
-    of the joints the benchmark scores (2, 3, 5) over the run.
+    extras, like ``FlexArmPlant.run``; its meta names the base: ``base_feedforward``) and
+    ``tracking_rms``: the RMS load-side tracking error [rad] of the joints the benchmark scores
+    (2, 3, 5) over the run.
 
 Reset: the reference is drawn with the env's seeded generator from the set, or chosen with
     ``options={"reference": i}``; the plant starts in static balance, held for ``plant.preroll`` s;
@@ -103,16 +119,88 @@ PREVIEW = 50  # samples
 OBS_BOUND = 25.0
 
 
-def base_of(reference: Reference, base_feedforward: str) -> tuple[np.ndarray, np.ndarray]:
+BASES = ("basic", "none", "physical")  # the names base_feedforward accepts (or a fitted model)
+GIVEN_MODEL = "physical (given model)"
+
+_MODEL_CACHE: dict[tuple, object] = {}
+
+
+def physical_model(plant: F.FlexArmPlant, seed: int = 0):
+    """The FlexArm's physical model (``ArmModel``) fitted on feedback-only runs of the training
+    references of ``seed`` on ``plant`` (cached per process), as ``baselines.PhysicalFeedforward``
+    fits it on the benchmark's training trials."""
+    key = (repr(plant), seed)
+    if key not in _MODEL_CACHE:
+        from . import FLEXARM
+
+        trials = [plant.run(r) for r in arm_reference_set("train", seed, fs=plant.fs)]
+        _MODEL_CACHE[key] = FLEXARM.physical_model(fs=plant.fs).fit(trials)
+    return _MODEL_CACHE[key]
+
+
+def _is_model(base) -> bool:
+    return callable(getattr(base, "predict", None)) or callable(getattr(base, "feedforward", None))
+
+
+def checked_base(base_feedforward) -> None:
+    """``ValueError`` unless ``base_feedforward`` is one of ``BASES`` or a fitted model."""
+    if isinstance(base_feedforward, str):
+        if base_feedforward not in BASES:
+            raise ValueError(f"base_feedforward must be 'basic', 'none', 'physical' or a fitted model, "
+                             f"got {base_feedforward!r}")
+    elif not _is_model(base_feedforward):
+        raise ValueError("base_feedforward must be 'basic', 'none', 'physical' or a fitted model with "
+                         "predict(reference) -> (T, 6) N m (and optionally reference_offset(reference) -> (T, 6) rad), "
+                         f"got {type(base_feedforward).__name__}")
+
+
+def base_model(base_feedforward, plant: F.FlexArmPlant, seed: int = 0) -> tuple[object, str]:
+    """(what ``base_of`` evaluates: "basic", "none" or a fitted model; the base's name) of a
+    ``base_feedforward`` argument ("physical": ``physical_model(plant, seed)``)."""
+    checked_base(base_feedforward)
+    if isinstance(base_feedforward, str):
+        return (physical_model(plant, seed) if base_feedforward == "physical" else base_feedforward), base_feedforward
+    return base_feedforward, GIVEN_MODEL
+
+
+def base_of(reference: Reference, base_feedforward, gear=None) -> tuple[np.ndarray, np.ndarray]:
     """(feedforward [N m], motor offset [rad of the motor]) (T, 6) of a reference: the nominal
-    structure (``base_feedforward="basic"``) or zeros ("none")."""
-    if base_feedforward == "basic":
+    structure (``base_feedforward="basic"``), zeros ("none"), or a fitted model's ``predict`` (or
+    ``feedforward``) and ``gear`` (the gear ratios N (6,); default the nominal drive's) times its
+    ``reference_offset`` (zeros where it has none), as ``FlexArmBench.run`` applies them."""
+    if isinstance(base_feedforward, str) and base_feedforward == "basic":
         from .nominal import BasicFeedforward
 
         b = BasicFeedforward().compute(reference.positions, reference.fs)
         return b["tau_ff"], b["motor_offset"]
-    z = np.zeros((reference.n_samples, 6))
-    return z, z
+    T = reference.n_samples
+    z = np.zeros((T, 6))
+    if isinstance(base_feedforward, str):
+        if base_feedforward != "none":
+            raise ValueError(f"base_of: base_feedforward must be 'basic', 'none' or a fitted model (base_model gives "
+                             f"the model of 'physical'), got {base_feedforward!r}")
+        return z, z
+    checked_base(base_feedforward)
+    model = base_feedforward
+    predict = model.predict if callable(getattr(model, "predict", None)) else model.feedforward
+    ff = _model_signal(predict(reference), T, reference.name, "feedforward (predict)")
+    offset = model.reference_offset(reference) if callable(getattr(model, "reference_offset", None)) else None
+    if offset is None:
+        return ff, z
+    if gear is None:
+        from .dynamics import DriveParameters
+
+        gear = DriveParameters().N
+    off = np.asarray(gear) * _model_signal(offset, T, reference.name, "reference_offset")
+    return ff, np.ascontiguousarray(off)
+
+
+def _model_signal(x, T: int, name: str, label: str) -> np.ndarray:
+    a = np.ascontiguousarray(x, dtype=float)
+    if a.shape != (T, 6) or not np.all(np.isfinite(a)):
+        raise ValueError(f"base_feedforward: the model's {label} of {name} must be finite with shape ({T}, 6), "
+                         f"got shape {a.shape}")
+    return a
 
 
 def observation_scales(action_bound: float) -> np.ndarray:
@@ -148,22 +236,21 @@ class FlexArmEnv(gym.Env):
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 4}
 
     def __init__(self, references="train", reference_seed: int = 0, n_references: int | None = None,
-                 base_feedforward: str = "basic", plant: F.FlexArmPlant | None = None, version: str = "v1",
+                 base_feedforward="basic", plant: F.FlexArmPlant | None = None, version: str = "v1",
                  render_mode: str | None = None, normalize_actions: bool = True,
                  episode_steps: int | None = EPISODE_STEPS):
         self.render_mode = checked_render_mode(render_mode)
         self._human = HumanWindow(self.metadata["render_fps"]) if render_mode == "human" else None
         self._window = Window(checked_episode_steps(episode_steps))
-        if base_feedforward not in ("basic", "none"):
-            raise ValueError(f"base_feedforward must be 'basic' or 'none', got {base_feedforward!r}")
+        checked_base(base_feedforward)  # before the plant runs the training references for "physical"
         self.plant = plant or F.FlexArmPlant.of_version(version)
         if isinstance(references, str):
             references = arm_reference_set(references, reference_seed, n_references, fs=self.plant.fs)
         self.references: list[Reference] = list(references)
         if not self.references:
             raise ValueError("FlexArmEnv: no references")
-        self.base_feedforward = base_feedforward
-        self.bound = ACTION_BOUND if base_feedforward == "basic" else self.plant.u_max
+        self._model, self.base_feedforward = base_model(base_feedforward, self.plant, reference_seed)
+        self.bound = self.plant.u_max if self.base_feedforward == "none" else ACTION_BOUND
         self.action_space, self.action_scale = action_space_of(self.bound, 6, normalize_actions)
         self.observation_space = gym.spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(36,), dtype=np.float32)
         self._scales = observation_scales(float(np.float32(self.bound)))
@@ -171,9 +258,9 @@ class FlexArmEnv(gym.Env):
         self._idx, self._k, self._st, self._running = 0, 0, None, False
 
     def _base_of(self, i: int) -> tuple[np.ndarray, np.ndarray]:
-        """(feedforward, motor offset) (T, 6) of reference i: the nominal structure or zeros."""
+        """(feedforward, motor offset) (T, 6) of reference i: the nominal structure, zeros or the model's."""
         if i not in self._base:
-            self._base[i] = base_of(self.references[i], self.base_feedforward)
+            self._base[i] = base_of(self.references[i], self._model, self.plant.true_drive.N)
         return self._base[i]
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -267,7 +354,9 @@ class FlexArmEnv(gym.Env):
                               columns=list(MOVING), error=error)
 
     def _trial(self, n: int) -> Trial:
-        return self.plant.trial_from_signals(self.references[self._idx], self._sig[:n], self._ff_applied, self.np_random)
+        trial = self.plant.trial_from_signals(self.references[self._idx], self._sig[:n], self._ff_applied, self.np_random)
+        trial.meta["base_feedforward"] = self.base_feedforward
+        return trial
 
 
 class FlexArmVectorEnv(BatchedVectorEnv):
@@ -292,13 +381,13 @@ class FlexArmVectorEnv(BatchedVectorEnv):
     PARALLEL_FROM = 8  # arms
 
     def __init__(self, num_envs: int = 1, references="train", reference_seed: int = 0, n_references: int | None = None,
-                 base_feedforward: str = "basic", plant: F.FlexArmPlant | None = None, version: str = "v1",
+                 base_feedforward="basic", plant: F.FlexArmPlant | None = None, version: str = "v1",
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, normalize_actions: bool = True,
                  episode_steps: int | None = EPISODE_STEPS):
         self._init_batch(num_envs, autoreset_mode, episode_steps)
         one = FlexArmEnv(references, reference_seed, n_references, base_feedforward, plant, version,
                          normalize_actions=normalize_actions)  # checks the arguments
-        self.plant, self.references, self.base_feedforward = one.plant, one.references, base_feedforward
+        self.plant, self.references, self.base_feedforward = one.plant, one.references, one.base_feedforward
         self.single_observation_space, self.single_action_space = one.observation_space, one.action_space
         self.action_scale = one.action_scale
         self.observation_space = batch_space(self.single_observation_space, num_envs)
@@ -312,7 +401,7 @@ class FlexArmVectorEnv(BatchedVectorEnv):
         self._first_obs = np.empty((R, V.N_OBS), dtype=np.float32)
         self._scales = one._scales
         for i, r in enumerate(refs):
-            ff, off = base_of(r, base_feedforward)
+            ff, off = one._base_of(i)
             n = r.n_samples
             for name, x in (("pos", r.positions), ("vel", r.velocities), ("acc", r.accelerations), ("ff", ff), ("off", off)):
                 stack[name][i, :n] = x

@@ -1,0 +1,84 @@
+"""A learning method's base: the feedforward it starts from and never ends worse than.
+
+Every learning method (ILC, ILC transfer, the RBF expert, RL) adds what it learns to a base
+feedforward. The base is named on the command line after the method, ``METHOD@BASE``:
+
+* ``physical`` (the default): the machine's physical model fitted by least squares on the training
+  trials (``PhysicalFeedforward``), with the effects of the machine file's ``[[model]]`` tables:
+  the strongest model the machine has;
+* ``basic``: the FlexArm's nominal structure of paper 002 (``BasicArmFeedforward``), what the
+  paper's LCS and NN prediction start from.
+
+``split_spec("ilc@basic")`` is ("ilc", "basic"); the results name a method on its default base by
+its id alone (``ilc``) and on another base by ``id@base`` (``ilc@basic``), and the ``base`` column
+says which base every learning row has.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from .. import systems
+
+DEFAULT_BASE = "physical"
+BASES = ("physical", "basic")
+
+
+def split_spec(spec: str) -> tuple[str, str | None]:
+    """("ilc", "basic") of "ilc@basic"; (spec, None) without "@"; a ValueError for an empty part or an
+    unknown base."""
+    method, sep, base = spec.rpartition("@")
+    if not sep:
+        return spec, None
+    if not method or not base:
+        raise ValueError(f"method {spec!r}: write METHOD@BASE, e.g. ilc@basic (bases: {', '.join(BASES)})")
+    if base not in BASES:
+        raise ValueError(f"method {spec!r}: unknown base {base!r}; bases: {', '.join(BASES)}")
+    return method, base
+
+
+def display_name(method: str, base: str | None) -> str:
+    """The results' name of ``method`` on ``base``: the id alone on the default base."""
+    return method if base in (None, DEFAULT_BASE) else f"{method}@{base}"
+
+
+def runs_on(method_systems: tuple[str, ...] | None, base: str | None) -> tuple[str, ...] | None:
+    """The machines (families) a method that runs on ``method_systems`` (None: all) runs on when
+    built on ``base``: "basic" exists on the FlexArm only."""
+    if base != "basic":
+        return method_systems
+    from .basic import BasicArmFeedforward
+
+    where = BasicArmFeedforward.systems
+    return where if method_systems is None else tuple(s for s in method_systems if s in where)
+
+
+def base_controller(system: systems.System, base: str):
+    """An unfitted controller of ``base`` on ``system`` (``fit(trials)`` it): ``PhysicalFeedforward``
+    or ``BasicArmFeedforward``; a ValueError where the machine has no such base."""
+    from .basic import BasicArmFeedforward
+    from .physical import PhysicalFeedforward
+
+    if base == "physical":
+        return PhysicalFeedforward(system=system)
+    if base == "basic":
+        if system.nominal is None:
+            raise ValueError(f"base 'basic' is paper 002's nominal structure, which {system.name} does not have; "
+                             f"use base 'physical'")
+        return BasicArmFeedforward(system=system)
+    raise ValueError(f"unknown base {base!r}; bases: {', '.join(BASES)}")
+
+
+def closed_loop(plant, reference, feedforward: np.ndarray, offset: np.ndarray | None):
+    """One closed-loop trial of ``reference`` with ``feedforward`` and a load-side reference offset
+    [rad] (None: none; the FlexArm's plant takes it as motor angle, N times the load's)."""
+    if offset is None:
+        return plant.run(reference, feedforward)
+    return plant.run(reference, feedforward, np.asarray(plant.true_drive.N) * np.asarray(offset, dtype=float))
+
+
+def per_axis_rms(error: np.ndarray, axes: Sequence[int]) -> np.ndarray:
+    """RMS over the samples of the columns ``axes`` of (T, n) -> (len(axes),)."""
+    return np.sqrt(np.mean(np.square(np.asarray(error)[:, list(axes)]), axis=0))

@@ -1,0 +1,361 @@
+"""ILC on the FlexArm starting from any base (the least-squares physical model by default): its
+feedforward torque f and its reference offset o are learned from what the machine measures, the
+motor encoders and the flange accelerometer, never the simulation's true load angle.
+
+The loop of each joint (nominal linear model of ``systems.flexarm.nominal``, eqs. 3-4, with the
+load inertia ``inertia``; the plant's PID C(z) with its derivative low-pass; ZOH at fs):
+
+    q_m = P_m u,   q_l = P_lm q_m / N,   u = C (r - q_m) + f,   r = N (q_lr + o)
+
+P_m: motor torque -> motor angle [rad of the motor / N m], the load hanging on the joint spring;
+P_lm = (D_J s + K_J) / (M s^2 + (D_l + D_J) s + K_J): motor angle / N -> load angle. The
+true load error splits into what the encoders see and the torsion they do not:
+
+    e_l = q_lr - q_l = e_m + (phi - o),   e_m = q_lr + o - q_m / N,   phi = q_m / N - q_l
+
+The accelerometer sees e_l's second derivative, e_a = qdd_lr - qdd_l (``sensors.
+estimate_load_acceleration``), but not its slow part: a static torsion error of 1e-4 rad tilts
+the flange's gravity reading by 1e-3 m/s^2, under the sensor's 0.02 m/s^2 noise and absorbed by
+the bias estimate at rest; below ``offset_hp_hz`` the double integral of e_a is noise and drift.
+
+The update of one trial (``update``; ``torque="motor"``, ``offset=True``), per joint:
+
+    Delta_o = g_o Q_o P_lm^-1 H_hp [-E_a / w^2]                       (offset, load side [rad])
+    f'      = Q [ f + u_fb + g P_m^-1 N (e_m + Delta_o) ]              (torque [N m])
+    o'      = o + Delta_o
+
+u_fb = u - f is the measured feedback torque: (P_m S)^-1 e_m = C e_m + P_m^-1 e_m, and C e_m is
+what the PID put out (with its integrator's start, which the settled start hands over to f), so
+the DC pole of C needs no inversion. H_hp is a zero-phase high-pass (``offset_hp_hz``): the
+offset learns only where the accelerometer sees the load; below it the base's offset stays. The
+torque term P_m^-1 N Delta_o moves the motor onto the new reference in the same trial. Q, Q_o
+are zero-phase Butterworth |B|^2 (``ilc.q_filter``); f, u_fb and e_m are padded with their edge
+values (``ilc.frequency_update``'s ``hold_edges``: the arm holds gravity at rest).
+
+Other laws for comparison (``torque``): ``"lcs"`` is paper 002's eq. (16) around the base,
+f' = Q [f + P_lu^-1 e_pl] with e_pl = P_lu (u - f + F2(q_mr)) - qdd_l (the model-following error,
+q_mr = N (q_lr + o)); ``"none"`` learns the offset only.
+
+``learn_on_base`` runs trial 0 on the base, then ``trials`` updates, measuring each, and keeps the
+best trial by measured signals (``best_trial``): a trial is eligible when no scored joint's
+measured load-error estimate (``measured_load_error``: the encoder error below ``offset_hp_hz``,
+the doubly integrated accelerometer error above) and not the measured end-effector acceleration
+error exceed trial 0's; of those, the lowest sum of ratios to trial 0. Trial 0 is always eligible,
+so the result is never measured worse than the base.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import signal
+
+from ..physics.kinematics import lowpass_zero_phase, reference_kinematics
+from ..systems import SimulationDiverged
+from ..systems.flexarm import dynamics as arm
+from ..systems.flexarm.plant import PIDGains
+from ..systems.flexarm.references import MOVING
+from ..systems.flexarm.sensors import estimate_load_acceleration, true_load_acceleration
+from .ilc import ILCDiverged, _check_divergence, _rms, q_filter
+
+ACC_CUTOFF = 50.0  # Hz: the accelerometer estimate's zero-phase low-pass (sensors.py); the reference's too
+REST = 0.3  # s: the rest at the start over which the accelerometer's bias is taken (sensors.py)
+
+
+@dataclass(frozen=True)
+class ArmILCConfig:
+    """trials: learning updates (plant trials: trials + 1, trial 0 the base); torque: "motor" (the
+    encoder error through P_m S), "lcs" (eq. 16 around the base) or "none"; q_hz, q_order, gain:
+    the torque's Q and gain; offset: learn the reference offset from the accelerometer;
+    offset_q_hz, offset_hp_hz, offset_gain: its band and gain; offset_joints: the joints whose
+    offset is learned (0-based; default the moving ones); tolerance: a trial's measured errors may
+    exceed trial 0's by this fraction and stay eligible (0: not at all)."""
+
+    trials: int = 8
+    torque: str = "motor"
+    q_hz: float = 6.0
+    q_order: int = 4
+    gain: float = 1.0
+    offset: bool = False
+    offset_q_hz: float = 8.0
+    offset_hp_hz: float = 1.0
+    offset_gain: float = 1.0
+    offset_joints: tuple[int, ...] = MOVING
+    tolerance: float = 0.0
+
+    def __post_init__(self):
+        if self.torque not in ("motor", "lcs", "none"):
+            raise ValueError(f"torque must be 'motor', 'lcs' or 'none', got {self.torque!r}")
+
+
+# ----------------------------------------------------------------------------- loop model
+
+def controller_response(n: int, fs: float, gains: PIDGains) -> np.ndarray:
+    """C(e^{i w Ts}) (n_freq, 6) [N m per rad of the motor] of the plant's PID on the rfft grid of n
+    samples: kp + ki Ts / (1 - z^-1) + kd (1 - a) (1 - z^-1) / (Ts (1 - a z^-1)), a the derivative
+    low-pass pole (``plant.loop_sample``). The zero-frequency bin is infinite (integral action)."""
+    ts = 1.0 / fs
+    z = np.exp(1j * 2 * math.pi * np.fft.rfftfreq(n, ts) * ts)[:, None]
+    a = math.exp(-2 * math.pi * gains.f_d * ts)
+    kp, ki, kd = (np.asarray(v, dtype=float)[None, :] for v in (gains.kp, gains.ki, gains.kd))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return kp + ki * ts / (1 - 1 / z) + kd * (1 - a) * (1 - 1 / z) / (ts * (1 - a / z))
+
+
+def loop_responses(nominal, n: int, fs: float, inertia=None) -> dict[str, np.ndarray]:
+    """{"P_m": torque -> motor angle [rad motor / N m], "P_l": torque -> load angle [rad / N m],
+    "P_lm": P_l N / P_m [-]} (n_freq, 6) on the rfft grid of n samples: the nominal linear joint
+    model (``nominal.load_model``'s states plus the motor angle) with load inertia ``inertia`` (6,)
+    [kg m^2] (default the nominal structure's M_n), discretized with a zero-order hold. Bin 0 of
+    P_m and P_l is infinite (a free integrator); P_lm's is 1."""
+    d = nominal.drive
+    M = np.asarray(nominal.Mn if inertia is None else inertia, dtype=float)
+    ts = 1.0 / fs
+    z = np.exp(1j * 2 * math.pi * np.fft.rfftfreq(n, ts) * ts)
+    out = {k: np.empty((z.size, 6), dtype=complex) for k in ("P_m", "P_l")}
+    for i in range(6):
+        N, Jm, Dm, KJ, DJ, Dl = d.N[i], d.Jm[i], d.Dm[i], d.KJ[i], d.DJ[i], d.Dl[i]
+        # states [phi, qd_l, qd_m, q_m]: phi = q_m / N - q_l the torsion (``nominal.load_model``)
+        A = np.array([[0, -1, 1 / N, 0],
+                      [KJ / M[i], -(DJ + Dl) / M[i], DJ / (N * M[i]), 0],
+                      [-KJ / (N * Jm), DJ / (N * Jm), -(Dm + DJ / (N * N)) / Jm, 0],
+                      [0, 0, 1, 0]])
+        B = np.array([[0.0], [0.0], [1.0 / Jm], [0.0]])
+        C = np.array([[0, 0, 0, 1.0], [-1.0, 0, 0, 1 / N]])  # q_m, q_l = q_m / N - phi
+        Ad, Bd, Cd, _, _ = signal.cont2discrete((A, B, C, np.zeros((2, 1))), ts, method="zoh")
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x = np.linalg.solve(z[1:, None, None] * np.eye(4) - Ad, np.broadcast_to(Bd, (z.size - 1, 4, 1)))
+        y = Cd @ x
+        out["P_m"][0, i] = out["P_l"][0, i] = np.inf
+        out["P_m"][1:, i], out["P_l"][1:, i] = y[:, 0, 0], y[:, 1, 0]
+    out["P_lm"] = np.ones_like(out["P_m"])
+    out["P_lm"][1:] = out["P_l"][1:] * np.asarray(d.N)[None, :] / out["P_m"][1:]
+    return out
+
+
+def load_inertia(arm_params: arm.ArmParameters, positions: np.ndarray) -> np.ndarray:
+    """diag M_l (6,) [kg m^2] of ``arm_params`` at the mean pose of ``positions`` (T, 6): the load
+    inertia each joint's loop model takes (the fitted physical model's arm holds the payload)."""
+    return np.diag(arm.mass_matrix(arm_params.dh.table(), arm_params.vector(), np.asarray(positions).mean(axis=0))).copy()
+
+
+# ----------------------------------------------------------------------------- measurement
+
+def measure(trial, reference, nominal, feedforward: np.ndarray, offset: np.ndarray, accel_offset,
+            base_offset: np.ndarray | None = None, crossover_hz: float = 1.0) -> dict[str, np.ndarray]:
+    """What the machine measures in a trial, as the errors the update takes (all (T, 6) but ``ee``):
+
+    - ``motor`` [rad, load side]: e_m = q_lr + o - q_m / N (encoders);
+    - ``feedback`` [N m]: u - f (the torque the PID added);
+    - ``acceleration`` [rad/s^2]: e_a = qdd_lr - qdd_l, qdd_l from the accelerometer and encoders
+      (``sensors.estimate_load_acceleration``), qdd_lr low-passed as it is;
+    - ``e_pl`` [rad/s^2]: eq. (16)'s model-following error around this trial's feedforward and
+      motor reference (for ``torque="lcs"``);
+    - ``load`` [rad]: the measured estimate of the load error (``measured_load_error``);
+    - ``ee`` (T,) [m/s^2]: |accelerometer - its bias (taken at rest) - the reference's specific force|
+      with the nominal kinematics."""
+    fs, q_lr = trial.fs, reference.positions[: trial.pos.shape[0]]
+    o = np.zeros_like(q_lr) if offset is None else np.asarray(offset, dtype=float)
+    f = np.asarray(feedforward, dtype=float)
+    e_m = q_lr + o - trial.pos
+    qdd_l = estimate_load_acceleration(trial, nominal.arm_params, nominal.drive, offset=accel_offset)
+    qdd_lr = lowpass_zero_phase(reference_kinematics(q_lr, fs)[2], fs, ACC_CUTOFF)
+    e_a = qdd_lr - qdd_l
+    u_fb = trial.u - f
+    N = np.asarray(nominal.drive.N, dtype=float)
+    f2 = nominal._f2(N * (q_lr + o), fs)
+    e_pl = nominal.load_acceleration(u_fb + f2, fs) - qdd_l
+    o0 = o if base_offset is None else np.asarray(base_offset, dtype=float)
+    load = measured_load_error(e_m - (o - o0), e_a, fs, crossover_hz)
+    return {"motor": e_m, "feedback": u_fb, "acceleration": e_a, "e_pl": e_pl, "load": load,
+            "ee": measured_ee_error(trial, reference, nominal, accel_offset)}
+
+
+def measured_ee_error(trial, reference, nominal, accel_offset) -> np.ndarray:
+    """|a_meas - bias - f(q_lr, qd_lr, qdd_lr)| (T,) [m/s^2] with the nominal kinematics and the bias
+    taken over the first ``REST`` s (the arm at rest, as ``sensors.py`` does)."""
+    dh, o = nominal.arm_params.dh.table(), np.asarray(accel_offset, dtype=float)
+    q, qd, qdd = (x[: trial.pos.shape[0]] for x in (reference.positions, reference.velocities, reference.accelerations))
+    f_ref = np.array([arm.specific_force_compiled(dh, a, b, c, o, arm.GRAVITY) for a, b, c in zip(q, qd, qdd, strict=True)])
+    acc = np.column_stack([trial.extra[f"acc_{c}"] for c in "xyz"])
+    n_rest = max(1, int(REST * trial.fs))
+    bias = (acc[:n_rest] - f_ref[:n_rest]).mean(axis=0)
+    return np.linalg.norm(lowpass_zero_phase(acc - bias - f_ref, trial.fs, ACC_CUTOFF), axis=1)
+
+
+def measured_load_error(e_m: np.ndarray, e_a: np.ndarray, fs: float, crossover_hz: float) -> np.ndarray:
+    """Complementary estimate of the load error (T, 6) [rad]: the encoder error e_m (load side, less
+    the learned change of the offset) below ``crossover_hz`` and the double integral of the
+    accelerometer's e_a above it (zero-phase 2nd-order split, H_lp + H_hp = 1). Below the
+    crossover the torsion error phi - o is taken as the base's, which no sensor here measures."""
+    T = e_m.shape[0]
+    n = 2 * T
+    w = 2 * math.pi * np.fft.rfftfreq(n, 1.0 / fs)
+    hp = _highpass(w, crossover_hz)[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        from_acc = np.where(w[:, None] > 0, -np.fft.rfft(e_a, n=n, axis=0) / w[:, None] ** 2, 0.0)
+    E = (1 - hp) * np.fft.rfft(_held(e_m), n=n, axis=0) + hp * from_acc
+    return np.fft.irfft(E, n=n, axis=0)[:T]
+
+
+def _highpass(w: np.ndarray, hz: float, order: int = 2) -> np.ndarray:
+    """Zero-phase high-pass 1 - |Butterworth low-pass|^2 at ``hz`` on the angular frequencies w."""
+    x = (w / (2 * math.pi * hz)) ** (2 * order)
+    return x / (1.0 + x)
+
+
+def _held(x: np.ndarray) -> np.ndarray:
+    """x (T, A) padded to 2 T with its edge values (the last one for the first half of the padding,
+    the first for the second, where the circular wrap lands; ``ilc.frequency_update``)."""
+    T = x.shape[0]
+    return np.concatenate([x, np.repeat(x[-1:], T // 2, axis=0), np.repeat(x[:1], T - T // 2, axis=0)])
+
+
+# ----------------------------------------------------------------------------- the update
+
+def update(nominal, f: np.ndarray, offset: np.ndarray | None, error: dict, fs: float, config: ArmILCConfig,
+           gains: PIDGains | None = None, inertia=None, base: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """One learning update (module docstring): the next feedforward (T, 6) [N m] and reference
+    offset (T, 6) [rad, load side] from the present ones and ``error``, a dict of (T, 6) signals as
+    ``measure`` returns them (measured, or predicted by a model: eq. 17's use). Keys used:
+    ``motor`` and ``feedback`` (torque "motor"), ``e_pl`` (torque "lcs"), ``acceleration`` (offset).
+    ``gains``: the machine's PID (default ``PIDGains.tuned()``, the plant's); ``inertia`` (6,) the
+    loop model's load inertia (default the nominal M_n)."""
+    f = np.asarray(f, dtype=float)
+    T = f.shape[0]
+    f0 = np.zeros_like(f) if base is None else np.asarray(base, dtype=float)
+    f = f - f0  # Q acts on the learned correction: the base's own content above Q's corner stays
+    o = np.zeros_like(f) if offset is None else np.asarray(offset, dtype=float)
+    n = 2 * T
+    N = np.asarray(nominal.drive.N, dtype=float)
+    resp = loop_responses(nominal, n, fs, inertia)
+    w = 2 * math.pi * np.fft.rfftfreq(n, 1.0 / fs)
+    d_o = np.zeros_like(o)
+    D_o = np.zeros((w.size, 6), dtype=complex)
+    if config.offset:
+        q_o = q_filter(n, fs, config.offset_q_hz, config.q_order)[:, None] * _highpass(w, config.offset_hp_hz)[:, None]
+        E_a = np.fft.rfft(np.asarray(error["acceleration"], dtype=float), n=n, axis=0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            E_l = np.where(w[:, None] > 0, -E_a / w[:, None] ** 2, 0.0)
+        mask = np.zeros(6)
+        mask[list(config.offset_joints)] = 1.0
+        D_o = config.offset_gain * mask * q_o * E_l / resp["P_lm"]
+        d_o = np.fft.irfft(D_o, n=n, axis=0)[:T]
+    q = q_filter(n, fs, config.q_hz, config.q_order)[:, None]
+    if config.torque == "motor":
+        inv_pm = np.zeros_like(resp["P_m"])
+        inv_pm[1:] = 1.0 / resp["P_m"][1:]
+        base = np.fft.rfft(_held(f + np.asarray(error["feedback"], dtype=float)), axis=0)
+        E_m = np.fft.rfft(_held(N * np.asarray(error["motor"], dtype=float)), axis=0)
+        F = q * (base + config.gain * inv_pm * (E_m + N * D_o))
+    elif config.torque == "lcs":
+        response = nominal.load_response(n, fs)
+        inv = np.divide(1.0, response, out=np.zeros_like(response), where=np.abs(response) > 0.0)
+        inv[0] = 0.0
+        inv_pm = np.zeros_like(resp["P_m"])
+        inv_pm[1:] = 1.0 / resp["P_m"][1:]
+        E_pl = np.fft.rfft(np.asarray(error["e_pl"], dtype=float), n=n, axis=0)
+        F = q * (np.fft.rfft(_held(f), axis=0) + config.gain * inv * E_pl) + inv_pm * N * D_o
+    else:
+        inv_pm = np.zeros_like(resp["P_m"])
+        inv_pm[1:] = 1.0 / resp["P_m"][1:]
+        F = np.fft.rfft(_held(f), axis=0) + inv_pm * N * D_o
+    return f0 + np.fft.irfft(F, n=n, axis=0)[:T], o + d_o
+
+
+# ----------------------------------------------------------------------------- learning on a base
+
+def best_trial(history: list[np.ndarray], scored=MOVING, tolerance: float = 0.0) -> int:
+    """Index of the trial to keep from the measured history (trials, 7): per trial the RMS of the
+    measured load-error estimate of the 6 joints [rad] and of the measured end-effector acceleration
+    error [m/s^2] (last column). Eligible: no scored joint's column and not the EE column above
+    trial 0's by more than ``tolerance``; of those, the lowest sum of ratios to trial 0. Trial 0
+    (the base) is always eligible."""
+    h = np.asarray(history, dtype=float)
+    cols = [*scored, h.shape[1] - 1]
+    ratio = h[:, cols] / np.maximum(h[0, cols], 1e-300)
+    eligible = np.all(ratio <= 1.0 + tolerance, axis=1)
+    eligible[0] = True
+    score = np.where(eligible, ratio.sum(axis=1), np.inf)
+    return int(np.argmin(score))
+
+
+def _row(load: np.ndarray, ee: np.ndarray) -> np.ndarray:
+    return np.concatenate([_rms(load), [float(np.sqrt(np.mean(np.square(ee))))]])
+
+
+def learn_on_base(plant, reference, base_feedforward: np.ndarray, base_offset: np.ndarray | None, nominal,
+                  trials: int | None = None, config: ArmILCConfig | None = None, inertia=None):
+    """ILC on ``plant`` (a ``FlexArmPlant``) for ``reference`` from a base (its feedforward (T, 6)
+    [N m] and reference offset (T, 6) [rad, load side] or None). Returns ({"feedforward", "offset"}
+    of the best measured trial (``best_trial``; trial 0 is the base), the measured history (trials +
+    1, 7), the true history (trials + 1, 7: the true load error [rad] and EE acceleration error
+    [m/s^2], for reporting only), the number of plant trials). ``inertia``: the loop model's load
+    inertia (6,) (``load_inertia`` of the fitted arm; default the nominal M_n). A trial that leaves
+    the safe range ends the learning at the best trial so far; a diverging history raises
+    ``ILCDiverged``."""
+    config = config or ArmILCConfig()
+    trials = config.trials if trials is None else trials
+    f0 = np.asarray(base_feedforward, dtype=float)
+    o0 = np.zeros_like(f0) if base_offset is None else np.asarray(base_offset, dtype=float)
+    N = np.asarray(nominal.drive.N, dtype=float)
+    f, o = f0, o0
+    candidates, history, true_history = [], [], []
+    used = 0
+    for j in range(trials + 1):
+        try:
+            trial = plant.run(reference, f, N * o)
+        except SimulationDiverged:
+            break
+        used += 1
+        err = measure(trial, reference, nominal, f, o, plant.accel_offset, o0, config.offset_hp_hz)
+        history.append(_row(err["load"], err["ee"]))
+        true_history.append(_true_row(plant, trial, reference))
+        candidates.append((f, o))
+        try:
+            _check_divergence([h[:-1] for h in history], reference.name)
+        except ILCDiverged:
+            break
+        if j < trials:
+            f, o = update(nominal, f, o, err, trial.fs, config, plant.gains, inertia, base=f0)
+    k = best_trial(history, tolerance=config.tolerance)
+    return {"feedforward": candidates[k][0], "offset": candidates[k][1], "trial": k}, history, true_history, used
+
+
+# ----------------------------------------------------------------------------- the RBF expert's use (eq. 17)
+
+PREDICTED = ArmILCConfig(torque="lcs", q_hz=6.0)
+"""The update a predicted error enters (the RBF expert on a base): eq. (16) around the base's
+feedforward with the predicted model-following error, Q at 6 Hz (as the measured law's), the
+base's offset kept."""
+
+
+def model_following_error(plant, trial, reference, nominal, feedforward: np.ndarray,
+                          offset: np.ndarray | None) -> np.ndarray:
+    """e_pl (T, 6) [rad/s^2] of a trial run with ``feedforward`` and ``offset`` (``measure``'s
+    ``e_pl``): what the RBF expert's predictor learns on the base's runs."""
+    return measure(trial, reference, nominal, feedforward, offset, plant.accel_offset)["e_pl"]
+
+
+def predicted_update(nominal, base_feedforward: np.ndarray, base_offset: np.ndarray | None, e_pl: np.ndarray,
+                     fs: float, gains: PIDGains | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Eq. (17) around a base: (feedforward, offset) after one ``PREDICTED`` update with the
+    predicted e_pl (T, 6) [rad/s^2]."""
+    return update(nominal, base_feedforward, base_offset, {"e_pl": e_pl}, fs, PREDICTED, gains,
+                  base=base_feedforward)
+
+
+def _true_row(plant, trial, reference) -> np.ndarray:
+    """RMS of the true load error (6) [rad] and of the true EE acceleration error [m/s^2] (reporting)."""
+    from ..systems.flexarm.errors import paper_errors
+
+    load = trial.ref - np.column_stack([trial.extra[f"load_{a}"] for a in trial.axes])
+    ee = np.linalg.norm(paper_errors(plant, trial, reference, np.asarray(trial.ff))["ee_acc"], axis=1)
+    return _row(load, ee)
+
+
+__all__ = ["PREDICTED", "ArmILCConfig", "best_trial", "model_following_error", "predicted_update",
+            "controller_response", "learn_on_base", "load_inertia", "loop_responses",
+           "measure", "measured_ee_error", "measured_load_error", "true_load_acceleration", "update"]

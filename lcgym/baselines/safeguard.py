@@ -1,0 +1,113 @@
+"""The training-reference safeguard: keep what a method learned only on the axes where it lowers the
+tracking error on each of its own training references, against its base alone.
+
+A method that cannot measure the reference it is scored on before it acts (RL, the RBF expert, ILC
+transfer) picks what it returns on its training references: the learned feedforward and the base's
+are both run there, and compared per scored axis and per reference (RMS over the reference). Where
+the learned one is worse on an axis on any reference, that axis falls back to the base; the mixed
+feedforward is run again to check it, and if it is still worse on any axis and reference, the base
+acts alone on every axis. (Per reference, not over all of them: a learner better on 7 training
+references and worse on the 8th did not generalize, measured on the IX with RL: docs/methods/rl.md.)
+A choice made on training references cannot promise the validation result; the rows' note says so
+where it dropped something.
+
+``keep_axes`` is the rule; RL applies it to its policy's rollouts, ``Safeguard`` to feedforward
+signals.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .bases import closed_loop
+
+Signals = Callable[[object], tuple[np.ndarray, np.ndarray | None]]
+"""A reference -> (feedforward (T, n), load-side reference offset (T, n) [rad] or None)."""
+
+
+def scored_axes(system, n_axes: int) -> list[int]:
+    """The axes (indices) the machine's benchmark scores (``System.bench.scored``; None: all)."""
+    scored = system.bench.scored if system.bench is not None else None
+    return list(range(n_axes)) if scored is None else list(scored)
+
+
+def action_axes(better: np.ndarray, scored: Sequence[int], n_axes: int) -> np.ndarray:
+    """Per axis, whether to keep the learned signal: on scored axes where it was ``better`` (per
+    scored axis), and on unscored ones where it was better on every scored one."""
+    kept = np.full(n_axes, bool(np.all(better)))
+    kept[list(scored)] = better
+    return kept
+
+
+def keep_axes(base: np.ndarray, learned: np.ndarray, masked_rms: Callable[[np.ndarray], np.ndarray],
+              scored: Sequence[int], n_axes: int, learned_key: str = "learned") -> tuple[np.ndarray, dict]:
+    """The rule (module docstring). ``base``, ``learned``: RMS tracking error (references, scored
+    axes) of the base alone and of the learned signal; ``masked_rms(kept)``: the same with the learned
+    signal on the axes ``kept`` only. Returns (kept per axis, {"base", learned_key, maybe "masked"}:
+    the RMS arrays compared)."""
+    kept = np.ones(n_axes, dtype=bool)
+    figures = {"base": base, learned_key: learned}
+    worse = (learned > base).any(axis=0)  # per scored axis: worse on some training reference
+    if worse.any():
+        kept = action_axes(~worse, scored, n_axes)
+        figures["masked"] = masked = masked_rms(kept) if kept.any() and not worse.all() else learned
+        kept = kept if kept.any() and not (masked > base).any() else np.zeros(n_axes, dtype=bool)
+    return kept, figures
+
+
+def dropped_note(method: str, kept: np.ndarray, axes: Sequence[str], references_worse: int, n_references: int,
+                 what: str = "correction") -> str:
+    """The results row's note of a safeguard that dropped ``what`` on some axes ("" if none)."""
+    dropped = [a for a, k in zip(axes, kept, strict=True) if not k]
+    if not dropped:
+        return ""
+    kept_names = [a for a, k in zip(axes, kept, strict=True) if k]
+    return (f"{method}: {what} dropped on {', '.join(dropped)} (it raised the tracking error on {references_worse} "
+            f"of {n_references} training references); the base acts alone there"
+            + (f", the {what} on {', '.join(kept_names)}" if kept_names else ""))
+
+
+@dataclass
+class Safeguard:
+    """The rule on feedforward signals: ``choose(plant, references, base, learned)`` runs both on the
+    training ``references`` and sets ``kept_`` (per axis), ``figures_`` (RMS [rad or m] per
+    reference and scored axis), ``references_worse_`` and ``trials_`` (plant trials it ran)."""
+
+    system: object
+    kept_: np.ndarray = field(init=False)
+    figures_: dict = field(init=False, default_factory=dict)
+    references_worse_: int = field(init=False, default=0)
+    trials_: int = field(init=False, default=0)
+
+    def choose(self, plant, references: Sequence, base: Signals, learned: Signals) -> np.ndarray:
+        n = references[0].positions.shape[1]
+        scored = scored_axes(self.system, n)
+        base_rms = self._rms(plant, references, base, learned, np.zeros(n, dtype=bool), scored)
+        learned_rms = self._rms(plant, references, base, learned, np.ones(n, dtype=bool), scored)
+        self.kept_, self.figures_ = keep_axes(
+            base_rms, learned_rms, lambda kept: self._rms(plant, references, base, learned, kept, scored), scored, n)
+        self.references_worse_ = int((learned_rms > base_rms).any(axis=1).sum())
+        return self.kept_
+
+    def _rms(self, plant, references, base: Signals, learned: Signals, kept: np.ndarray, scored) -> np.ndarray:
+        rms = []
+        for r in references:
+            f, o = mixed(base(r), learned(r), kept)
+            error = self.system.bench.tracking_error(closed_loop(plant, r, f, o))
+            rms.append(np.sqrt(np.mean(np.square(error[:, scored]), axis=0)))
+            self.trials_ += 1
+        return np.array(rms)
+
+
+def mixed(base: tuple, learned: tuple, kept: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """(feedforward, offset) with the learned columns on the axes ``kept`` and the base's elsewhere."""
+    (fb, ob), (fl, ol) = base, learned
+    f = np.where(kept, fl, fb)
+    if ob is None and ol is None:
+        return f, None
+    ob = np.zeros_like(f) if ob is None else ob
+    ol = np.zeros_like(f) if ol is None else ol
+    return f, np.where(kept, ol, ob)
