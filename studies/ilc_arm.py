@@ -18,7 +18,7 @@ import argparse
 import numpy as np
 from tqdm import tqdm
 
-from lcgym.baselines.ilc import IterativeLearningControl
+from lcgym.baselines.ilc import PaperLCS
 from lcgym.metrics import PERIODS
 from lcgym.systems.flexarm.errors import paper_errors, period_mask
 from lcgym.systems.flexarm.nominal import BasicFeedforward
@@ -40,7 +40,7 @@ def main() -> None:
                "tcp": "TCP error [mm]"}
     parts = {(k, sig, p): [] for k in ("basic", "lcs") for sig in signals for p in PERIODS}
     refs = [r for s in map(int, args.seeds.split(",")) for r in arm_reference_set("validation", s, args.lines)]
-    ilc = IterativeLearningControl(system="flexarm").fit([plant.run(refs[0])])  # the arm's ILC starts from Basic: nothing to fit
+    ilc = PaperLCS(system="flexarm").fit([plant.run(refs[0])])  # paper 002's LCS starts from Basic: nothing to fit
     for ref in tqdm(refs, desc="lines"):
         ilc.learn(plant, ref)
         tau_ff = BasicFeedforward().compute(ref.positions, ref.fs)["tau_ff"]

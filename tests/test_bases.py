@@ -11,9 +11,8 @@ import numpy as np
 import pytest
 
 from lcgym.baselines import CONTROLLERS
-from lcgym.baselines.bases import display_name, split_spec
 from lcgym.baselines.ilc import best_trial
-from lcgym.baselines.protocol import build_method, load_method, method_base
+from lcgym.baselines.protocol import build_method, display_name, load_method, method_base, split_spec
 from lcgym.baselines.safeguard import keep_axes, mixed
 from lcgym.leaderboard.report import ranking
 from lcgym.leaderboard.runner import BenchConfig, run_benchmark

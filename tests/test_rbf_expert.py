@@ -150,18 +150,21 @@ def test_rbf_expert_method_on_the_ix_predicts_its_training_error_away():
     plant = IXPlant()
     refs = reference_set("train", 0, 3, 15.0, plant.fs)
     trials = plant.run(refs)
-    method = RBFExpertFeedforward(system="ix").fit(trials).learn(plant, refs[0])
-    # 3 training runs, then the safeguard's: base and corrected on each, the mixed one again where it
-    # dropped one axis of the two
-    dropped = (~method.kept_).sum()
-    assert method.cost_.plant_trials == 3 + 2 * 3 + (3 if dropped == 1 else 0) and set(method.predictor_.joints) == {0, 1}
-    assert method.kept_.all()  # inside its training data the correction helps on both axes
+    method = RBFExpertFeedforward(system="ix").fit(trials)
+    method.safeguard = False  # the prediction alone; the safeguard below
+    method.learn(plant, refs[0])
+    assert method.cost_.plant_trials == 3 and set(method.predictor_.joints) == {0, 1}
     physical = PhysicalFeedforward(system="ix").fit(trials)
     before = plant.run([refs[1]], [physical.feedforward(refs[1])])[0].error
     after = plant.run([refs[1]], [method.feedforward(refs[1])])[0].error
     assert method.reference_offset(refs[1]) is None
     for a in range(2):
         assert _rms(after[:, a]) < 0.9 * _rms(before[:, a]), (a, _rms(after[:, a]), _rms(before[:, a]))
+    # the safeguard (on the tracking error): inside its training data the correction helps on both
+    # axes; 3 training runs, then the base and the corrected feedforward on each
+    guarded = RBFExpertFeedforward(system="ix").fit(trials).learn(plant, refs[0])
+    assert guarded.kept_.all() and guarded.cost_.plant_trials == 3 + 2 * 3 and guarded.note_ == ""
+    np.testing.assert_array_equal(guarded.feedforward(refs[1]), method.feedforward(refs[1]))
 
 
 def test_rbf_expert_method_on_the_arm_lowers_the_model_following_error():

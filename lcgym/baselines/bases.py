@@ -9,39 +9,17 @@ feedforward. The base is named on the command line after the method, ``METHOD@BA
 * ``basic``: the FlexArm's nominal structure of paper 002 (``BasicArmFeedforward``), what the
   paper's LCS and NN prediction start from.
 
-``split_spec("ilc@basic")`` is ("ilc", "basic"); the results name a method on its default base by
+``protocol.split_spec("ilc@basic")`` is ("ilc", "basic"); the results name a method on its default base by
 its id alone (``ilc``) and on another base by ``id@base`` (``ilc@basic``), and the ``base`` column
 says which base every learning row has.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
 
 from .. import systems
-
-DEFAULT_BASE = "physical"
-BASES = ("physical", "basic")
-
-
-def split_spec(spec: str) -> tuple[str, str | None]:
-    """("ilc", "basic") of "ilc@basic"; (spec, None) without "@"; a ValueError for an empty part or an
-    unknown base."""
-    method, sep, base = spec.rpartition("@")
-    if not sep:
-        return spec, None
-    if not method or not base:
-        raise ValueError(f"method {spec!r}: write METHOD@BASE, e.g. ilc@basic (bases: {', '.join(BASES)})")
-    if base not in BASES:
-        raise ValueError(f"method {spec!r}: unknown base {base!r}; bases: {', '.join(BASES)}")
-    return method, base
-
-
-def display_name(method: str, base: str | None) -> str:
-    """The results' name of ``method`` on ``base``: the id alone on the default base."""
-    return method if base in (None, DEFAULT_BASE) else f"{method}@{base}"
+from .protocol import BASES
 
 
 def runs_on(method_systems: tuple[str, ...] | None, base: str | None) -> tuple[str, ...] | None:
@@ -77,8 +55,3 @@ def closed_loop(plant, reference, feedforward: np.ndarray, offset: np.ndarray | 
     if offset is None:
         return plant.run(reference, feedforward)
     return plant.run(reference, feedforward, np.asarray(plant.true_drive.N) * np.asarray(offset, dtype=float))
-
-
-def per_axis_rms(error: np.ndarray, axes: Sequence[int]) -> np.ndarray:
-    """RMS over the samples of the columns ``axes`` of (T, n) -> (len(axes),)."""
-    return np.sqrt(np.mean(np.square(np.asarray(error)[:, list(axes)]), axis=0))

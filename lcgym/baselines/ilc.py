@@ -58,20 +58,16 @@ history instead of returning garbage (as does a trial that drives the plant out 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from .. import systems
 from ..systems import SimulationDiverged
-from .bases import DEFAULT_BASE, base_controller
-from .protocol import Controller, Cost, given_system
+from .bases import base_controller
+from .iteration import ILCDiverged, best_trial, check_divergence, q_filter, rms
+from .protocol import DEFAULT_BASE, Controller, Cost, given_system
 from .safeguard import Safeguard, dropped_note, mixed, scored_axes
-
-
-class ILCDiverged(RuntimeError):
-    """The ILC error grew three trials in a row; the message holds the error history."""
 
 
 @dataclass(frozen=True)
@@ -91,12 +87,6 @@ class ILCConfig:
     q_order: int = 4
     gain: float = 1.0
     arm_gain: float = 1.0
-
-
-def q_filter(n: int, fs: float, q_hz: float, order: int) -> np.ndarray:
-    """Zero-phase Q on the rfft grid of n samples: |Butterworth(order, q_hz)|^2."""
-    w = np.fft.rfftfreq(n, 1.0 / fs)
-    return 1.0 / (1.0 + (w / q_hz) ** (2 * order))
 
 
 def frequency_update(f: np.ndarray, e: np.ndarray, inverse: np.ndarray, q: np.ndarray, gain: float,
@@ -149,34 +139,7 @@ def deadzone(e: np.ndarray, width) -> np.ndarray:
     return np.sign(e) * np.maximum(np.abs(e) - width, 0.0)
 
 
-def _rms(e: np.ndarray) -> np.ndarray:
-    """RMS per column (T, A) -> (A,)."""
-    return np.sqrt(np.mean(np.square(e), axis=0))
-
-
 FADE_IN = 0.25  # s: the tracking-error update's fade-in at the start of a trial (``_learn_tracking``)
-GROWTH = 1.01  # a trial counts as worse when its error RMS exceeds the previous one's by 1 %
-NOISE_BAND = 1.5  # ... and the run diverges only once it is also this far above its best trial
-
-
-def _check_divergence(history: list[np.ndarray], name: str) -> None:
-    """Raise ``ILCDiverged`` when the error (RMS over all axes) grew three trials in a row and now
-    exceeds the best trial by ``NOISE_BAND``: three small rises in a row near the noise floor are not
-    a divergence."""
-    total = [float(np.sqrt(np.mean(np.square(h)))) for h in history]
-    if (len(total) >= 4 and all(total[-k] > GROWTH * total[-k - 1] for k in (1, 2, 3))
-            and total[-1] > NOISE_BAND * min(total)):
-        raise ILCDiverged(f"ILC on {name} diverges: the error grew three trials in a row; "
-                          f"RMS per trial {[f'{h:.3g}' for h in total]}")
-
-
-def best_trial(history: Sequence[np.ndarray], scored: Sequence[int]) -> int:
-    """The trial to keep: among those measured no worse than trial 0 (the base) on any ``scored`` axis,
-    the one of the lowest RMS over those axes; trial 0 where none is better. ``history``: per trial,
-    the measured error RMS per axis."""
-    h = np.asarray(history)[:, list(scored)]
-    eligible = np.flatnonzero((h <= h[0]).all(axis=1))
-    return int(eligible[np.argmin(np.sqrt(np.mean(np.square(h[eligible]), axis=1)))])
 
 
 class IterativeLearningControl(Controller):
@@ -259,9 +222,9 @@ class IterativeLearningControl(Controller):
                 raise ILCDiverged(f"ILC on {reference.name}: trial {j}'s feedforward drove the plant out of its safe "
                                   f"range ({exc})") from None
             tried.append(f)
-            history.append(_rms(trial.error))
-            true_history.append(_rms(trial.ref - np.column_stack([trial.extra[f"load_{a}"] for a in trial.axes])))
-            _check_divergence(history, reference.name)
+            history.append(rms(trial.error))
+            true_history.append(rms(trial.ref - np.column_stack([trial.extra[f"load_{a}"] for a in trial.axes])))
+            check_divergence(history, reference.name)
             if j < cfg.trials:
                 e = deadzone(trial.error, 0.5 * np.asarray(plant.encoder_resolution))
                 f = f0 + fade * (frequency_update(f, e, inverse, q, cfg.gain) - f0)
@@ -279,9 +242,9 @@ class IterativeLearningControl(Controller):
             trial = nominal.run(plant, reference, update)
             tried.append(update)
             e_pl = np.column_stack([trial.extra[f"e_pl_{a}"] for a in trial.axes])
-            history.append(_rms(e_pl))
-            true_history.append(_rms(np.column_stack([trial.extra[f"e_pl_true_{a}"] for a in trial.axes])))
-            _check_divergence(history, reference.name)
+            history.append(rms(e_pl))
+            true_history.append(rms(np.column_stack([trial.extra[f"e_pl_true_{a}"] for a in trial.axes])))
+            check_divergence(history, reference.name)
             if j < cfg.arm_trials:
                 # eq. (16): tau_nl,k+1 = Q_u [tau_nl,k + P_lu^-1 e_pl,k]; tau_nl,0 is Basic's
                 update = nominal_update(nominal, basic["tau_nl"] + update, e_pl, plant.fs, cfg) - basic["tau_nl"]
@@ -291,12 +254,16 @@ class IterativeLearningControl(Controller):
 
     def _learn_arm(self, plant, reference):
         """The FlexArm on its physical model (``ilc_arm``)."""
-        from .ilc_arm import learn_on_base
+        from .ilc_arm import learn_on_base, load_inertia
 
         f0, o0 = self._start(reference)
+        # each joint's loop model carries the load inertia of the fitted arm (payload included) at the
+        # reference's mean pose: with the nominal M_n the static EE error rose on seed 1 (helper study)
+        inertia = load_inertia(self.base_.model_.fitted_params.arm(), reference.positions)
         learned, history, true_history, used = learn_on_base(plant, reference, f0, o0, self.nominal_,
-                                                             trials=self.config_.arm_trials)
+                                                             trials=self.config_.arm_trials, inertia=inertia)
         self.best_[reference.name] = learned.pop("trial")
+        learned.pop("candidates")
         return learned, history, true_history, used
 
     def _learned(self, reference) -> dict:
@@ -335,8 +302,8 @@ class PaperLCS(IterativeLearningControl):
         basic = nominal.compute(reference.positions, reference.fs)
         trial = nominal.run(plant, reference)
         e_pl = np.column_stack([trial.extra[f"e_pl_{a}"] for a in trial.axes])
-        history = [_rms(e_pl)]
-        true_history = [_rms(np.column_stack([trial.extra[f"e_pl_true_{a}"] for a in trial.axes]))]
+        history = [rms(e_pl)]
+        true_history = [rms(np.column_stack([trial.extra[f"e_pl_true_{a}"] for a in trial.axes]))]
         # eq. (16): tau_nl,1 = Q_u [tau_nl,0 + P_lu^-1 e_pl,0]
         update = nominal_update(nominal, basic["tau_nl"], e_pl, plant.fs, cfg) - basic["tau_nl"]
         return {"feedforward": basic["tau_ff"] + update, "offset": basic["reference_offset"]}, history, true_history, 1

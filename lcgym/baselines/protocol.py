@@ -46,7 +46,27 @@ import numpy as np
 
 from .. import systems
 from ..envs.actions import short_repr
-from .bases import split_spec
+
+DEFAULT_BASE = "physical"
+BASES = ("physical", "basic")
+
+
+def split_spec(spec: str) -> tuple[str, str | None]:
+    """("ilc", "basic") of "ilc@basic"; (spec, None) without "@"; a ValueError for an empty part or an
+    unknown base."""
+    method, sep, base = spec.rpartition("@")
+    if not sep:
+        return spec, None
+    if not method or not base:
+        raise ValueError(f"method {spec!r}: write METHOD@BASE, e.g. ilc@basic (bases: {', '.join(BASES)})")
+    if base not in BASES:
+        raise ValueError(f"method {spec!r}: unknown base {base!r}; bases: {', '.join(BASES)}")
+    return method, base
+
+
+def display_name(method: str, base: str | None) -> str:
+    """The results' name of ``method`` on ``base``: the id alone on the default base."""
+    return method if base in (None, DEFAULT_BASE) else f"{method}@{base}"
 
 
 @dataclass

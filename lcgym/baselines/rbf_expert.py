@@ -39,9 +39,9 @@ import numpy as np
 from .. import systems
 from ..rbf_expert.influence import task_influence
 from ..rbf_expert.predictor import RBFExpertConfig, RBFExpertPredictor
-from .bases import DEFAULT_BASE, base_controller, closed_loop
+from .bases import base_controller, closed_loop
 from .ilc import ILCConfig, frequency_update, learning_filters, nominal_update
-from .protocol import Controller, Cost, given_system
+from .protocol import DEFAULT_BASE, Controller, Cost, given_system
 from .safeguard import Safeguard, dropped_note, mixed
 
 MOVING_TOL = 1e-6  # rad/s: a joint whose reference velocity never exceeds this gets no networks

@@ -70,8 +70,8 @@ from tqdm.auto import tqdm
 
 from .. import systems
 from ..provenance import source_hash
-from .bases import DEFAULT_BASE, base_controller
-from .protocol import Controller, Cost, given_system
+from .bases import base_controller
+from .protocol import DEFAULT_BASE, Controller, Cost, given_system
 from .safeguard import dropped_note, keep_axes, scored_axes
 
 ALGORITHMS = ("ppo", "sac", "td3")

@@ -46,8 +46,8 @@ from tqdm.auto import tqdm
 
 from .. import systems
 from ..baselines import CONTROLLERS, Cost, load_method, protocol
-from ..baselines.bases import display_name, runs_on, split_spec
-from ..baselines.protocol import apply, build_method, method_base
+from ..baselines.bases import runs_on
+from ..baselines.protocol import apply, build_method, display_name, method_base, split_spec
 from ..data import atomic_write
 from ..provenance import __version__, git_commit, source_hash
 from .store import append_rows, completed_cells

@@ -32,7 +32,26 @@ def discretize_foh(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarray,
         [ x(dt) ]       [ A dt  B dt  0 ] [   x0    ]
         [ u(dt) ] = exp [  0     0    I ] [   u0    ]
         [ u1-u0 ]       [  0     0    0 ] [ u1 - u0 ]
-    """
+
+    Memoized on (A, B, dt) (read-only arrays): the FlexArm's nominal models are discretized again
+    and again with the same matrices, and the matrix exponential was most of their cost."""
+    key = (A.shape, B.shape, np.asarray(A, dtype=float).tobytes(), np.asarray(B, dtype=float).tobytes(), float(dt))
+    if key not in _FOH:
+        if len(_FOH) >= 256:
+            _FOH.clear()
+        _FOH[key] = tuple(_read_only(a) for a in _discretize_foh(A, B, dt))
+    return _FOH[key]
+
+
+_FOH: dict = {}
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    a.flags.writeable = False
+    return a
+
+
+def _discretize_foh(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     n, m = B.shape
     M = np.vstack([np.hstack([A * dt, B * dt, np.zeros((n, m))]),
                    np.hstack([np.zeros((m, n + m)), np.identity(m)]),

@@ -1,0 +1,48 @@
+"""What every ILC law here shares (``ilc``: the IX's, a URDF machine's and paper 002's LCS;
+``ilc_arm``: the FlexArm on its physical model): the zero-phase Q filter, the error RMS per axis,
+divergence detection and the choice of the trial to keep."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+
+class ILCDiverged(RuntimeError):
+    """The ILC error grew three trials in a row; the message holds the error history."""
+
+
+def q_filter(n: int, fs: float, q_hz: float, order: int) -> np.ndarray:
+    """Zero-phase Q on the rfft grid of n samples: |Butterworth(order, q_hz)|^2."""
+    w = np.fft.rfftfreq(n, 1.0 / fs)
+    return 1.0 / (1.0 + (w / q_hz) ** (2 * order))
+
+
+def rms(e: np.ndarray) -> np.ndarray:
+    """RMS per column (T, A) -> (A,)."""
+    return np.sqrt(np.mean(np.square(e), axis=0))
+
+
+GROWTH = 1.01  # a trial counts as worse when its error RMS exceeds the previous one's by 1 %
+NOISE_BAND = 1.5  # ... and the run diverges only once it is also this far above its best trial
+
+
+def check_divergence(history: list[np.ndarray], name: str) -> None:
+    """Raise ``ILCDiverged`` when the error (RMS over all axes) grew three trials in a row and now
+    exceeds the best trial by ``NOISE_BAND``: three small rises in a row near the noise floor are not
+    a divergence."""
+    total = [float(np.sqrt(np.mean(np.square(h)))) for h in history]
+    if (len(total) >= 4 and all(total[-k] > GROWTH * total[-k - 1] for k in (1, 2, 3))
+            and total[-1] > NOISE_BAND * min(total)):
+        raise ILCDiverged(f"ILC on {name} diverges: the error grew three trials in a row; "
+                          f"RMS per trial {[f'{h:.3g}' for h in total]}")
+
+
+def best_trial(history: Sequence[np.ndarray], scored: Sequence[int]) -> int:
+    """The trial to keep: among those measured no worse than trial 0 (the base) on any ``scored`` axis,
+    the one of the lowest RMS over those axes; trial 0 where none is better. ``history``: per trial,
+    the measured error RMS per axis."""
+    h = np.asarray(history)[:, list(scored)]
+    eligible = np.flatnonzero((h <= h[0]).all(axis=1))
+    return int(eligible[np.argmin(np.sqrt(np.mean(np.square(h[eligible]), axis=1)))])
