@@ -256,8 +256,8 @@ def build_parser() -> argparse.ArgumentParser:
     imp.add_argument("dataset", choices=DATASETS, help="emps: the EMPS benchmark's DATA_EMPS*.mat files")
     imp.add_argument("file", type=Path, help="the data set's file")
     imp.add_argument("--out", required=True, type=_file_of(".csv", ".parquet", ".pq"), help="measurement file to write")
-    eff = sub.add_parser("effects", help="list the effects diagnose can rank and add, and those a machine file's "
-                         "[[hidden]] takes")
+    eff = sub.add_parser("effects", help="list the effects diagnose can rank and add (a machine file's [[model]] "
+                         "takes the same names), and those a machine file's [[hidden]] takes")
     eff.add_argument("--system", metavar="MACHINE", help=_machine_help() + " (default ix)")
     eff.add_argument("--data", type=Path, help="a measurement file whose pos_<joint> columns name a URDF's axes")
     return parser
@@ -322,9 +322,9 @@ def cmd_import(args) -> int:
 
 
 def cmd_effects(args) -> int:
-    """Two lists: the effects diagnose ranks and ``--add`` accepts (``candidates_for``), and those a
-    machine file's ``[[hidden]]`` accepts (``machine.hidden_effects``: what the plant simulates), with
-    what is in one list only and why."""
+    """Two lists: the effects diagnose ranks and ``--add`` accepts (``candidates_for``; a machine file's
+    ``[[model]]`` takes the same names), and those a machine file's ``[[hidden]]`` accepts
+    (``machine.hidden_effects``: what the plant simulates), with what is in one list only and why."""
     from .diagnose.candidates import candidates_for
     from .physics.plant_effects import refusal
     from .systems.machine import hidden_effects
@@ -335,12 +335,14 @@ def cmd_effects(args) -> int:
     model = system.diagnosis_model(fs=system.fs or 1000.0).parts()
     print(f"effects diagnose ranks and --add accepts on {system.name} (axes: {', '.join(system.axis_names)})"
           + (", the default machine; --system names another (my_arm.toml, a .urdf, ...)" if args.system is None else "")
-          + ":")
+          + "; a machine file's [[model]] tables take the same names, without values (the model's fit finds them):")
     for cand in cands:
         searched = [*cand.grid, *([cand.period] if cand.period else [])]
         print(f"  {cand.name:30s} [{cand.family}] {_summary(cand.effect)}"
               + (f" (searched: {', '.join(searched)})" if searched else ""))
-    print(f"the model already has: {', '.join(model)}")
+    print(f"the model already has: {', '.join(model)}"
+          + (f"; and from {system.name}'s [[model]] tables: {', '.join(system.model_effects)}" if system.model_effects
+             else ""))
 
     hidden = hidden_effects(system)
     try:

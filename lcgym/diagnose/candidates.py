@@ -16,20 +16,16 @@ import numpy as np
 
 from .. import systems
 from ..physics import effects as fx
-from ..physics.candidates import LIBRARY, Candidate
+from ..physics.candidates import REGISTERED, Candidate, candidates_of
 
-CANDIDATES: dict[str, Candidate] = {}
-"""The effects users registered (``register_effect``), by name."""
+CANDIDATES: dict[str, Candidate] = REGISTERED
+"""The effects users registered (``register_effect``), by name (``physics.candidates.REGISTERED``)."""
 
 
 def candidates_for(system) -> list[Candidate]:
     """The candidates the diagnosis tries on ``system`` (a ``systems.System`` or what
-    ``systems.get`` accepts; module docstring)."""
-    system = systems.get(system)
-    pool = {c.name: c for c in (*LIBRARY, *system.candidates, *CANDIDATES.values())}
-    if system.candidate_names is not None:
-        pool = {n: c for n, c in pool.items() if n in system.candidate_names or n in CANDIDATES}
-    return [c for c in pool.values() if any(c.effect.applies_to(a) for a in system.axes)]
+    ``systems.get`` accepts; ``physics.candidates.candidates_of``)."""
+    return candidates_of(systems.get(system))
 
 
 @dataclass(frozen=True)

@@ -40,7 +40,9 @@ class Diagnosis:
     ``validation``: residual norms on another experiment, not fitted, before and after the effects
     (``workflow.validation``), or None. ``steps``: the greedy selection step by step (what each
     axis had left, what every candidate removed of it and its verdict; ``workflow._step_row``),
-    ``stop`` why it ended."""
+    ``stop`` why it ended. ``machine_file``: the machine file of a machine given by one (its
+    bench's ``source``), whose ``[[model]]`` tables of the effects found end the printed report
+    (``model_tables``)."""
 
     system: str
     axes: tuple[str, ...]
@@ -63,6 +65,7 @@ class Diagnosis:
     options: str = ""  # command-line options the hints repeat (--kinematics measured)
     samples: dict = field(default_factory=dict)  # what was fitted and what left out (``workflow._samples_record``)
     blocks: str = ""  # how held-out scoring split the data
+    machine_file: str | None = None  # the machine file of a machine given by one (``model_tables``)
     model: object = field(repr=False, default=None)
     suggested_model: object = field(repr=False, default=None)
     series: dict = field(repr=False, default_factory=dict)
@@ -99,7 +102,33 @@ class Diagnosis:
             out["replay"] = self.replay
         if self.validation is not None:
             out["validation"] = self.validation
+        if self.model_tables():
+            out["model_tables"] = self.model_tables()
         return out
+
+    def model_tables(self) -> str:
+        """The ``[[model]]`` tables (TOML, ``systems.machine``) of the effects found (with ``--add``:
+        of those added), for a machine given by a machine file; "" for any other machine or
+        where nothing was found."""
+        keys = self.after["added"] if self.after is not None else self.missing
+        if self.machine_file is None or not keys:
+            return ""
+        return "\n\n".join(f'[[model]]\neffect = "{k.partition("@")[0]}"\naxis = "{k.partition("@")[2]}"' for k in keys)
+
+    def _model_tables_lines(self) -> list[str]:
+        """The printed report's last part: ``model_tables`` with where they go."""
+        tables = self.model_tables()
+        if not tables:
+            return []
+        which = "added" if self.after is not None else "selected"
+        package = Path(__file__).resolve().parents[1]
+        if Path(self.machine_file).resolve().is_relative_to(package):  # a built-in machine's: the user's copy takes them
+            where = (f"{self.system}'s machine file is lcgym's own ({self.machine_file}): paste them into a copy of its "
+                     "folder and bench that (docs/own-machine-bench.md)")
+        else:
+            where = f"paste them into {self.spec if str(self.spec).lower().endswith('.toml') else self.machine_file}"
+        return ["", f"[[model]] tables of the effects {which}: {where}; the physical model then fits their parameters "
+                "and every method starts from it (docs/own-machine.md):", tables]
 
     def write_json(self, path: str | Path) -> Path:
         path = Path(path)
@@ -214,6 +243,7 @@ class Diagnosis:
             for ax in self.axes:
                 lines.append(f"  {ax:{w}s} {_num(self.replay['before'][ax])} {_num(self.replay['after'][ax])}"
                              + ("" if same else f" {replay_unit[ax]}"))
+        lines += self._model_tables_lines()
         return "\n".join(lines)
 
     def refused(self) -> list[dict]:

@@ -70,6 +70,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..physics.candidates import period_peaks, refined_setting, refinement
 from ..physics.effects import SMOOTHING, Loads
 from ..physics.model import PhysicalModel
 from .candidates import Candidate
@@ -290,42 +291,6 @@ def _penalized(G: np.ndarray, penalties) -> np.ndarray:
         lam = SMOOTHING * float(np.trace(G[np.ix_(idx, idx)])) / len(idx)
         G[np.ix_(idx, idx)] += lam * (D.T @ D)
     return G
-
-
-def period_peaks(r: np.ndarray, q: np.ndarray, weight: np.ndarray | None, n_peaks: int = 3,
-                 shortest: float = 1 * DEG) -> list[float]:
-    """Periods [rad or m] of the strongest peaks of |sum_k r_k w_k exp(-2 pi i q_k / P)|^2.
-
-    Frequencies (cycles per rad or m) on a grid of 1/(4 x position range), from the longest period
-    that repeats three times within the range (at least 3 x ``shortest``) to ``shortest``; each
-    peak refined by parabolic interpolation.
-    """
-    travel = float(np.ptp(q))
-    if travel < 3 * shortest:
-        return []
-    df = 1.0 / (4.0 * travel)
-    freqs = np.arange(1.0 / max(3 * shortest, travel / 3), 1.0 / shortest, df)
-    x = r * (weight if weight is not None else 1.0)
-    x = x - x.mean()
-    # the transform block by block of 32 frequencies: the exponentials of one block are those of the
-    # block before times exp(-2 pi i q 32 df) (a product costs a fraction of an exponential)
-    block = 32
-    phase = np.exp(-2j * np.pi * np.outer(q, freqs[0] + df * np.arange(block)))
-    step = np.exp(-2j * np.pi * q * df * block)[:, None]
-    acc = np.empty(freqs.size, dtype=complex)
-    for start in range(0, freqs.size, block):
-        n = min(block, freqs.size - start)
-        acc[start : start + n] = x @ phase[:, :n]
-        phase *= step
-    power = np.abs(acc) ** 2
-    peaks = [k for k in range(1, freqs.size - 1) if power[k] >= power[k - 1] and power[k] > power[k + 1]]
-    peaks = sorted(peaks, key=lambda k: -power[k])[:n_peaks]
-    out = []
-    for k in peaks:
-        a, b, c = power[k - 1], power[k], power[k + 1]
-        shift = 0.5 * (a - c) / (a - 2 * b + c) if (a - 2 * b + c) != 0 else 0.0
-        out.append(1.0 / (freqs[k] + shift * df))
-    return out
 
 
 @dataclass
@@ -672,26 +637,13 @@ def refine(scorer: Scorer, score: Score, cache: ColumnCache, iterations: int = 6
     are searched in log space; the refined values are kept only where the held-out error falls
     too and both folds' fits keep the effect's physical signs."""
     cand, axis = score.candidate, score.axis
-    names = [n for n, g in cand.grid.items() if not isinstance(g, tuple) and n not in cand.fixed]
-    names += [cand.period] if cand.period else []
+    grid = cand.settings(cache.prep.kin[0], cache.prep.kin[1], axis, cache.scale(axis))
+    names, logged, x0, bounds = refinement(cand, grid, score.params)
     if not names:
         return dict(score.params)
-    logged = [n != "q0" for n in names]  # every continuous parameter but an onset position is > 0
-    x0 = np.array([math.log(score.params[n]) if lg else score.params[n] for n, lg in zip(names, logged, strict=True)])
-    grid = cand.settings(cache.prep.kin[0], cache.prep.kin[1], axis, cache.scale(axis))
-    bounds = []  # within the grid's span (widened by 2x, or half the span on either side), a period within 5 %
-    for n, lg, x in zip(names, logged, x0, strict=True):
-        values = [g[n] for g in grid if n in g]
-        if n == cand.period or not values:
-            bounds.append((x - 0.05, x + 0.05) if lg else (x - 0.05 * abs(x), x + 0.05 * abs(x)))
-        elif lg:
-            bounds.append((math.log(min(values) / 2), math.log(max(values) * 2)))
-        else:
-            half = 0.5 * (max(values) - min(values))
-            bounds.append((min(values) - half, max(values) + half))
 
     def params(x) -> dict:
-        return {**score.params, **{n: float(math.exp(v) if lg else v) for n, v, lg in zip(names, x, logged, strict=True)}}
+        return refined_setting(score.params, names, logged, x)
 
     rough = cand.effect.roughness()
 

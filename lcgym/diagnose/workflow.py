@@ -35,6 +35,7 @@ from tqdm.auto import tqdm
 from .. import systems
 from ..data import UNIFORM_TOLERANCE, another_machine, log_rate, regularize
 from ..metrics import norms as metric_norms
+from ..physics.candidates import axis_scale
 from ..physics.effects import Effect, parse_key
 from ..physics.kinematics import lowpass_zero_phase, reference_kinematics
 from ..physics.model import PhysicalModel, reduction_memo
@@ -209,7 +210,8 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
                            displays={a.name: a.display for a in system.axes},
                            resampled=_resampled_note(trials), spec=spec, steps=steps, stop=ranking.stop,
                            options="--kinematics measured" if kinematics == "measured" else "",
-                           samples=_samples_record(lay, axes, system.axes, trials, fs), blocks=_blocks_note(lay))
+                           samples=_samples_record(lay, axes, system.axes, trials, fs), blocks=_blocks_note(lay),
+                           machine_file=getattr(getattr(system.bench, "settings", None), "source", None))
         report.found = {f"{s.candidate.name}@{axes[s.axis]}": s.candidate.build(axes[s.axis], **s.params)
                         for s in ranking.alone}
         picked = {f"{s.candidate.name}@{axes[s.axis]}" for s, _, _ in ranking.selected}
@@ -286,14 +288,8 @@ def moving_axes(trials: Sequence, system: systems.System) -> list[int]:
 
 
 def axis_scales(system: systems.System, q: np.ndarray, qd: np.ndarray) -> list[dict]:
-    """Per axis the {"speed", "position"} scales of the candidates' grids: the axis's declared ones,
-    else the data's (99th percentile of |velocity|, range of the position)."""
-    out = []
-    for i, a in enumerate(system.axes):
-        speed = a.speed_scale or float(np.quantile(np.abs(qd[:, i]), 0.99)) or 1.0
-        position = a.position_scale or float(np.ptp(q[:, i])) or 1.0
-        out.append({"speed": speed, "position": position})
-    return out
+    """Per axis the {"speed", "position"} scales of the candidates' grids (``physics.candidates.axis_scale``)."""
+    return [axis_scale(a, q[:, i], qd[:, i]) for i, a in enumerate(system.axes)]
 
 
 def _noise_floor(system: systems.System, prep, min_rms: float | None) -> np.ndarray:
@@ -351,6 +347,9 @@ def _parse_add(item, model: PhysicalModel, system: systems.System, spec: str) ->
     name, axis = parse_key(item)
     if name in model.parts():
         raise ValueError(f"cannot add {item}: the model already has {name}")
+    if item in system.model_effects:
+        raise ValueError(f"cannot add {item}: the model already has it (one of {system.name}'s model effects, a "
+                         "machine file's [[model]] tables)")
     available = [c.name for c in candidates_for(system)]
     if name not in available:
         raise ValueError(f"cannot add {item}: {name!r} is not an effect diagnose can add on {system.name}; choose from "

@@ -6,6 +6,13 @@ jointly by Algorithm 1 (``pgnn.training``). ``predict(reference)`` gives f = f^M
 ``use_network = False`` switches the network off at run time, leaving the trained physical
 model as a working controller; ``nn_contribution(reference)`` is f^C alone.
 
+A machine whose physical model carries effects (``System.model_effects``, a machine file's
+``[[model]]`` tables) keeps them in f^M as the least-squares fit found them, held fixed: their
+torque is taken off the target u before training (the network learns what the rigid body and they
+leave) and added to f^M. Paper 000's Algorithm 1 trains zeta, the rigid body's parameters, through
+the machine's ``inverse_dynamics``, which has no effect columns: training the effects' coefficients
+too would need them in its physics features (``pgnn.objective``) and in R1's column space.
+
 Saved files hold the weights (``torch.save`` of tensors only, loaded with ``weights_only=True``:
 no arbitrary objects are unpickled) and a JSON header with the configuration and lcgym version.
 """
@@ -23,6 +30,7 @@ import torch
 
 from .. import systems
 from ..data import atomic_write
+from ..physics.effects import effect_from_record, effect_record
 from ..physics.kinematics import reference_kinematics, reference_positions
 from ..physics.model import PhysicalModel
 from ..provenance import __version__
@@ -67,7 +75,9 @@ class PGNN:
         self.physical_ = (self.physical or machine.physical_model(fs=self.fs)).fit(trials)
         system = self.physical_.system
         zeta0 = self.physical_.params_.to_vector()
-        data = training_data(trials, system, cfg, zeta0[system.n_linear :])
+        self.fixed_ = self.physical_ if self.physical_.fitted_effects else None  # its effects, held fixed
+        data = training_data(trials, system, cfg, zeta0[system.n_linear :],
+                             fixed=None if self.fixed_ is None else self.fixed_.effects_torque)
         mean = data.inputs.mean(axis=0)
         std = np.maximum(data.inputs.std(axis=0), 1e-6)
         torch.manual_seed(cfg.seed)
@@ -101,7 +111,10 @@ class PGNN:
         with torch.no_grad():
             f_m, f_c = self.module_(*tq)
         self.module_.network_on = True
-        return f_m.double().numpy(), f_c.double().numpy()
+        f_m = f_m.double().numpy()
+        if getattr(self, "fixed_", None) is not None:  # the physical model's effects, held fixed
+            f_m = f_m + self.fixed_.effects_torque(q, qd, qdd)
+        return f_m, f_c.double().numpy()
 
     def predict(self, reference) -> np.ndarray:
         """Feedforward f = f^M + f^C (T, n_axes) [V for the IX] (f^M alone when ``use_network`` is False)."""
@@ -122,9 +135,11 @@ class PGNN:
     def save(self, path: str | Path) -> Path:
         """Weights and configuration in one file (atomic write)."""
         path = Path(path)
+        fixed = getattr(self, "fixed_", None)
         header = {"lcgym_version": __version__, "fs": self.fs, "config": asdict(self.config_),
                   "system": self.module_.system.name,
-                  "n_inputs": int(self.module_.input_mean.numel())}
+                  "n_inputs": int(self.module_.input_mean.numel()),
+                  "effects": [] if fixed is None else [effect_record(e) for e in fixed.fitted_effects]}
         blob = {"header": torch.tensor(list(json.dumps(header).encode()), dtype=torch.uint8),
                 **{f"state.{k}": v for k, v in self.module_.state_dict().items()}}
         atomic_write(path, lambda tmp: torch.save(blob, tmp))
@@ -149,4 +164,7 @@ class PGNN:
         self.module_ = PGNNModule(machine, state["zeta0"].numpy(), header["n_inputs"], config.hidden, config.activation,
                                   zeta_steps=config.zeta_steps)
         self.module_.load_state_dict(state)
+        effects = tuple(effect_from_record(r, machine) for r in header.get("effects", []))
+        self.fixed_ = None if not effects else PhysicalModel(  # the fitted effects, on the least-squares zeta0
+            machine, params=machine.params_from_vector(state["zeta0"].double().numpy()), effects=effects, fs=self.fs)
         return self

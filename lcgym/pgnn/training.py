@@ -131,16 +131,19 @@ def network_inputs(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, config: PGNNC
     return np.column_stack([cols, *extra])
 
 
-def training_data(trials, system: System, config: PGNNConfig, zeta_n0: np.ndarray) -> TrainingData:
+def training_data(trials, system: System, config: PGNNConfig, zeta_n0: np.ndarray, fixed=None) -> TrainingData:
     """Kinematics of each trial's reference, network inputs, filtered input u, and the regressor
     X at zeta_n0, concatenated over trials (each trial's filter and relay run on its own, at the
-    full rate, before ``config.decimate`` keeps every k-th sample)."""
+    full rate, before ``config.decimate`` keeps every k-th sample). ``fixed``: a function (q, qd,
+    qdd) -> (T, n_axes) [input unit], a part of the physical model held fixed (its fitted effects,
+    ``PhysicalModel.effects_torque``), taken off u before the filter."""
     parts = []
     for tr in trials:
         if tr.ref is None:
             raise ValueError("PGNN: training trials need a reference (the paper's theta_d surrogate)")
         q, qd, qdd = reference_kinematics(tr.ref, tr.fs, config.advance)
-        u = lowpass_zero_phase(tr.u, tr.fs, config.filter_hz) if config.filter_hz else np.asarray(tr.u, float)
+        u = np.asarray(tr.u, float) if fixed is None else tr.u - fixed(q, qd, qdd)
+        u = lowpass_zero_phase(u, tr.fs, config.filter_hz) if config.filter_hz else u
         k = slice(None, None, max(1, config.decimate))
         parts.append(tuple(a[k] for a in (q, qd, qdd, network_inputs(q, qd, qdd, config, tr.fs), u)))
     q, qd, qdd, inputs, u = (np.concatenate([p[i] for p in parts]) for i in range(5))

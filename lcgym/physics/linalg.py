@@ -9,7 +9,10 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba.extending import register_jitable
+
+from .effects import SMOOTHING
 
 
 @register_jitable
@@ -41,3 +44,35 @@ def solve_spd_in_place(M, b):
         for k in range(i + 1, n):
             s -= M[k, i] * b[k]
         b[i] = s / M[i, i]
+
+
+def penalty_rows(A: np.ndarray, penalties) -> np.ndarray:
+    """Rows to append to a design A (rows, p) for the roughness penalties (``Effect.roughness``):
+    ``penalties`` [(column indices, D)], each weighted by ``SMOOTHING`` times the mean square of
+    its columns, with target zero."""
+    rows = []
+    for idx, D in penalties:
+        lam = SMOOTHING * float((A[:, idx] ** 2).sum()) / len(idx)
+        block = np.zeros((D.shape[0], A.shape[1]))
+        block[:, idx] = np.sqrt(lam) * D
+        rows.append(block)
+    return np.concatenate(rows) if rows else np.zeros((0, A.shape[1]))
+
+
+def solve_min_norm(A, u, theta0, rcond: float = 1e-9, penalties=()):
+    """Minimum-norm correction to theta0 (column-scaled) of the least-squares problem A theta = u;
+    singular values below ``rcond`` times the largest count as zero (directions the data lacks);
+    ``penalties``: roughness penalties of some columns (``penalty_rows``). Returns theta and the
+    residual of the data rows."""
+    A = A.reshape(-1, theta0.size)
+    n = A.shape[0]
+    if penalties:
+        A = np.concatenate([A, penalty_rows(A, penalties)])
+        u = np.concatenate([np.ravel(u), np.zeros(A.shape[0] - n)])
+    y = u - A @ theta0
+    scale = np.linalg.norm(A, axis=0)
+    used = scale > 1e-12 * scale.max(initial=0.0)  # a column of round-off only is no direction
+    scale[~used] = 1.0
+    delta, *_ = np.linalg.lstsq(np.where(used, A / scale, 0.0), y, rcond=rcond)
+    theta = theta0 + delta / scale
+    return theta, (u - A @ theta)[:n]

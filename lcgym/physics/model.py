@@ -48,8 +48,11 @@ low-passed velocity lacks, and on a simulated carriage with the EMPS's parameter
 missed Fv by -8 % and Fc by +7 %; at 10-40 Hz by 1 % or less (``tests/test_diagnose_emps.py``).
 
 Effects' nonlinear parameters stay at the values the effect was built with (``diagnose``
-searches them). Ripple columns need the model's own torque: they are built from the rigid-body
-torque of the given parameters, then of the first pass's fit (two passes).
+searches them), except those of the effects named in ``search_shapes`` (a machine's
+``model_effects``, a machine file's ``[[model]]`` tables, declared without values): ``fit`` finds
+their shapes first, on the grids the diagnosis uses (``physics.shapes``), then fits as above.
+Ripple columns need the model's own torque: they are built from the rigid-body torque of the given
+parameters, then of the first pass's fit (two passes).
 """
 
 from __future__ import annotations
@@ -58,7 +61,7 @@ import dataclasses
 import hashlib
 from collections import OrderedDict
 from collections.abc import Sequence
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -67,8 +70,9 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from .compiled import cache_dir
-from .effects import SMOOTHING, Effect, Loads
+from .effects import Effect, Loads
 from .kinematics import lowpass_zero_phase, reference_kinematics, reference_positions
+from .linalg import penalty_rows, solve_min_norm  # noqa: F401 (the fit's solve; tests import it from here)
 
 POSITIONS = ("reference", "measured", "position")
 
@@ -81,7 +85,10 @@ class PhysicalModel:
     effects: bound to its axes on construction; fs [Hz] and advance [samples]: default the
     machine's. Constructor arguments are stored as given; ``fit`` sets ``params_``, ``effects_``
     (effects with fitted coefficients) and ``fit_info_``. Before ``fit``, ``predict`` uses the
-    given parameters (a nominal model is a working feedforward).
+    given parameters (a nominal model is a working feedforward). search_shapes: the ``name@axis``
+    keys of effects whose nonlinear parameters ``fit`` finds (``physics.shapes``; the machine's
+    ``model_effects``); it sets them in ``effects`` too (their shapes, coefficients as given), and
+    ``fit_info_["shapes"]`` records them.
     """
 
     system: Any
@@ -95,6 +102,7 @@ class PhysicalModel:
     positions: str = "reference"  # kinematics of the fit: "reference", "measured" or "position" (see above)
     error_filter_hz: float = 5.0
     position_filter_hz: float | None = None  # kinematics from the measured position (see above); None: 2 filter_hz
+    search_shapes: tuple[str, ...] = ()  # effects (name@axis) whose nonlinear parameters fit finds (physics.shapes)
     built_in: ClassVar[tuple[str, ...]] = ("rigid_body", "viscous_friction")  # what the model has without effects
     rcond: ClassVar[float] = 1e-9  # relative singular-value cut of the linear solve (directions the data lacks)
 
@@ -113,6 +121,16 @@ class PhysicalModel:
             if e.plant_only:
                 raise ValueError(f"{e.key} has internal dynamics: it exists in plants only, not in a static model")
         self.effects = tuple(self.system.effect(e) for e in self.effects)
+        self.search_shapes = tuple(self.search_shapes)
+        if self.search_shapes:
+            from .shapes import model_candidate
+
+            keys = [e.key for e in self.effects]
+            for key in self.search_shapes:
+                if key not in keys:
+                    raise ValueError(f"search_shapes names {key}, which is not among the model's effects "
+                                     f"({', '.join(keys)})")
+                model_candidate(self.system, key, type(self).built_in)  # a ValueError says why the fit could not find its shape
 
     @classmethod
     def for_diagnosis(cls, system, fs: float) -> PhysicalModel:
@@ -137,8 +155,13 @@ class PhysicalModel:
         """Model input (T, n_axes) [input unit] for given kinematics (rad or m, per s, per s^2)."""
         p = self.fitted_params.to_vector()
         base = self.system.inverse_dynamics(p, q, qd, qdd)
-        tau = base.copy()
-        loads = self.load_torques((q, qd, qdd), p, rigid=base)
+        return base + self.effects_torque(q, qd, qdd, rigid=base)
+
+    def effects_torque(self, q, qd, qdd, rigid=None) -> np.ndarray:
+        """The fitted effects' part of ``torque`` (T, n_axes) [input unit] (zero without effects);
+        ``rigid``: the rigid-body torque there, where the caller has it."""
+        tau = np.zeros(np.shape(q), dtype=float)
+        loads = self.load_torques((q, qd, qdd), rigid=rigid)
         for e in self.fitted_effects:
             tau += e.torque(q, qd, qdd, loads)
         return tau
@@ -169,7 +192,9 @@ class PhysicalModel:
         effect = self.system.effect(effect, **params)
         if any(e.key == effect.key for e in self.effects):
             raise ValueError(f"model already has {effect.key}")
-        return dataclasses.replace(self, params=self.fitted_params, effects=(*self.fitted_effects, effect))
+        fitted = hasattr(self, "effects_")  # then its effects' shapes are found: they start from them
+        return dataclasses.replace(self, params=self.fitted_params, effects=(*self.fitted_effects, effect),
+                                   search_shapes=() if fitted else self.search_shapes)
 
     # ------------------------------------------------------------------ fitting
     def free_mask(self) -> np.ndarray:
@@ -318,10 +343,21 @@ class PhysicalModel:
             mask = np.asarray(mask, dtype=bool)
             if mask.shape != u.shape:
                 raise ValueError(f"mask must have shape {u.shape} (samples, axes), got {mask.shape}")
-        if self.system.fully_linear:
-            theta, resid = self._fit_linear(kin, lengths, u, mask)
-        else:
-            theta, resid = self._fit_variable_projection(kin, lengths, u, mask)
+        shapes = {}
+        with ExitStack() as shared:
+            if self.search_shapes:  # the shapes of the effects declared without values, first (physics.shapes)
+                from .shapes import fit_shapes
+
+                if self.system.caching is not None:  # the search and the fit share the regressor and its reduction
+                    shared.enter_context(self.system.caching())
+                shared.enter_context(reduction_memo())
+                self.effects = fit_shapes(self, kin, lengths, u, mask)
+                shapes = {e.key: {n: float(getattr(e, n)) for n in e.nonlinear} for e in self.effects
+                          if e.key in self.search_shapes}
+            if self.system.fully_linear:
+                theta, resid = self._fit_linear(kin, lengths, u, mask)
+            else:
+                theta, resid = self._fit_variable_projection(kin, lengths, u, mask)
         n_free = theta.size - sum(len(e.linear) for e in self.effects)
         effects, i = [], n_free
         for e in self.effects:
@@ -329,7 +365,8 @@ class PhysicalModel:
             i += len(e.linear)
         self.effects_ = tuple(effects)
         self.fit_info_ = {**self.fit_info_, "residual_rms": float(np.sqrt(np.mean(resid**2))),
-                          "n_samples": int(sum(lengths)), "n_used": int(resid.size // len(self.system.axes))}
+                          "n_samples": int(sum(lengths)), "n_used": int(resid.size // len(self.system.axes)),
+                          **({"shapes": shapes} if shapes else {})}
         return self
 
     def kept_reduce(self, A: np.ndarray, lengths: Sequence[int], mask: np.ndarray | None) -> np.ndarray:
@@ -483,38 +520,6 @@ def column_rank(A: np.ndarray, rcond: float = 1e-9, zero: float = 1e-10) -> int:
         return 0
     s = np.linalg.svd(A[:, used] / scale[used], compute_uv=False)
     return int((s > rcond * s[0]).sum())
-
-
-def penalty_rows(A: np.ndarray, penalties) -> np.ndarray:
-    """Rows to append to a design A (rows, p) for the roughness penalties (``Effect.roughness``):
-    ``penalties`` [(column indices, D)], each weighted by ``SMOOTHING`` times the mean square of
-    its columns, with target zero."""
-    rows = []
-    for idx, D in penalties:
-        lam = SMOOTHING * float((A[:, idx] ** 2).sum()) / len(idx)
-        block = np.zeros((D.shape[0], A.shape[1]))
-        block[:, idx] = np.sqrt(lam) * D
-        rows.append(block)
-    return np.concatenate(rows) if rows else np.zeros((0, A.shape[1]))
-
-
-def solve_min_norm(A, u, theta0, rcond: float = 1e-9, penalties=()):
-    """Minimum-norm correction to theta0 (column-scaled) of the least-squares problem A theta = u;
-    singular values below ``rcond`` times the largest count as zero (directions the data lacks);
-    ``penalties``: roughness penalties of some columns (``penalty_rows``). Returns theta and the
-    residual of the data rows."""
-    A = A.reshape(-1, theta0.size)
-    n = A.shape[0]
-    if penalties:
-        A = np.concatenate([A, penalty_rows(A, penalties)])
-        u = np.concatenate([np.ravel(u), np.zeros(A.shape[0] - n)])
-    y = u - A @ theta0
-    scale = np.linalg.norm(A, axis=0)
-    used = scale > 1e-12 * scale.max(initial=0.0)  # a column of round-off only is no direction
-    scale[~used] = 1.0
-    delta, *_ = np.linalg.lstsq(np.where(used, A / scale, 0.0), y, rcond=rcond)
-    theta = theta0 + delta / scale
-    return theta, (u - A @ theta)[:n]
 
 
 class _Design:

@@ -39,13 +39,25 @@ gear), a feedback loop, encoders and input limits. Written as a machine file (TO
     Fc = 3.0
     eps = 0.02
 
+    [[model]]                         # one table per effect the physical model knows: no values,
+    effect = "coulomb_friction"       # the fit finds them (System.model_effects; physics.shapes)
+    axis = "elbow"
+
     [benchmark.rl]                    # a method's settings on this machine (System.hints["benchmark"])
     passes = 1.0
 
 In Python, ``benchmark_machine(system_or_urdf, hidden=[...], ...)`` takes the same settings as
-arguments. Either gives a ``System`` with a bench (``URDFBench``: references, plant runs, the
-scored tables) and a Gymnasium env (``lcgym/Machine-v0``, ``systems.machine_env``): ``lcgym bench
---systems my_arm.toml`` and ``gym.make("lcgym/Machine-v0", machine="my_arm.toml")``.
+arguments (the model's effects are the machine's: ``dataclasses.replace(system, model_effects=(...))``).
+Either gives a ``System`` with a bench (``URDFBench``: references, plant runs, the scored tables) and
+a Gymnasium env (``lcgym/Machine-v0``, ``systems.machine_env``): ``lcgym bench --systems my_arm.toml``
+and ``gym.make("lcgym/Machine-v0", machine="my_arm.toml")``.
+
+The ``[[model]]`` tables name effects the machine's physical model carries beyond its rigid body
+and viscous friction, with the names and axes of ``[[hidden]]`` (those ``lcgym diagnose --add``
+takes; ``lcgym diagnose LOG --system my_arm.toml`` prints the tables of what it selects) but no
+values: the model's fit finds them (the coefficients by least squares with the rigid body, a
+friction's smoothing and a spring's onset on the diagnosis's grids), and every method that starts
+from the physical model has them.
 """
 
 from __future__ import annotations
@@ -241,7 +253,7 @@ def hidden_effects(system: System) -> dict[str, type]:
 # ---------------------------------------------------------------------------------------------
 
 TOP_KEYS = ("urdf", "joints", "name", "fs", "gravity", "description", "feedback", "sensors", "limits", "references",
-            "hidden", "benchmark")
+            "hidden", "model", "benchmark")
 SECTION_KEYS = {
     "feedback": tuple(f.name for f in dataclasses.fields(FeedbackSettings)),
     "sensors": ("encoder_resolution", "noise_rms"),
@@ -292,6 +304,7 @@ def load_machine(path: str | Path, envs: Mapping | None = None) -> System:
         if "description" in data:  # the file's words first, then what the URDF gives (its base parameters)
             system = dataclasses.replace(system, description=f"{data['description']} ({system.description})")
         hidden = tuple(_hidden_effect(system, i, entry) for i, entry in enumerate(_list(data.get("hidden", []), "hidden")))
+        system = dataclasses.replace(system, model_effects=model_effects(system, _list(data.get("model", []), "model")))
         settings = MachineSettings(
             fs=float(data.get("fs", 1000.0)), feedback=FeedbackSettings(**sections["feedback"]),
             hidden=hidden, references=ReferenceSettings(**sections["references"]), hints=_hints(data.get("benchmark", {})),
@@ -330,6 +343,34 @@ def _hidden_effect(system: System, i: int, entry: Mapping):
     return system.effect(f"{name}@{axis}", **params)
 
 
+def model_effects(system: System, tables: Sequence[Mapping]) -> tuple[str, ...]:
+    """The ``name@axis`` keys of a machine file's ``[[model]]`` tables (``System.model_effects``),
+    each checked: an effect and an axis, no parameter value, one the model can fit
+    (``physics.shapes.model_candidate``), none twice; a ValueError names the table, model[i]."""
+    from ..physics.model import PhysicalModel
+    from ..physics.shapes import model_candidate
+
+    keys: list[str] = []
+    for i, entry in enumerate(tables):
+        entry = dict(entry)
+        name, axis = entry.pop("effect", None), entry.pop("axis", None)
+        if not isinstance(name, str) or not isinstance(axis, str):
+            raise ValueError(f"model[{i}]: give effect = \"<name>\" and axis = \"<axis>\" (e.g. coulomb_friction, "
+                             f"{system.axis_names[0]})")
+        if entry:
+            raise ValueError(f"model[{i}] ({name}@{axis}): {next(iter(entry))} = ...: a [[model]] table takes no "
+                             "parameter values (effect and axis only): the model's fit finds them")
+        key = f"{name}@{axis}"
+        try:
+            model_candidate(system, key, (system.model or PhysicalModel).built_in)
+        except ValueError as exc:
+            raise ValueError(f"model[{i}]: {exc}") from None
+        if key in keys:
+            raise ValueError(f"model[{i}]: {key} is listed twice (model[{keys.index(key)}] and model[{i}])")
+        keys.append(key)
+    return tuple(keys)
+
+
 def _hints(table) -> dict:
     """[benchmark.<method>] tables -> ``System.hints["benchmark"]``."""
     if not isinstance(table, dict) or not all(isinstance(v, dict) for v in table.values()):
@@ -338,4 +379,4 @@ def _hints(table) -> dict:
 
 
 __all__ = ["MACHINE_ENV", "FeedbackSettings", "MachineBench", "MachineFileError", "MachineSettings", "ReferenceSettings",
-           "benchmark_machine", "hidden_effects", "load_machine", "plant_from_record", "plant_record"]
+           "benchmark_machine", "hidden_effects", "load_machine", "model_effects", "plant_from_record", "plant_record"]

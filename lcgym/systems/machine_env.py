@@ -149,7 +149,7 @@ class MachineTask:
                 raise ValueError(f"base_feedforward must be 'none', 'physical' or a fitted model, got {base!r}")
             if base == "none":
                 return None, "none"
-            key = (repr(self.plant), seed)
+            key = (repr(self.plant), self.system.model_effects, seed)  # the plant and what its model carries
             if key not in _MODEL_CACHE:  # the first env of a process runs and fits; later ones reuse it
                 train = self.bench.references("train", seed, DEFAULT_REFERENCES, DEFAULT_DURATION)
                 _MODEL_CACHE[key] = self.system.physical_model(fs=self.plant.fs).fit(self.plant.run(train))

@@ -26,6 +26,7 @@ axis's ``input_unit`` (N m or N; the IX's amplifier input in V).
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import math
 from collections import OrderedDict
@@ -189,6 +190,11 @@ class System:
     caching: ``() -> context manager`` inside which the machine keeps its last regressors (a
     diagnosis evaluates the model, its effects and its refits on the same kinematics many times);
     None: nothing is kept.
+    model_effects: effects its physical model knows beyond its rigid body (``name@axis`` keys; a
+    machine file's ``[[model]]`` tables), declared without values: ``physical_model`` and
+    ``diagnosis_model`` carry them, and a fit finds their parameters, the coefficients by least
+    squares with the rigid body, the shapes on the diagnosis's grids (``physics.shapes``). Every
+    method that starts from the physical model sees them.
     """
 
     name: str
@@ -218,6 +224,7 @@ class System:
     envs: Mapping[str, Mapping] = field(default_factory=dict)
     observation_error: slice | None = None
     nominal: object | None = None
+    model_effects: tuple[str, ...] = ()
 
     def __post_init__(self):
         object.__setattr__(self, "axes", _as_axes(self.axes))
@@ -245,6 +252,16 @@ class System:
                 raise ValueError(f"{self.name}: nonlinear_columns must be indices of linear parameters (0..{self.n_linear - 1}) "
                                  f"of a machine quadratic_in_nonlinear, got {self.nonlinear_columns}")
         object.__setattr__(self, "hints", {k: dict(v) for k, v in self.hints.items()})
+        object.__setattr__(self, "model_effects", tuple(self.model_effects))
+        twice = sorted({k for k in self.model_effects if self.model_effects.count(k) > 1})
+        if twice:
+            raise ValueError(f"{self.name}: model effect {twice[0]} listed twice")
+        if self.model_effects:
+            from ..physics.model import PhysicalModel
+            from ..physics.shapes import model_candidate
+
+            for key in self.model_effects:  # a ValueError says why its model cannot carry it
+                model_candidate(self, key, (self.model or PhysicalModel).built_in)
         object.__setattr__(self, "envs", {k: dict(v) for k, v in self.envs.items()})
 
     @property
@@ -322,12 +339,26 @@ class System:
 
     # ------------------------------------------------------------------ models
     def physical_model(self, **kwargs):
-        """The machine's physical model (unfitted), ``self.model(system=self, **kwargs)``."""
-        return self._model_class()(system=self, **kwargs)
+        """The machine's physical model (unfitted), ``self.model(system=self, **kwargs)``, with its
+        ``model_effects`` (their parameters found by its fit)."""
+        return self._with_model_effects(self._model_class()(system=self, **kwargs))
 
     def diagnosis_model(self, fs: float):
-        """The model ``lcgym diagnose`` starts from (``PhysicalModel.for_diagnosis``)."""
-        return self._model_class().for_diagnosis(self, fs)
+        """The model ``lcgym diagnose`` starts from (``PhysicalModel.for_diagnosis``), with the
+        machine's ``model_effects``."""
+        return self._with_model_effects(self._model_class().for_diagnosis(self, fs))
+
+    def _with_model_effects(self, model):
+        """``model`` with the machine's ``model_effects`` added, their shapes to be found by its fit
+        (``PhysicalModel.search_shapes``)."""
+        if not self.model_effects:
+            return model
+        have = {e.key for e in model.effects}
+        again = [k for k in self.model_effects if k in have]
+        if again:
+            raise ValueError(f"{again[0]}: the model given has it already, and it is one of {self.name}'s model effects")
+        return dataclasses.replace(model, effects=(*model.effects, *(self.effect(k) for k in self.model_effects)),
+                                   search_shapes=(*model.search_shapes, *self.model_effects))
 
     def _model_class(self) -> type:
         if self.model is not None:
