@@ -65,7 +65,7 @@ import numpy as np
 from .. import systems
 from ..systems import SimulationDiverged
 from .bases import base_controller
-from .iteration import ILCDiverged, best_trial, check_divergence, q_filter, rms
+from .iteration import ILCDiverged, best_trial, check_divergence, held_edges, q_filter, rms
 from .protocol import DEFAULT_BASE, Controller, Cost, given_system
 from .safeguard import Safeguard, dropped_note, mixed, scored_axes
 
@@ -104,7 +104,7 @@ def frequency_update(f: np.ndarray, e: np.ndarray, inverse: np.ndarray, q: np.nd
     no error to learn."""
     T = f.shape[0]
     if hold_edges:
-        f = np.concatenate([f, np.repeat(f[-1:], T // 2, axis=0), np.repeat(f[:1], T - T // 2, axis=0)])
+        f = held_edges(f)
     F = np.fft.rfft(f, n=2 * T, axis=0)
     E = np.fft.rfft(e, n=2 * T, axis=0)
     return np.fft.irfft(q[:, None] * (F + gain * inverse * E), n=2 * T, axis=0)[:T]

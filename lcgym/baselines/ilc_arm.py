@@ -63,7 +63,7 @@ from ..systems.flexarm import dynamics as arm
 from ..systems.flexarm.plant import PIDGains
 from ..systems.flexarm.references import MOVING
 from ..systems.flexarm.sensors import estimate_load_acceleration, true_load_acceleration
-from .iteration import ILCDiverged, check_divergence, q_filter, rms
+from .iteration import ILCDiverged, check_divergence, held_edges, q_filter, rms
 
 ACC_CUTOFF = 50.0  # Hz: the accelerometer estimate's zero-phase low-pass (sensors.py); the reference's too
 REST = 0.3  # s: the rest at the start over which the accelerometer's bias is taken (sensors.py)
@@ -191,7 +191,7 @@ def measured_load_error(e_m: np.ndarray, e_a: np.ndarray, fs: float, crossover_h
     hp = _highpass(w, crossover_hz)[:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
         from_acc = np.where(w[:, None] > 0, -np.fft.rfft(e_a, n=n, axis=0) / w[:, None] ** 2, 0.0)
-    E = (1 - hp) * np.fft.rfft(_held(e_m), n=n, axis=0) + hp * from_acc
+    E = (1 - hp) * np.fft.rfft(held_edges(e_m), n=n, axis=0) + hp * from_acc
     return np.fft.irfft(E, n=n, axis=0)[:T]
 
 
@@ -199,13 +199,6 @@ def _highpass(w: np.ndarray, hz: float, order: int = 2) -> np.ndarray:
     """Zero-phase high-pass 1 - |Butterworth low-pass|^2 at ``hz`` on the angular frequencies w."""
     x = (w / (2 * math.pi * hz)) ** (2 * order)
     return x / (1.0 + x)
-
-
-def _held(x: np.ndarray) -> np.ndarray:
-    """x (T, A) padded to 2 T with its edge values (the last one for the first half of the padding,
-    the first for the second, where the circular wrap lands; ``ilc.frequency_update``)."""
-    T = x.shape[0]
-    return np.concatenate([x, np.repeat(x[-1:], T // 2, axis=0), np.repeat(x[:1], T - T // 2, axis=0)])
 
 
 # ----------------------------------------------------------------------------- the update
@@ -242,8 +235,8 @@ def update(nominal, f: np.ndarray, offset: np.ndarray | None, error: dict, fs: f
     if config.torque == "motor":
         inv_pm = np.zeros_like(resp["P_m"])
         inv_pm[1:] = 1.0 / resp["P_m"][1:]
-        base = np.fft.rfft(_held(f + np.asarray(error["feedback"], dtype=float)), axis=0)
-        E_m = np.fft.rfft(_held(N * np.asarray(error["motor"], dtype=float)), axis=0)
+        base = np.fft.rfft(held_edges(f + np.asarray(error["feedback"], dtype=float)), axis=0)
+        E_m = np.fft.rfft(held_edges(N * np.asarray(error["motor"], dtype=float)), axis=0)
         F = q * (base + config.gain * inv_pm * (E_m + N * D_o))
     elif config.torque == "lcs":
         response = nominal.load_response(n, fs)
@@ -252,11 +245,11 @@ def update(nominal, f: np.ndarray, offset: np.ndarray | None, error: dict, fs: f
         inv_pm = np.zeros_like(resp["P_m"])
         inv_pm[1:] = 1.0 / resp["P_m"][1:]
         E_pl = np.fft.rfft(np.asarray(error["e_pl"], dtype=float), n=n, axis=0)
-        F = q * (np.fft.rfft(_held(f), axis=0) + config.gain * inv * E_pl) + inv_pm * N * D_o
+        F = q * (np.fft.rfft(held_edges(f), axis=0) + config.gain * inv * E_pl) + inv_pm * N * D_o
     else:
         inv_pm = np.zeros_like(resp["P_m"])
         inv_pm[1:] = 1.0 / resp["P_m"][1:]
-        F = np.fft.rfft(_held(f), axis=0) + inv_pm * N * D_o
+        F = np.fft.rfft(held_edges(f), axis=0) + inv_pm * N * D_o
     return f0 + np.fft.irfft(F, n=n, axis=0)[:T], o + d_o
 
 

@@ -46,3 +46,10 @@ def best_trial(history: Sequence[np.ndarray], scored: Sequence[int]) -> int:
     h = np.asarray(history)[:, list(scored)]
     eligible = np.flatnonzero((h <= h[0]).all(axis=1))
     return int(eligible[np.argmin(np.sqrt(np.mean(np.square(h[eligible]), axis=1)))])
+
+
+def held_edges(x: np.ndarray) -> np.ndarray:
+    """x (T, A) padded to 2 T with its edge values (the last one for the first half of the padding,
+    the first for the second, where the circular wrap lands; ``ilc.frequency_update``)."""
+    T = x.shape[0]
+    return np.concatenate([x, np.repeat(x[-1:], T // 2, axis=0), np.repeat(x[:1], T - T // 2, axis=0)])
