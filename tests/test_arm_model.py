@@ -13,6 +13,7 @@ from lcgym.systems.flexarm.model import ArmModel
 from lcgym.systems.flexarm.nominal import BasicFeedforward
 from lcgym.systems.flexarm.plant import FlexArmPlant, default_true_arm
 from lcgym.systems.flexarm.references import arm_reference_set
+from lcgym.systems.system import RegressorCache
 
 rng = np.random.default_rng(3)
 
@@ -137,10 +138,25 @@ def test_arm_trials_round_trip_through_the_measurement_format(tmp_path, feedback
 
 
 def test_regressor_cache_lives_only_inside_its_block():
-    q, qd, qdd = _kinematics(5)
+    q, qd, qdd = _kinematics(RegressorCache.MIN_ROWS)
     assert arm_motor.regressor(None, q, qd, qdd) is not arm_motor.regressor(None, q, qd, qdd)
     with arm_motor.cached_regressors():
         X = arm_motor.regressor(None, q, qd, qdd)
         assert arm_motor.regressor(None, q.copy(), qd, qdd) is X and not X.flags.writeable
         assert arm_motor.regressor(None, q + 1e-9, qd, qdd) is not X  # keyed by the values
+        batch = tuple(x[:10] for x in (q, qd, qdd))  # a training batch: computed, not kept
+        assert arm_motor.regressor(None, *batch) is not arm_motor.regressor(None, *batch)
     assert arm_motor._CACHE._store is None  # nothing kept after the block
+
+
+def test_a_cache_block_keeps_as_many_as_it_is_told():
+    """A benchmark cell keeps one regressor per reference (``System.caching(size)``), then the
+    machine's own number again."""
+    kin = [_kinematics(RegressorCache.MIN_ROWS) for _ in range(arm_motor.CACHE_SIZE + 2)]
+    with arm_motor.cached_regressors(size=len(kin)):
+        first = [arm_motor.regressor(None, *k) for k in kin]
+        assert all(arm_motor.regressor(None, *k) is X for k, X in zip(kin, first, strict=True))
+    assert arm_motor._CACHE.size == arm_motor.CACHE_SIZE
+    with arm_motor.cached_regressors():
+        first = [arm_motor.regressor(None, *k) for k in kin]
+        assert arm_motor.regressor(None, *kin[0]) is not first[0]  # the oldest dropped

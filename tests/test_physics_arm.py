@@ -96,6 +96,19 @@ def test_mass_matrix_symmetric_positive_definite_and_regressor_linear():
     np.testing.assert_allclose(Y @ PI, arm.inverse_dynamics(P, q, qd, qdd), rtol=1e-10, atol=1e-9)
 
 
+def test_regressor_columns_are_newton_euler_with_unit_parameters():
+    """Column j of the regressor is RNEA with the unit parameter vector e_j (the definition), to the
+    last bit: the regressor's shared forward pass and its inward pass from link j // 10 (the links
+    beyond carry nothing) do the same arithmetic."""
+    q, qd, qdd = _states(10, seed=4)
+    for k in range(10):
+        Y = arm.regressor(DH, q[k], qd[k], qdd[k], arm.GRAVITY)
+        for j in range(arm.N_PARAMS):
+            e = np.zeros(arm.N_PARAMS)
+            e[j] = 1.0
+            np.testing.assert_array_equal(Y[:, j], arm.rnea(DH, e, q[k], qd[k], qdd[k], arm.GRAVITY))
+
+
 def test_composite_rigid_body_mass_matrix_is_newton_euler_column_by_column():
     """M(q) of the composite-rigid-body algorithm against RNEA with qd = 0, qdd = e_j and no gravity
     (column j of M by definition), with the 12 kg payload beyond the flange."""

@@ -62,7 +62,7 @@ from ..systems import SimulationDiverged
 from ..systems.flexarm import dynamics as arm
 from ..systems.flexarm.plant import PIDGains
 from ..systems.flexarm.references import MOVING
-from ..systems.flexarm.sensors import estimate_load_acceleration, true_load_acceleration
+from ..systems.flexarm.sensors import estimate_load_acceleration, specific_forces, true_load_acceleration
 from .iteration import ILCDiverged, check_divergence, held_edges, q_filter, rms
 
 ACC_CUTOFF = 50.0  # Hz: the accelerometer estimate's zero-phase low-pass (sensors.py); the reference's too
@@ -172,8 +172,9 @@ def measured_ee_error(trial, reference, nominal, accel_offset) -> np.ndarray:
     """|a_meas - bias - f(q_lr, qd_lr, qdd_lr)| (T,) [m/s^2] with the nominal kinematics and the bias
     taken over the first ``REST`` s (the arm at rest, as ``sensors.py`` does)."""
     dh, o = nominal.arm_params.dh.table(), np.asarray(accel_offset, dtype=float)
-    q, qd, qdd = (x[: trial.pos.shape[0]] for x in (reference.positions, reference.velocities, reference.accelerations))
-    f_ref = np.array([arm.specific_force_compiled(dh, a, b, c, o, arm.GRAVITY) for a, b, c in zip(q, qd, qdd, strict=True)])
+    q, qd, qdd = (np.ascontiguousarray(x[: trial.pos.shape[0]], dtype=float)
+                  for x in (reference.positions, reference.velocities, reference.accelerations))
+    f_ref = specific_forces(dh, q, qd, qdd, o, arm.GRAVITY)
     acc = np.column_stack([trial.extra[f"acc_{c}"] for c in "xyz"])
     n_rest = max(1, int(REST * trial.fs))
     bias = (acc[:n_rest] - f_ref[:n_rest]).mean(axis=0)

@@ -120,7 +120,7 @@ class PGNNFeedforward(Controller):
 
     def learn(self, plant, reference) -> PGNNFeedforward:
         if not hasattr(self, "pgnn_"):
-            physical = PhysicalFeedforward(system=self.system_).fit(self.trials_)
+            self.physical_ = physical = PhysicalFeedforward(system=self.system_).fit(self.trials_)
             refs = references_of(self.trials_)
             data = plant.run(refs, [physical.feedforward(r) for r in refs])
             self.cost_ = Cost(plant_trials=len(refs))
@@ -137,7 +137,8 @@ class PGNNFeedforward(Controller):
         self.note_ = ""
         if not self.gate:
             return
-        self.physical_ = PhysicalFeedforward(system=self.system_).fit(self.trials_)
+        if not hasattr(self, "physical_"):  # the least-squares model of the training trials (learn's, where it ran)
+            self.physical_ = PhysicalFeedforward(system=self.system_).fit(self.trials_)
         axes = refs[0].axes
         guard = Safeguard(self.system_)
         self.part_kept_ = guard.choose(plant, refs, self._physical, self._part)

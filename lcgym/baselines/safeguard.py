@@ -89,6 +89,7 @@ class Safeguard:
     def choose(self, plant, references: Sequence, base: Signals, learned: Signals) -> np.ndarray:
         n = references[0].positions.shape[1]
         scored = scored_axes(self.system, n)
+        base, learned = _once_per_reference(base, references), _once_per_reference(learned, references)
         base_rms = self._rms(plant, references, base, learned, np.zeros(n, dtype=bool), scored)
         learned_rms = self._rms(plant, references, base, learned, np.ones(n, dtype=bool), scored)
         self.kept_, self.figures_ = keep_axes(
@@ -104,6 +105,20 @@ class Safeguard:
             rms.append(np.sqrt(np.mean(np.square(error[:, scored]), axis=0)))
             self.trials_ += 1
         return np.array(rms)
+
+
+def _once_per_reference(signals: Signals, references: Sequence) -> Signals:
+    """``signals`` computed once per reference of ``references`` (a method's prediction may cost more
+    than the plant run it feeds; the rule asks for each up to three times)."""
+    done: dict[int, tuple] = {}
+
+    def once(reference):
+        k = next(i for i, r in enumerate(references) if r is reference)
+        if k not in done:
+            done[k] = signals(reference)
+        return done[k]
+
+    return once
 
 
 def mixed(base: tuple, learned: tuple, kept: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:

@@ -34,7 +34,7 @@ import time
 import traceback
 import uuid
 from collections.abc import Sequence
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from dataclasses import asdict, dataclass, field, replace
 from datetime import UTC, datetime
 from functools import lru_cache
@@ -54,6 +54,7 @@ from .store import append_rows, completed_cells
 
 EVALUATED_SETS = ("train", "validation")
 QUICK_BUDGET = 0.5
+CELL_REGRESSORS = 3  # regressors a cell keeps per reference (``_regressors_kept``): its reference, measured and shifted kinematics
 """``BenchConfig.quick``'s share of the methods' full learning budgets."""
 
 
@@ -188,9 +189,10 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_th
             for name, n in (("train", config.n_train), ("validation", config.n_validation))}
     train_trials = copy.deepcopy(_training_trials(system, seed, config))  # a copy: a method may alter its trials
     stage = ["loading the method"]
+    machine = systems.benchmark(system)
     try:
-        with _time_limit(timeout, stage):
-            controller = build_method(method, systems.benchmark(system), CONTROLLERS, config.budget)
+        with _time_limit(timeout, stage), _regressors_kept(machine, config):
+            controller = build_method(method, machine, CONTROLLERS, config.budget)
             stage[0] = "fit"
             t0 = time.perf_counter()
             controller.fit(train_trials)
@@ -218,6 +220,15 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_th
             return rows, trace
     except Exception as exc:  # a method's failure is a result, not a crash of the benchmark
         return [{**key, "status": "failed", "error": _failure(exc, stage[0])[:500]}], None
+
+
+def _regressors_kept(machine, config: BenchConfig):
+    """Keep the machine's regressors of the cell's kinematics while it runs (``System.caching``):
+    a learner evaluates its base on each reference again and again (its fit, its safeguard's runs,
+    its feedforward), the same values each time. Per reference about 20 MB on the FlexArm."""
+    if machine.caching is None:
+        return nullcontext()
+    return machine.caching(size=CELL_REGRESSORS * (config.n_train + config.n_validation))
 
 
 def _failure(exc: Exception, stage: str) -> str:

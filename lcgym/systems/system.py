@@ -51,13 +51,16 @@ class RegressorCache:
     and a long-lived process must not hold hundreds of MB between uses. ``System.caching`` is a
     machine's ``active``."""
 
+    MIN_ROWS = 1000
+
     def __init__(self, size: int = 3):
         self.size = size
         self._store: OrderedDict | None = None
 
     def get(self, compute: Callable[[], np.ndarray], *arrays: np.ndarray) -> np.ndarray:
-        """``compute()``, or the result kept for arrays of the same bytes and shapes."""
-        if self._store is None:
+        """``compute()``, or the result kept for arrays of the same bytes and shapes (arrays of fewer
+        than ``MIN_ROWS`` rows, a training batch, are computed: hashing them costs about as much)."""
+        if self._store is None or np.shape(arrays[0])[0] < self.MIN_ROWS:
             return compute()
         h = hashlib.blake2b(digest_size=16)
         for x in arrays:
@@ -74,14 +77,18 @@ class RegressorCache:
         return result
 
     @contextmanager
-    def active(self):
-        """Keep results while the block runs (nested blocks share the outer one's store)."""
-        outer = self._store
+    def active(self, size: int | None = None):
+        """Keep results while the block runs (nested blocks share the outer one's store); ``size``:
+        keep this many for the block's duration instead of ``self.size`` (a benchmark cell keeps
+        every reference's regressor: its methods evaluate their bases on them again and again)."""
+        outer, outer_size = self._store, self.size
         self._store = OrderedDict() if outer is None else outer
+        if size is not None:
+            self.size = max(int(size), outer_size)
         try:
             yield
         finally:
-            self._store = outer
+            self._store, self.size = outer, outer_size
 
 
 @dataclass(frozen=True)
@@ -187,9 +194,10 @@ class System:
     listings.
     joint_axes: ``() -> (n_axes, 3)``, the unit axis of each joint in the base frame at the
     machine's reference pose (the RBF expert's motion influence); None: all mutually perpendicular.
-    caching: ``() -> context manager`` inside which the machine keeps its last regressors (a
-    diagnosis evaluates the model, its effects and its refits on the same kinematics many times);
-    None: nothing is kept.
+    caching: ``(size=None) -> context manager`` inside which the machine keeps its last regressors
+    (``size`` of them, default the machine's own number: a diagnosis evaluates the model, its
+    effects and its refits on the same kinematics many times; a benchmark cell its bases on each
+    reference); None: nothing is kept.
     model_effects: effects its physical model knows beyond its rigid body (``name@axis`` keys; a
     machine file's ``[[model]]`` tables), declared without values: ``physical_model`` and
     ``diagnosis_model`` carry them, and a fit finds their parameters, the coefficients by least
@@ -437,5 +445,7 @@ def _contract(X, p):
     if hasattr(p, "detach"):
         import torch
 
-        return torch.as_tensor(np.ascontiguousarray(X), dtype=p.dtype) @ p
+        X = np.ascontiguousarray(X)
+        # a cached regressor is read-only: torch gets a copy of it, never a view it could write to
+        return (torch.as_tensor(X, dtype=p.dtype) if X.flags.writeable else torch.tensor(X, dtype=p.dtype)) @ p
     return np.asarray(X) @ np.asarray(p, dtype=float)

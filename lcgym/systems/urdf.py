@@ -185,9 +185,9 @@ class URDFRobot:
         X[:, axes, 10 * A + axes] = qd
         return X
 
-    def caching(self):
-        """Keep the last ``CACHE_SIZE`` regressors while the block runs (see ``regressor``)."""
-        return self._cache.active()
+    def caching(self, size: int | None = None):
+        """Keep the last ``CACHE_SIZE`` regressors (or ``size``) while the block runs (see ``regressor``)."""
+        return self._cache.active(size)
 
     # ------------------------------------------------------------------ geometry
     def joint_axes(self) -> np.ndarray:

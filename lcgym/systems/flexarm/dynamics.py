@@ -299,10 +299,18 @@ def rnea_transforms(R, p, pi, qd, qdd, gravity):
     """``rnea`` for precomputed joint transforms (R, p)."""
     work = np.empty((4, N_JOINTS, 3))  # indexed, not sliced: a slice is an object numba counts references of
     forward_pass_into(R, p, qd, qdd, gravity, work)
+    return backward_pass(R, p, pi, work, N_JOINTS - 1)
+
+
+@register_jitable
+def backward_pass(R, p, pi, work, top):
+    """Inward recursion of Newton-Euler: joint torques [N m] (6,) from the forward pass's ``work``
+    (``forward_pass_into``) and the inertial parameters pi (60,), starting at link ``top``: the
+    links beyond it must carry no parameters (their wrench is zero; ``regressor`` skips them)."""
     f_next = (0.0, 0.0, 0.0)
     n_next = (0.0, 0.0, 0.0)
-    tau = np.empty(N_JOINTS)
-    for i in range(N_JOINTS - 1, -1, -1):
+    tau = np.zeros(N_JOINTS)
+    for i in range(top, -1, -1):
         k = i * N_PARAMS_LINK
         m = pi[k]
         h = (pi[k + 1], pi[k + 2], pi[k + 3])
@@ -423,12 +431,18 @@ def forward_dynamics(dh, pi, q, qd, tau, gravity):
 
 @register_jitable
 def regressor(dh, q, qd, qdd, gravity):
-    """Y (6, 60) with tau = Y pi: RNEA with unit parameter vectors (the dynamics are linear in pi)."""
+    """Y (6, 60) with tau = Y pi: RNEA with unit parameter vectors (the dynamics are linear in pi).
+    The transforms and the forward pass do not depend on pi: computed once; a parameter of link L
+    moves no link beyond it, so its inward pass starts at L (the same values as the whole pass)."""
     Y = np.zeros((N_JOINTS, N_PARAMS))
+    R, p = joint_transforms(dh, q)
+    work = np.empty((4, N_JOINTS, 3))
+    forward_pass_into(R, p, qd, qdd, gravity, work)
+    e = np.zeros(N_PARAMS)
     for j in range(N_PARAMS):
-        e = np.zeros(N_PARAMS)
         e[j] = 1.0
-        Y[:, j] = rnea(dh, e, q, qd, qdd, gravity)
+        Y[:, j] = backward_pass(R, p, e, work, j // N_PARAMS_LINK)
+        e[j] = 0.0
     return Y
 
 

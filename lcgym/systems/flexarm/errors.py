@@ -17,7 +17,7 @@ from ...metrics import PERIODS
 from . import dynamics as arm
 from .nominal import BasicFeedforward, model_following_error
 from .references import MOVING, tcp_positions
-from .sensors import true_load_acceleration
+from .sensors import specific_forces, true_load_acceleration
 
 
 def paper_errors(plant, trial, reference, feedforward: np.ndarray | None = None,
@@ -28,8 +28,9 @@ def paper_errors(plant, trial, reference, feedforward: np.ndarray | None = None,
     from ``BasicFeedforward.run``, which stored e_pl (extras ``e_pl_true_<joint>``). ``nominal``: the
     nominal structure e_pl is taken against (default: ``BasicFeedforward()``)."""
     dh, offset = plant.true_arm.dh, np.asarray(plant.accel_offset)
-    f_ref = np.array([arm.specific_force_compiled(dh.table(), q, qd, qdd, offset, arm.GRAVITY) for q, qd, qdd in
-                      zip(reference.positions, reference.velocities, reference.accelerations, strict=True)])
+    f_ref = specific_forces(dh.table(), *(np.ascontiguousarray(x, dtype=float) for x in
+                                          (reference.positions, reference.velocities, reference.accelerations)),
+                            offset, arm.GRAVITY)
     acc = np.column_stack([trial.extra[f"acc_{c}"] for c in "xyz"]) - np.asarray(plant.accel_bias)
     if feedforward is None:
         joint = np.column_stack([trial.extra[f"e_pl_true_{trial.axes[j]}"] for j in MOVING])

@@ -29,8 +29,10 @@ phase), as is the result.
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
+from ...physics.compiled import cache_dir
 from ...physics.kinematics import lowpass_zero_phase
 from . import dynamics as arm
 
@@ -48,22 +50,55 @@ def estimate_load_acceleration(trial, arm_params: arm.ArmParameters, drive: arm.
     qd = np.gradient(q, 1 / fs, axis=0)
     qdd_m = np.gradient(qd, 1 / fs, axis=0)
     dh, o = arm_params.dh.table(), np.asarray(offset, dtype=float)
-    zero = np.zeros(6)
     m = list(moving)
     s = [j for j in range(6) if j not in m]
-    T = q.shape[0]
     n_rest = max(1, int(rest * fs))
-    model_rest = np.array([arm.specific_force_compiled(dh, q[k], zero, zero, o, arm.GRAVITY) for k in range(n_rest)])
-    bias = (f_meas[:n_rest] - model_rest).mean(axis=0)
+    f_rest, A, f_qd = _sensor_model(dh, q, qd, o, arm.GRAVITY)
+    bias = (f_meas[:n_rest] - f_rest[:n_rest]).mean(axis=0)
+    # per sample k: b = f_meas - bias - f(q, qd, 0) - A_s qdd_s, then the regularized normal equations
+    b = f_meas - bias - f_qd - (A[:, :, s] @ qdd_m[:, s, None])[:, :, 0]
+    Am = A[:, :, m]
+    AmT = np.ascontiguousarray(Am.transpose(0, 2, 1))
+    lhs = AmT @ Am + lam**2 * np.eye(len(m))
+    rhs = (AmT @ b[:, :, None])[:, :, 0] + lam**2 * qdd_m[:, m]
     out = qdd_m.copy()
-    for k in range(T):
-        f0 = arm.specific_force_compiled(dh, q[k], zero, zero, o, arm.GRAVITY)
-        A = np.column_stack([arm.specific_force_compiled(dh, q[k], zero, e, o, arm.GRAVITY) - f0 for e in np.eye(6)])
-        b = f_meas[k] - bias - arm.specific_force_compiled(dh, q[k], qd[k], zero, o, arm.GRAVITY) - A[:, s] @ qdd_m[k, s]
-        Am = A[:, m]
-        x = np.linalg.solve(Am.T @ Am + lam**2 * np.eye(len(m)), Am.T @ b + lam**2 * qdd_m[k, m])
-        out[k, m] = x
+    out[:, m] = np.linalg.solve(lhs, rhs[:, :, None])[:, :, 0]
     return lowpass_zero_phase(out, fs, cutoff)
+
+
+_previous_cache_dir = numba.config.CACHE_DIR
+numba.config.CACHE_DIR = cache_dir(__file__, arm.__file__)
+
+
+@numba.njit(cache=True)
+def _sensor_model(dh, q, qd, offset, gravity):
+    """The accelerometer's model along a trajectory: f(q, 0, 0) (T, 3), the columns
+    A[:, :, j] = f(q, 0, e_j) - f(q, 0, 0) (T, 3, 6) and f(q, qd, 0) (T, 3) [m/s^2]."""
+    T = q.shape[0]
+    zero = np.zeros(6)
+    f0 = np.empty((T, 3))
+    A = np.empty((T, 3, 6))
+    f_qd = np.empty((T, 3))
+    for k in range(T):
+        f0[k] = arm.specific_force_compiled(dh, q[k], zero, zero, offset, gravity)
+        for j in range(6):
+            e = np.zeros(6)
+            e[j] = 1.0
+            A[k, :, j] = arm.specific_force_compiled(dh, q[k], zero, e, offset, gravity) - f0[k]
+        f_qd[k] = arm.specific_force_compiled(dh, q[k], qd[k], zero, offset, gravity)
+    return f0, A, f_qd
+
+
+@numba.njit(cache=True)
+def specific_forces(dh, q, qd, qdd, offset, gravity):
+    """``arm.specific_force`` at every sample of a trajectory (T, 6) each: (T, 3) [m/s^2]."""
+    out = np.empty((q.shape[0], 3))
+    for k in range(q.shape[0]):
+        out[k] = arm.specific_force_compiled(dh, q[k], qd[k], qdd[k], offset, gravity)
+    return out
+
+
+numba.config.CACHE_DIR = _previous_cache_dir
 
 
 def true_load_acceleration(trial, cutoff: float = 50.0) -> np.ndarray:
