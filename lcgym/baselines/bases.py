@@ -55,3 +55,27 @@ def closed_loop(plant, reference, feedforward: np.ndarray, offset: np.ndarray | 
     if offset is None:
         return plant.run(reference, feedforward)
     return plant.run(reference, feedforward, np.asarray(plant.true_drive.N) * np.asarray(offset, dtype=float))
+
+
+class ReferenceMemo:
+    """A method's signals computed once per reference object: the benchmark asks for a reference's
+    feedforward and its offset one after the other, and a safeguard for the base's on each training
+    reference several times; each is a model evaluation (a network, a regressor) that may cost more
+    than the plant run it feeds. The values are shared, never written to. Keep one per fitted state
+    (a new one at ``fit``; ``forget`` where what a key computes changes)."""
+
+    def __init__(self):
+        self._store: dict = {}
+
+    def get(self, key: str, reference, compute):
+        """``compute()`` for ``reference``, or its value already computed under ``key``."""
+        hit = self._store.get((key, id(reference)))
+        if hit is not None and hit[0] is reference:
+            return hit[1]
+        value = compute()
+        self._store[(key, id(reference))] = (reference, value)
+        return value
+
+    def forget(self, key: str) -> None:
+        self._store = {k: v for k, v in self._store.items() if k[0] != key}
+

@@ -64,7 +64,7 @@ import numpy as np
 
 from .. import systems
 from ..systems import SimulationDiverged
-from .bases import base_controller
+from .bases import ReferenceMemo, base_controller
 from .iteration import ILCDiverged, best_trial, check_divergence, held_edges, q_filter, rms
 from .protocol import DEFAULT_BASE, Controller, Cost, given_system
 from .safeguard import Safeguard, dropped_note, mixed, scored_axes
@@ -178,6 +178,7 @@ class IterativeLearningControl(Controller):
     def fit(self, trials) -> IterativeLearningControl:
         self.system_ = given_system(self)
         self.base_ = base_controller(self.system_, self.base).fit(trials)
+        self.memo_ = ReferenceMemo()
         self.nominal_ = self.system_.nominal
         self.learned_, self.history_, self.true_history_, self.best_ = {}, {}, {}, {}
         self.cost_ = Cost()
@@ -203,7 +204,8 @@ class IterativeLearningControl(Controller):
 
     def _start(self, reference) -> tuple[np.ndarray, np.ndarray | None]:
         """The base's (feedforward, load-side reference offset or None) of ``reference``."""
-        return np.asarray(self.base_.feedforward(reference), dtype=float), self.base_.reference_offset(reference)
+        return self.memo_.get("base", reference, lambda: (np.asarray(self.base_.feedforward(reference), dtype=float),
+                                                          self.base_.reference_offset(reference)))
 
     def _learn_tracking(self, plant, reference):
         """Plant-inversion ILC on the measured tracking error, from the fitted physical model; where no
@@ -369,7 +371,8 @@ class ILCTransfer(IterativeLearningControl):
     def _signals(self, reference) -> tuple[np.ndarray, np.ndarray | None]:
         if not hasattr(self, "kept_"):
             raise RuntimeError("ilc-transfer: call learn(plant, reference) first")
-        return mixed(self._start(reference), self._transferred(reference), self.kept_)
+        return self.memo_.get("signals", reference,
+                              lambda: mixed(self._start(reference), self._transferred(reference), self.kept_))
 
     def feedforward(self, reference) -> np.ndarray:
         return self._signals(reference)[0]

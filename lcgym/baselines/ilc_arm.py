@@ -205,13 +205,15 @@ def _highpass(w: np.ndarray, hz: float, order: int = 2) -> np.ndarray:
 # ----------------------------------------------------------------------------- the update
 
 def update(nominal, f: np.ndarray, offset: np.ndarray | None, error: dict, fs: float, config: ArmILCConfig,
-           gains: PIDGains | None = None, inertia=None, base: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+           gains: PIDGains | None = None, inertia=None, base: np.ndarray | None = None,
+           responses: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
     """One learning update (module docstring): the next feedforward (T, 6) [N m] and reference
     offset (T, 6) [rad, load side] from the present ones and ``error``, a dict of (T, 6) signals as
     ``measure`` returns them (measured, or predicted by a model: eq. 17's use). Keys used:
     ``motor`` and ``feedback`` (torque "motor"), ``e_pl`` (torque "lcs"), ``acceleration`` (offset).
     ``gains``: the machine's PID (default ``PIDGains.tuned()``, the plant's); ``inertia`` (6,) the
-    loop model's load inertia (default the nominal M_n)."""
+    loop model's load inertia (default the nominal M_n); ``responses``: ``loop_responses`` of those on
+    the update's grid, where the caller has them (the same every trial of a reference)."""
     f = np.asarray(f, dtype=float)
     T = f.shape[0]
     f0 = np.zeros_like(f) if base is None else np.asarray(base, dtype=float)
@@ -219,7 +221,7 @@ def update(nominal, f: np.ndarray, offset: np.ndarray | None, error: dict, fs: f
     o = np.zeros_like(f) if offset is None else np.asarray(offset, dtype=float)
     n = 2 * T
     N = np.asarray(nominal.drive.N, dtype=float)
-    resp = loop_responses(nominal, n, fs, inertia)
+    resp = loop_responses(nominal, n, fs, inertia) if responses is None else responses
     w = 2 * math.pi * np.fft.rfftfreq(n, 1.0 / fs)
     d_o = np.zeros_like(o)
     D_o = np.zeros((w.size, 6), dtype=complex)
@@ -294,6 +296,7 @@ def learn_on_base(plant, reference, base_feedforward: np.ndarray, base_offset: n
     f, o = f0, o0
     candidates, history, true_history = [], [], []
     used = 0
+    responses = None
     for j in range(trials + 1):
         try:
             trial = plant.run(reference, f, N * o)
@@ -310,7 +313,8 @@ def learn_on_base(plant, reference, base_feedforward: np.ndarray, base_offset: n
         except ILCDiverged:
             break
         if j < trials:
-            f, o = update(nominal, f, o, err, trial.fs, config, plant.gains, inertia, base=f0)
+            responses = responses or loop_responses(nominal, 2 * f0.shape[0], trial.fs, inertia)
+            f, o = update(nominal, f, o, err, trial.fs, config, plant.gains, inertia, base=f0, responses=responses)
     k = best_trial(history, tolerance=config.tolerance)
     return ({"feedforward": candidates[k][0], "offset": candidates[k][1], "trial": k, "candidates": candidates},
             history, true_history, used)

@@ -42,6 +42,7 @@ import numpy as np
 
 from .. import systems
 from ..references import references_of
+from .bases import ReferenceMemo
 from .physical import PhysicalFeedforward
 from .protocol import Controller, Cost, given_system
 from .safeguard import Safeguard, mixed
@@ -110,6 +111,7 @@ class PGNNFeedforward(Controller):
     def fit(self, trials: Sequence) -> PGNNFeedforward:
         self.system_ = given_system(self)
         self.trials_ = list(trials)
+        self.memo_ = ReferenceMemo()
         self.collect_ = self.collect or protocol(self.system_).get("collect", COLLECT)
         if self.collect_ not in ("physical", "feedback"):
             raise ValueError(f"collect must be 'physical' or 'feedback', got {self.collect_!r}")
@@ -175,10 +177,11 @@ class PGNNFeedforward(Controller):
 
     def _signals(self, reference):
         if not hasattr(self, "part_kept_") or not self.gate:
-            return self._whole(reference)
+            return self._whole(reference)  # not kept: learn may change what this returns
         if self.net_kept_.all():
-            return self._whole(reference)
-        return mixed(self._chosen_part(reference), self._whole(reference), self.net_kept_)
+            return self.memo_.get("signals", reference, lambda: self._whole(reference))
+        return self.memo_.get("signals", reference,
+                              lambda: mixed(self._chosen_part(reference), self._whole(reference), self.net_kept_))
 
     def training_config(self, n_trials: int = REFERENCE_TRIALS) -> PGNNConfig:
         """The configuration it trains with on ``n_trials`` runs: the one given (with this method's

@@ -39,7 +39,7 @@ import numpy as np
 from .. import systems
 from ..rbf_expert.influence import task_influence
 from ..rbf_expert.predictor import RBFExpertConfig, RBFExpertPredictor
-from .bases import base_controller, closed_loop
+from .bases import ReferenceMemo, base_controller, closed_loop
 from .ilc import ILCConfig, frequency_update, learning_filters, nominal_update
 from .protocol import DEFAULT_BASE, Controller, Cost, given_system
 from .safeguard import Safeguard, dropped_note, mixed
@@ -73,6 +73,7 @@ class RBFExpertFeedforward(Controller):
         self.system_ = given_system(self)
         self.nominal_ = self.system_.nominal
         self.base_ = base_controller(self.system_, self.base).fit(trials)
+        self.memo_ = ReferenceMemo()
         self.training_ = references_of(trials)
         self.cost_ = Cost()
         self.outside_ = {}
@@ -96,7 +97,8 @@ class RBFExpertFeedforward(Controller):
 
     def _start(self, reference) -> tuple[np.ndarray, np.ndarray | None]:
         """The base's (feedforward, load-side reference offset or None)."""
-        return np.asarray(self.base_.feedforward(reference), dtype=float), self.base_.reference_offset(reference)
+        return self.memo_.get("base", reference, lambda: (np.asarray(self.base_.feedforward(reference), dtype=float),
+                                                          self.base_.reference_offset(reference)))
 
     def _train(self, plant) -> None:
         refs = self.training_
@@ -146,8 +148,9 @@ class RBFExpertFeedforward(Controller):
         if not hasattr(self, "kept_"):
             raise RuntimeError("rbf-expert: call learn(plant, reference) first (it trains the predictor)")
         if self.kept_.all():
-            return self._predicted(reference)
-        return mixed(self._start(reference), self._predicted(reference), self.kept_)
+            return self.memo_.get("signals", reference, lambda: self._predicted(reference))
+        return self.memo_.get("signals", reference,
+                              lambda: mixed(self._start(reference), self._predicted(reference), self.kept_))
 
     def feedforward(self, reference) -> np.ndarray:
         return self._signals(reference)[0]

@@ -54,8 +54,9 @@ from .store import append_rows, completed_cells
 
 EVALUATED_SETS = ("train", "validation")
 QUICK_BUDGET = 0.5
-CELL_REGRESSORS = 3  # regressors a cell keeps per reference (``_regressors_kept``): its reference, measured and shifted kinematics
 """``BenchConfig.quick``'s share of the methods' full learning budgets."""
+CELL_REGRESSORS = 3
+"""Regressors a cell keeps per reference (``_regressors_kept``): of its reference, measured and shifted kinematics."""
 
 
 @dataclass(frozen=True)
