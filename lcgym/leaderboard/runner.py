@@ -50,6 +50,7 @@ from ..baselines.bases import runs_on
 from ..baselines.protocol import apply, build_method, display_name, method_base, split_spec
 from ..data import atomic_write
 from ..provenance import __version__, git_commit, source_hash
+from ..systems.runs import remembered_runs
 from .store import append_rows, completed_cells
 
 EVALUATED_SETS = ("train", "validation")
@@ -192,7 +193,7 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_th
     stage = ["loading the method"]
     machine = systems.benchmark(system)
     try:
-        with _time_limit(timeout, stage), _regressors_kept(machine, config):
+        with _time_limit(timeout, stage), _regressors_kept(machine, config), remembered_runs():
             controller = build_method(method, machine, CONTROLLERS, config.budget)
             stage[0] = "fit"
             t0 = time.perf_counter()

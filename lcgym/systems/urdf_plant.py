@@ -64,6 +64,7 @@ from ..physics.lti import rigid_axis
 from ..references import Reference, random_moves
 from . import rigid_body
 from .feedback import FeedbackGains
+from .runs import remembered
 from .system import SimulationDiverged, System
 from .urdf import URDFRobot, urdf_robot
 
@@ -478,6 +479,13 @@ class URDFPlant:
         return C
 
     # ------------------------------------------------------------------ simulation
+    @property
+    def deterministic(self) -> bool:
+        """A run is a function of its inputs where the plant adds no measurement noise (the noise's
+        stream carries on from run to run)."""
+        return not np.any(np.asarray(self.noise_rms) > 0)
+
+    @remembered  # inside the benchmark's cells: a run made before is not made again (``systems.runs``)
     def run(self, references, feedforward=None) -> Trial | list[Trial]:
         """Run the closed loop on one reference or a list of them.
 

@@ -71,6 +71,7 @@ from ...physics import effects as fx
 from ...physics import linalg, plant_effects
 from ...physics.compiled import cache_dir
 from ...references import Reference
+from ..runs import remembered
 from ..system import SimulationDiverged
 from . import dynamics as arm
 
@@ -208,6 +209,13 @@ class FlexArmPlant:
                          self.max_error, int(round(self.preroll * self.fs)), self.friction_eps,
                          1.0 if self.settled_start else 0.0])
 
+    @property
+    def deterministic(self) -> bool:
+        """A run is a function of its inputs: the accelerometer's noise is drawn from a stream seeded
+        anew (``seed``) for every run."""
+        return True
+
+    @remembered  # inside the benchmark's cells: a run made before is not made again (``systems.runs``)
     def run(self, reference: Reference, feedforward=None, motor_offset=None) -> Trial:
         """Run one reference (load-side joint angles (T, 6) [rad]); ``feedforward`` motor torques
         (T, 6) [N m] and ``motor_offset`` (T, 6) [rad of the motor] default to zero."""

@@ -46,6 +46,7 @@ from ...physics import plant_effects
 from ...physics.lti import rigid_axis
 from ...references import Reference
 from ..feedback import FeedbackGains
+from ..runs import remembered
 from ..system import SimulationDiverged
 from . import dynamics as ix
 from . import kernel as K
@@ -304,6 +305,12 @@ class IXPlant:
         one-sample computation delay, and this plant's PD + low-pass feedback C(z)."""
         return process_sensitivity(n, self.fs, positions, self.gains, params)
 
+    @property
+    def deterministic(self) -> bool:
+        """A run is a function of its inputs (no noise: the encoders quantize)."""
+        return True
+
+    @remembered  # inside the benchmark's cells: a run made before is not made again (``systems.runs``)
     def run(self, references, feedforward=None) -> Trial | list[Trial]:
         """Run the closed loop on one reference or a list of them (in parallel).
 
