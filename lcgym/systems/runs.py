@@ -16,6 +16,7 @@ from __future__ import annotations
 import copy
 import functools
 import hashlib
+import inspect
 import threading
 from collections import OrderedDict
 from contextlib import contextmanager
@@ -43,10 +44,15 @@ def remembered(run):
     or a list of them per argument) so that inside ``remembered_runs()`` a deterministic plant
     reruns nothing it ran before."""
 
+    signature = inspect.signature(run)
+
     @functools.wraps(run)
     def wrapper(self, references, *signals, **named):
-        if named or not _active[0] or not self.deterministic:
+        if not _active[0] or not self.deterministic:
             return run(self, references, *signals, **named)
+        bound = signature.bind(self, references, *signals, **named)
+        bound.apply_defaults()  # a signal left out is its default (None): the same run as one given as None
+        signals = tuple(bound.arguments.values())[2:]
         single = not isinstance(references, (list, tuple))
         refs = [references] if single else list(references)
         per_ref = [[s] * len(refs) if single or s is None else list(s) for s in signals]
