@@ -434,3 +434,34 @@ def test_the_summary_names_each_machines_best_method_against_the_physical_model(
     assert "rail  pgnn      2.0x lower than the physical model's; x 0.1 mm, q 2 deg" in text
     assert "no method beats the physical model (rl: 1.25x its RMS)" in text
     assert "(no physical-model row to compare with)" in text
+
+
+def _grow_and_report(mb: int, setup: bool) -> int:
+    """A loky task: optionally widen the leak guard, keep ``mb`` MB in this worker (and then wait past
+    loky's 1 s between checks), return the worker's pid."""
+    from lcgym.leaderboard import runner
+
+    if setup:
+        runner._widen_leak_guard()
+    kept = getattr(runner, "_test_kept", [])
+    kept.append(np.ones(mb * 2**20 // 8))
+    runner._test_kept = kept
+    if mb > 1:
+        time.sleep(1.2)
+    return os.getpid()
+
+
+@pytest.mark.parametrize("setup", [False, True])
+def test_a_worker_keeping_what_it_remembers_is_not_restarted_as_leaking(setup):
+    """Loky stops a worker grown 300 MB past its first task (psutil installed). A bench worker widens
+    that bound (``_widen_leak_guard``), so the regressors and runs it keeps do not cost it its life;
+    the control, without it, is restarted."""
+    pytest.importorskip("psutil")
+    from joblib.externals.loky import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(max_workers=1) as pool:
+        first = pool.submit(_grow_and_report, 1, setup).result()
+        pool.submit(_grow_and_report, 400, setup).result()
+        time.sleep(0.5)  # the leak check runs after the task's result is sent
+        last = pool.submit(_grow_and_report, 1, setup).result()
+    assert (first == last) == setup

@@ -130,12 +130,36 @@ def _runs_on(method: str) -> tuple[str, ...] | None:
     return runs_on(getattr(load_method(method, CONTROLLERS), "systems", None), split_spec(method)[1])
 
 
-def _single_thread() -> None:
+def _worker_setup() -> None:
+    """A parallel cell's worker: one numba and one torch thread (two threads each slow 10-100x when
+    the other worker is busy), and loky's leak guard widened (``_widen_leak_guard``)."""
     import numba
     import torch
 
     numba.set_num_threads(1)
     torch.set_num_threads(1)
+    _widen_leak_guard()
+
+
+LOKY_MEMORY_GROWTH = int(2e9)
+"""Bytes a joblib (loky) worker may grow past its size after its first cell before loky stops it as
+leaking and starts a new one (loky's own bound: 300 MB)."""
+
+
+def _widen_leak_guard() -> None:
+    """Raise loky's leak bound in this worker to ``LOKY_MEMORY_GROWTH``. What a worker keeps is
+    meant and bounded: a cell's regressors (``_regressors_kept``: about 240 MB in the FlexArm's
+    quick cell, released when it ends, though the process may keep the pages) and the runs it
+    remembers (``systems.runs``, at most ``SIZE``). Under loky's 300 MB a quick bench lost two
+    workers, each costing a core the new worker's start (about 3 s) and the runs the old one
+    remembered. The bound is loky's module constant (``psutil`` installed: else loky checks nothing),
+    read by the worker after each task; a joblib without it is left as it is."""
+    try:
+        from joblib.externals.loky import process_executor
+    except ImportError:
+        return
+    if isinstance(getattr(process_executor, "_MAX_MEMORY_LEAK_SIZE", None), int):
+        process_executor._MAX_MEMORY_LEAK_SIZE = max(process_executor._MAX_MEMORY_LEAK_SIZE, LOKY_MEMORY_GROWTH)
 
 
 @lru_cache(maxsize=16)  # every machine and seed of a full run: its cells come in the order of costliest_first
@@ -183,7 +207,7 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_th
     method's part of the cell (fit, learn, feedforward and the evaluation runs) may take this
     long; past it the cell is recorded as failed with ``CellTimeout`` and the stage it was in."""
     if single_thread:
-        _single_thread()
+        _worker_setup()
     key = {"system": system, "method": method, "base": method_base(method, CONTROLLERS), "seed": seed,
            "config_hash": config.config_hash()}
     bench = systems.make_bench(system)
