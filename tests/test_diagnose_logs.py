@@ -166,10 +166,30 @@ def test_a_penalized_curve_goes_on_level_where_the_data_do_not_reach():
 def test_the_friction_curve_holds_coulomb_and_viscous_friction_and_its_sign_rule():
     e = fx.FrictionCurve("a", *(1.0 + 0.5 * np.array(fx.FRICTION_KNOTS)), *(1.0 + 0.5 * np.array(fx.FRICTION_KNOTS)),
                          eps=1e-4, v_top=2.0).bound(["a"])
-    v = np.linspace(-2.0, 2.0, 81)[:, None]
+    v = np.linspace(-4.0, 4.0, 161)[:, None]  # beyond v_top = 2 as well: the last segment's line
     np.testing.assert_allclose(e.torque(0 * v, v, 0 * v)[:, 0], np.sign(v[:, 0]) * (1.0 + 0.25 * np.abs(v[:, 0])), atol=1e-9)
     assert fx.FrictionCurve.physical(np.r_[1.0, np.zeros(5), 1.0, np.zeros(5)])
     assert not fx.FrictionCurve.physical(np.r_[-1.0, np.zeros(5), 1.0, np.zeros(5)])
+
+
+def test_beyond_its_data_a_friction_curve_and_a_viscous_term_continue_as_their_sum_did():
+    """Within the data (up to v_top) a viscous term b v and the curve's slope trade freely: b + d
+    with the curve's levels less d |v| at the knots is the same friction there. Continued on its
+    last segment, the curve keeps the two the same friction beyond v_top too, at any d (held level,
+    the model with the larger b would climb d |v| above the other: the 88x of issue 49)."""
+    knots = np.array(fx.FRICTION_KNOTS) * 0.5  # v_top = 0.5 rad/s
+    levels = 2.0 + 3.0 * np.sqrt(knots)  # a concave friction [N m]
+    v = np.linspace(-2.0, 2.0, 401)[:, None]  # 4x the data's top speed either way
+
+    def friction(b: float, d: float) -> np.ndarray:
+        curve = fx.FrictionCurve("a", *(levels - d * knots), *(levels - d * knots), eps=1e-4, v_top=0.5).bound(["a"])
+        return curve.torque(0 * v, v, 0 * v)[:, 0] + b * v[:, 0]
+
+    inside = np.abs(v[:, 0]) <= 0.5
+    np.testing.assert_allclose(friction(0.0, 0.0)[inside], friction(4.0, 4.0)[inside], atol=1e-9)
+    np.testing.assert_allclose(friction(0.0, 0.0), friction(4.0, 4.0), atol=1e-9)
+    top_slope = (levels[-1] - levels[-2]) / (knots[-1] - knots[-2])  # the last segment's, N m per rad/s
+    assert friction(0.0, 0.0)[-1] == pytest.approx(levels[-1] + top_slope * 1.5)
 
 
 @cache

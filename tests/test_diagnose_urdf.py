@@ -84,6 +84,30 @@ def test_friction_and_a_one_sided_spring_on_another_joint_are_both_selected(tmp_
     assert report.missing[0] == "cable_spring@shoulder"
 
 
+def test_the_report_states_each_effects_fitted_range_and_where_validation_data_leave_it():
+    """Fitted on slow runs, validated on one twice as fast: the selected friction's fitted velocity
+    range is the data's, and the validation says how far the fast run goes beyond it and how often;
+    validated on the data fitted, nothing is outside."""
+    arm = systems.get(URDF, joints=JOINTS)
+    plant = URDFPlant(arm, effects=(fx.CoulombFriction("elbow", Fc=2.0, eps=0.01),), encoder_resolution=2 * math.pi / 2**16)
+    slow = plant.run(random_references(arm, n=2, duration=20.0, seed=0, speed=0.25))
+    fast = plant.run(random_references(arm, n=1, duration=20.0, seed=1, speed=0.5))
+    report = diagnose(slow, arm, validate=fast)
+    assert report.missing == ["coulomb_friction@elbow"], report.text()
+    r = report.ranges["coulomb_friction@elbow"]
+    speed = np.concatenate([np.gradient(tr.ref[:, 1], 1 / tr.fs) for tr in slow])
+    assert r["variable"] == "velocity" and r["lo"] < 0 < r["hi"]
+    assert r["hi"] == pytest.approx(speed.max(), rel=0.1) and r["lo"] == pytest.approx(speed.min(), rel=0.1)
+    (o,) = report.validation["outside"]
+    assert o["effect"] == "coulomb_friction@elbow" and (o["max"] > 1.3 * r["hi"] or o["min"] < 1.3 * r["lo"])
+    assert 0.01 < o["share"] < 0.9
+    text = report.text()
+    assert "fitted over velocity" in text and "coulomb_friction@elbow: velocity" in text
+    assert f"{100 * o['share']:.1f}% of the samples outside" in text
+    same = diagnose(slow, arm, validate=slow)
+    assert same.validation["outside"] == [] and "every sample within the effects' fitted ranges" in same.text()
+
+
 def test_nothing_is_claimed_without_a_hidden_effect():
     arm = systems.get(URDF, joints=JOINTS)
     runs = URDFPlant(arm, encoder_resolution=2 * math.pi / 2**16).run(random_references(arm, n=3, duration=20.0, seed=0))

@@ -8,6 +8,7 @@ import pytest
 import torch
 
 from lcgym.physics import effects as fx
+from lcgym.physics.candidates import LIBRARY
 from lcgym.references import AxisProfile, sample
 from lcgym.systems.ix import dynamics as ix
 from lcgym.systems.ix.effects import PositionDependentFriction
@@ -141,3 +142,34 @@ def test_lugre_steady_state_is_the_stribeck_curve():
     cruise &= np.roll(cruise, 500)  # at least 1 s into the constant-speed phase
     expected = 0.10 + 0.06 * math.exp(-((v / (0.4 * DEG)) ** 2)) + NO_GRAVITY.d3 * v
     assert np.mean(tr.u[cruise, 1]) == pytest.approx(expected, rel=2e-3)
+
+
+GROWS_LIKE_THE_RIGID_BODY = {("cable_inertia", 1)}
+"""(effect, variable) pairs that grow faster than linearly beyond the data, as physics demands: a
+position-dependent inertia's 1/2 J'(q) qd^2 (Euler-Lagrange), like the rigid body's own centrifugal
+terms, quadratic in the speed (and zero away from its onset)."""
+
+
+@pytest.mark.parametrize("cand", LIBRARY, ids=lambda c: c.name)
+def test_every_library_effect_grows_at_most_linearly_beyond_its_data(cand):
+    """Issue 49: outside the data a fitted effect is extrapolated, so each of the diagnosis's
+    candidates, with any coefficients and its data-set shape, stays bounded or grows at most
+    linearly in position, velocity and acceleration (and in the load a load friction reads): over
+    [0, 16 X] its largest torque is at most twice that over [0, 8 X], X beyond any shape's scale."""
+    shape = {"lo": -1.0, "hi": 1.0, "v_top": 1.0}  # a shape-free curve's data range
+    effect = cand.effect(axis="roll", **{n: v for n, v in shape.items() if n in cand.effect.nonlinear})
+    rng = np.random.default_rng(7)
+    effect = effect.with_coefficients(rng.uniform(0.5, 1.5, len(effect.linear))).bound(AXES)
+    x = np.linspace(0.0, 16 * 20.0, 4001)
+    for which in range(3):
+        for sign in (1.0, -1.0):
+            k = [np.full((x.size, 2), 0.3) for _ in range(3)]
+            k[which] = np.stack([sign * x, np.zeros_like(x)], axis=1)
+            load = np.stack([1.0 + 0.1 * x, np.zeros_like(x)], axis=1)  # a load torque growing linearly too
+            loads = fx.Loads(torque=load, gravity=load)
+            tau = np.abs(effect.torque(*k, loads)[:, 0])
+            half = x <= 8 * 20.0
+            if (cand.name, which) in GROWS_LIKE_THE_RIGID_BODY:
+                assert tau.max() <= 4.0 * tau[half].max() + 1e-9
+            else:
+                assert tau.max() <= 2.0 * tau[half].max() + 1e-9, (cand.name, which, sign)

@@ -40,7 +40,9 @@ class Diagnosis:
     ``validation``: residual norms on another experiment, not fitted, before and after the effects
     (``workflow.validation``), or None. ``steps``: the greedy selection step by step (what each
     axis had left, what every candidate removed of it and its verdict; ``workflow._step_row``),
-    ``stop`` why it ended. ``machine_file``: the machine file of a machine given by one (its
+    ``stop`` why it ended. ``ranges`` {effect key: {variable, lo, hi}}: the range of the variable each
+    effect beyond the nominal model acts on, over the data fitted (``workflow.fitted_ranges``); outside
+    it the effect is extrapolated. ``machine_file``: the machine file of a machine given by one (its
     bench's ``source``), whose ``[[model]]`` tables of the effects found end the printed report
     (``model_tables``)."""
 
@@ -74,6 +76,7 @@ class Diagnosis:
     after_model: object = field(repr=False, default=None)
     replay: dict | None = None
     validation: dict | None = None
+    ranges: dict = field(default_factory=dict)
 
     @property
     def missing(self) -> list[str]:
@@ -96,6 +99,8 @@ class Diagnosis:
                                       "(RMS_before_at_selection, RMS_after_at_selection), scored at the "
                                       "grid's nonlinear parameters (refined_from, where the selection then "
                                       "refined them to parameters)"}}
+        if self.ranges:
+            out["fitted_ranges"] = self.ranges
         if self.after is not None:
             out["after"] = self.after
         if self.replay is not None:
@@ -179,9 +184,10 @@ class Diagnosis:
             if c.get("refined_from"):
                 params += " (refined from " + ", ".join(f"{n}={_fmt(n, v, display)}"
                                                         for n, v in c["refined_from"].items()) + ")"
+            fitted = self.range_text(f"{c['effect']}@{c['axis']}") if c["selected"] else ""
             lines.append(f"  {k}. {c['effect']}@{c['axis']} [{c['family']}]: {100 * c['explained']:.0f}%, "
                          f"held-out RMS {c['RMS_before']:.4g} -> {c['RMS_after']:.4g} {c['unit']} "
-                         f"({how}{'; ' + params if params else ''})")
+                         f"({how}{'; ' + params if params else ''}{'; fitted over ' + fitted if fitted else ''})")
         if self.candidates:
             lines.append(f"  add the selected ones: lcgym diagnose DATA --system {self.spec or self.system} "
                          + (f"{self.options} " if self.options else "") + " ".join(f"--add {m}" for m in self.missing))
@@ -232,6 +238,15 @@ class Diagnosis:
                 b, a = v["residual"][ax]["RMS"], v["residual_after"][ax]["RMS"]
                 change = f"{100 * (a - b) / b:+7.0f}%" if b > 0 else "       -"
                 lines.append(f"  {ax:{w}s} {_num(b)} {_num(a)} {change}" + ("" if one_unit else f" {unit[ax]}"))
+            outside = v.get("outside", [])
+            if v["added"]:
+                lines.append("  outside the effects' fitted ranges (extrapolated there):" if outside else
+                             "  every sample within the effects' fitted ranges")
+            for o in outside:
+                display = self.displays.get(o["effect"].partition("@")[2], (180 / math.pi, "deg"))
+                reach = [_in_unit(x, o["variable"], display) for x in (o["min"], o["max"])]
+                lines.append(f"    {o['effect']}: {o['variable']} {reach[0]} .. {reach[1]} (fitted over "
+                             f"{self.range_text(o['effect'])}), {100 * o['share']:.1f}% of the samples outside")
         if self.replay is not None:
             replay_unit = self.replay["unit"]
             same = len(set(replay_unit.values())) == 1
@@ -245,6 +260,16 @@ class Diagnosis:
                              + ("" if same else f" {replay_unit[ax]}"))
         lines += self._model_tables_lines()
         return "\n".join(lines)
+
+    def range_text(self, key: str) -> str:
+        """The fitted range of effect ``key`` in the axis's display unit ("velocity -28.1 .. 28.4
+        deg/s"), or "" where it has none."""
+        r = self.ranges.get(key)
+        if r is None:
+            return ""
+        display = self.displays.get(key.partition("@")[2], (180 / math.pi, "deg"))
+        lo, hi = (_in_unit(x, r["variable"], display) for x in (r["lo"], r["hi"]))
+        return f"{r['variable']} {lo} .. {hi}"
 
     def refused(self) -> list[dict]:
         """The candidates that removed at least ``min_explained`` of what their axis had left at some
@@ -398,6 +423,12 @@ class Diagnosis:
 def _num(x: float) -> str:
     """A residual figure in a 9-wide column: 4 significant digits, whatever its size."""
     return f"{x:9.4g}" if x != 0 else f"{0:9d}"
+
+
+def _in_unit(value: float, variable: str, display: tuple[float, str]) -> str:
+    """A position, velocity or acceleration [rad or m, per s, per s^2] in the axis's display unit."""
+    f, unit = display
+    return f"{value * f:.3g} {unit}" + {"position": "", "velocity": "/s", "acceleration": "/s^2"}[variable]
 
 
 def _fmt(name: str, value: float, display: tuple[float, str] = (180 / math.pi, "deg")) -> str:

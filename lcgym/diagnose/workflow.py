@@ -232,6 +232,7 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
         families.update({c["effect"]: c["family"] for c in rows if c.get("named_as")})
         shown = report.after_model if report.after_model is not None else ranking.model
         report.series["effects"] = effect_curves(shown, prep, families)
+        report.ranges = fitted_ranges(shown, prep, families)
         if validate is not None:
             report.validation = validation(validate, report, axes, units)
         if replay:
@@ -240,6 +241,15 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
             report.replay["after_with"] = [e.key for e in after_model.effects
                                            if e.key not in {f.key for f in report.model.effects}]
     return report
+
+
+VARIABLES = ("position", "velocity", "acceleration")
+
+
+def acts_on(family: str) -> int:
+    """The kinematic variable (index into ``VARIABLES``) an effect of ``family`` is a curve over:
+    a friction over the velocity, an inertia over the acceleration, the others over the position."""
+    return {"friction": 1, "inertia": 2}.get(family, 0)
 
 
 def effect_curves(model: PhysicalModel, prep, families: dict) -> list[dict]:
@@ -253,9 +263,42 @@ def effect_curves(model: PhysicalModel, prep, families: dict) -> list[dict]:
         if e.key in start:
             continue
         family = families.get(e.name, "user")
-        which = {"friction": 1, "inertia": 2}.get(family, 0)
-        out.append({"effect": e.key, "family": family, "variable": ("position", "velocity", "acceleration")[which],
+        which = acts_on(family)
+        out.append({"effect": e.key, "family": family, "variable": VARIABLES[which],
                     "x": kin[which][:, e.index], "torque": e.torque(*kin, loads)[:, e.index], "used": prep.used[:, e.index]})
+    return out
+
+
+def fitted_ranges(model: PhysicalModel, prep, families: dict) -> dict:
+    """{key: {"variable", "lo", "hi"}} per effect of ``model`` beyond those of the nominal model
+    ``prep.model`` (an offset, constant, has none): the range of the variable it acts on
+    (``acts_on``) over the samples of its axis the fit used [rad, rad/s, rad/s^2 or m, m/s, m/s^2].
+    Outside it the effect is extrapolated (``Diagnosis.validation`` says where other data go)."""
+    start = {e.key for e in prep.model.effects}
+    out = {}
+    for e in model.fitted_effects:
+        family = families.get(e.name, "user")
+        if e.key in start or family == "offset":
+            continue
+        which = acts_on(family)
+        x = prep.kin[which][prep.rows, e.index][prep.used[:, e.index]]
+        if x.size:
+            out[e.key] = {"variable": VARIABLES[which], "lo": float(x.min()), "hi": float(x.max())}
+    return out
+
+
+def outside_ranges(ranges: dict, kin, rows: np.ndarray, used: np.ndarray, axes: Sequence[str]) -> list[dict]:
+    """Where data (kinematics ``kin`` (q, qd, qdd) (T, A), their reduced ``rows`` and the ``used``
+    mask of those (R, A)) leave the fitted ``ranges`` (``fitted_ranges``): per effect that has samples
+    outside, the extremes reached ("min", "max") and the share of the axis's used samples outside."""
+    out = []
+    for key, r in ranges.items():
+        i = list(axes).index(key.partition("@")[2])
+        x = kin[VARIABLES.index(r["variable"])][rows, i][used[:, i]]
+        beyond = (x < r["lo"]) | (x > r["hi"])
+        if x.size and beyond.any():
+            out.append({"effect": key, **r, "min": float(x.min()), "max": float(x.max()),
+                        "share": float(beyond.mean())})
     return out
 
 
@@ -372,7 +415,8 @@ def _candidate_row(ranking, s, axes, units, selected: bool, step: float | None) 
 
 def validation(trials: Sequence, report: Diagnosis, axes, units) -> dict:
     """Residual norms on ``trials`` (not fitted) of the report's fitted model before and after its
-    effects (``after_model`` with ``add``, else the model refitted with the selected effects)."""
+    effects (``after_model`` with ``add``, else the model refitted with the selected effects), and
+    where those trials leave the effects' fitted ranges (``outside_ranges``)."""
     after_model = report.after_model if report.after_model is not None else report.suggested_model
     added = [e.key for e in after_model.effects if e.key not in {f.key for f in report.model.effects}]
     model = report.model
@@ -380,10 +424,13 @@ def validation(trials: Sequence, report: Diagnosis, axes, units) -> dict:
     spread = 1.0 / model.kinematics_filter_hz if any(model.uses_position(tr) for tr in trials) else 0.0
     mask = used_samples(trials, kin, lengths, model.fs, model.filter_hz, _velocity_filter_hz(model, trials),
                         spread=spread)[0]  # standstill and trial edges left out, as in the data fitted
-    used = mask[model.reduced_rows(lengths)]
+    rows = model.reduced_rows(lengths)
+    used = mask[rows]
+    ranges = {k: r for k, r in report.ranges.items() if k in added}
     return {"trials": len(trials), "n_samples": int(sum(tr.n_samples for tr in trials)), "added": added,
             "residual": norms(model.residual(trials, mask), axes, units, used),
-            "residual_after": norms(after_model.residual(trials, mask), axes, units, used)}
+            "residual_after": norms(after_model.residual(trials, mask), axes, units, used),
+            "outside": outside_ranges(ranges, kin, rows, used, axes)}
 
 
 def _step_row(k: int, step, axes, n_rows: np.ndarray) -> dict:

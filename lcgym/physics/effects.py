@@ -142,14 +142,21 @@ def spline_basis(x, lo: float, hi: float, n: int) -> np.ndarray:
     return BSpline.design_matrix(x.ravel(), knots, k).toarray().reshape(x.shape + (n,))
 
 
-def hat_basis(x, knots) -> np.ndarray:
+def hat_basis(x, knots, extend: bool = False) -> np.ndarray:
     """Piecewise-linear "hat" functions (..., K) of x on the K sorted ``knots``: column j is 1 at
     knots[j] and 0 at the others, linear in between, held constant beyond the ends; their
-    combination with weights c is the curve through the points (knots[j], c[j])."""
+    combination with weights c is the curve through the points (knots[j], c[j]). ``extend``: beyond
+    the last knot the curve continues on the straight line of its last segment instead (the last
+    two columns extrapolated linearly)."""
     knots = np.asarray(knots, dtype=float)
     x = np.asarray(x, dtype=float)
     eye = np.eye(knots.size)
-    return np.stack([np.interp(x, knots, eye[j]) for j in range(knots.size)], axis=-1)
+    hats = np.stack([np.interp(x, knots, eye[j]) for j in range(knots.size)], axis=-1)
+    if extend:
+        beyond = x > knots[-1]
+        t = (x[beyond] - knots[-2]) / (knots[-1] - knots[-2])  # > 1 past the last knot
+        hats[beyond, -2], hats[beyond, -1] = 1.0 - t, t
+    return hats
 
 
 @register_jitable
@@ -430,7 +437,8 @@ def second_differences(x) -> np.ndarray:
 @dataclass(frozen=True)
 class FrictionCurve(Effect):
     """A friction curve of no set shape, per direction of motion: piecewise linear in the speed
-    through its levels at the speeds ``FRICTION_KNOTS`` x v_top, held beyond v_top,
+    through its levels at the speeds ``FRICTION_KNOTS`` x v_top, continued beyond v_top on the
+    straight line of its last segment (``hat_basis(extend=True)``),
 
         h(qd) sum_j p_j hat_j(|qd|) - (1 - h(qd)) sum_j n_j hat_j(|qd|),   h = (1 + tanh(qd / eps)) / 2
 
@@ -439,6 +447,14 @@ class FrictionCurve(Effect):
     the last knot, nonlinear. It holds Coulomb, viscous, Stribeck-like, asymmetric and concave
     (square-root-like) friction alike; the diagnosis names it only where no curve of the
     library explains as much. Physical: p0, n0 > 0 (friction opposes the motion it starts).
+
+    Beyond v_top (the data's 99th percentile of speed, where the diagnosis sets it) the curve
+    neither holds its level nor bends: within the data a model's viscous term and the curve's slope
+    trade against each other freely (together they are what the data fix), and a curve held level
+    would leave the viscous term alone to carry on, at whatever slope that trade gave it. Continued
+    on its last segment, the curve adds its own slope to the viscous one beyond v_top, so that the
+    model's friction continues at the slope the data showed over the top 35 % of their speeds, the
+    roughness penalty keeping that segment in line with the ones below it.
     """
 
     p0: float = 0.0
@@ -462,13 +478,19 @@ class FrictionCurve(Effect):
 
     @classmethod
     def roughness(cls) -> np.ndarray:
-        """Second differences of each direction's levels over the knots (``Effect.roughness``)."""
+        """Second differences of each direction's levels over the knots (``Effect.roughness``), and
+        the levels' common slope: a trend rising alike in both directions is the viscous friction
+        the model has on every axis, which takes it unpenalized. Without that row the two trade
+        freely (continued on its last segment the curve reproduces b |qd| at all speeds), and the
+        minimum-norm fit settled on a curve of hundreds of N m cancelled by a viscous term as large."""
         D = second_differences(FRICTION_KNOTS)
-        return np.block([[D, np.zeros_like(D)], [np.zeros_like(D), D]])
+        k = np.asarray(FRICTION_KNOTS) - np.mean(FRICTION_KNOTS)
+        trend = np.r_[k, k] / np.linalg.norm(np.r_[k, k])
+        return np.vstack([np.block([[D, np.zeros_like(D)], [np.zeros_like(D), D]]), trend])
 
     def _columns(self, q, qd, qdd, loads):
         v = self._v(qd)
-        hats = hat_basis(np.abs(v), np.asarray(FRICTION_KNOTS) * self.v_top)
+        hats = hat_basis(np.abs(v), np.asarray(FRICTION_KNOTS) * self.v_top, extend=True)
         s = smooth_sign(v, self.eps)[..., None]
         return (*np.moveaxis(0.5 * (1.0 + s) * hats, -1, 0), *np.moveaxis(-0.5 * (1.0 - s) * hats, -1, 0))
 
