@@ -68,6 +68,29 @@ def test_the_quadratic_spring_is_named_a_spring_and_adding_it_cuts_the_residual(
     assert after <= 0.1 * report.residual["shoulder"]["RMS"]  # 0.04x measured (the truth allows 0.01x)
 
 
+def test_a_better_shape_replaces_the_pick_and_every_other_form_tried_names_its_rule_and_numbers():
+    """Issue 49, item 5: once Coulomb friction is picked on the elbow, every form that refines it is
+    tried in its place; the concave friction's curve is better by the significance rule and
+    replaces it; the other forms are refused, each with the rule's numbers and the rule it fails."""
+    _, _, report = case_report("friction growing with sqrt(speed) (elbow)")
+    step = report.steps[0]
+    assert step["picked"] == "coulomb_friction@elbow_joint"
+    assert step["revised"] == ["coulomb_friction@elbow_joint -> friction_curve@elbow_joint"]
+    tried = {line.split(" in place of ")[0]: line for line in step["replacements"]}
+    assert set(tried) == {f"{n}@elbow_joint" for n in ("stribeck_friction", "asymmetric_friction", "load_friction",
+                                                         "friction_curve")}
+    assert tried["friction_curve@elbow_joint"].endswith("better by the significance rule")
+    rules = ("removes too little of what is left", "not in both folds", "too little of the original error",
+             "below the noise floor", "unphysical sign")
+    for name, line in tried.items():
+        if name != "friction_curve@elbow_joint":
+            assert any(rule in line for rule in rules), line
+            assert "unphysical sign" in line or re.search(r"removes (nothing \(held-out it leaves [\d.]+x as much\)|"
+                                                          r"\d+% of what that leaves)", line), line
+    text = report.text()
+    assert "tried friction_curve@elbow_joint in place of coulomb_friction@elbow_joint" in text
+
+
 def test_the_reports_of_real_log_shapes_say_what_was_done():
     _, _, dropped = case_report("logging dropouts (7 joints, 1 kHz, no reference)")
     largest = re.search(r"4 gap\(s\) bridged \(the largest ([0-9.]+) ms\)", dropped.resampled)

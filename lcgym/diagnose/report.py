@@ -213,6 +213,7 @@ class Diagnosis:
                 for c in shown:
                     lines.append(f"    {c['effect'] + '@' + c['axis']:{ws}s} {100 * c['share_of_left']:4.0f}% / "
                                  f"{100 * c['share_of_original']:4.0f}%  {c['verdict']}")
+                lines += [f"    tried {r}" for r in st.get("replacements", [])]
             lines.append(f"  stopped: {self.stop}")
         if self.after is not None:
             lines += ["", f"after adding {', '.join(self.after['added'])} and refitting, residual RMS{head}:",

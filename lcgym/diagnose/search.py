@@ -189,6 +189,24 @@ def verdict(removed, left, own: float, min_explained: float, min_rms: float, n_r
     return "passes"
 
 
+def figures(removed, left, own: float, n_rows: int) -> str:
+    """The numbers ``verdict`` judges, for a refusal or a replacement to name: the share of what was
+    left that a candidate removes, the share of the axis's original error, and the RMS of what it
+    removes [input unit] (``removed``, ``left``: held-out SSE per fold, as ``verdict`` takes them)."""
+    removed, left = float(np.sum(removed)), float(np.sum(left))
+    if removed <= 0:
+        return f"nothing (held-out it leaves {(left - removed) / left:.2f}x as much)" if left > 0 else "nothing"
+    share = removed / left if left > 0 else 0.0
+    of_original = removed / own if own > 0 else 0.0
+    return (f"{100 * share:.0f}% of what that leaves, {100 * of_original:.1f}% of the original error, "
+            f"RMS {math.sqrt(max(removed, 0.0) / n_rows):.3g}")
+
+
+def _named(rule: str, floor: float) -> str:
+    """A ``verdict`` with its number where it has one of its own: the noise floor [input unit]."""
+    return f"{rule} ({floor:.3g})" if rule == "below the noise floor" else rule
+
+
 def _pinv(G, rtol=1e-10):
     """Pseudo-inverse of G (symmetric PSD) taken with its columns scaled to unit diagonal: G+ b is
     the minimum-norm solution of G theta = b in scaled units (eigenvalues below ``rtol`` of the
@@ -406,13 +424,15 @@ class Step:
     ``original`` each axis's original error then (rule 2), ``scores`` every candidate scored at
     this step as (Score, held-out SSE it removes from its axis, verdict: "passes" or the rule it
     fails), ``picked`` the Score selected (None: the selection stopped here); ``revised``: picks
-    put in another form of theirs once this one was in (``rank``)."""
+    put in another form of theirs once this one was in (``rank``); ``replacements``: each other form
+    tried in place of a pick then, with the numbers of the rule and its verdict (``_other_form``)."""
 
     left: np.ndarray
     original: np.ndarray
     scores: list[tuple[Score, float, str]]
     picked: Score | None = None
     revised: list[str] = field(default_factory=list)
+    replacements: list[str] = field(default_factory=list)  # every other form tried in place of a pick, and why (not)
 
 
 @dataclass
@@ -477,7 +497,6 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
     have = {e.key for e in prep.model.effects}  # a start model's own effects are not offered again
     pairs = [(c, a) for a in (range(len(axes)) if search_axes is None else search_axes) for c in candidates
              if (kinds is None or c.effect.applies_to(kinds[a])) and f"{c.name}@{axes[a]}" not in have]
-    by_name = {c.name: c for c in candidates}
     alone, selected, named, steps, model = [], [], [], [], prep.model
     stop = f"{max_steps} effects selected (the most allowed)"
     context = _Context(trials, candidates, axes, own, min_explained, min_rms, n_rows, layout, scales)
@@ -505,10 +524,13 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
             left = scorer.fold_sse(a)
             why = verdict(left - s.folds, left, own[a], min_explained, min_rms[a], n_rows[a], s.physical)
             inner = [by_key[(e, a)] for e in s.candidate.extends if (e, a) in by_key and by_key[(e, a)].physical]
-            if why == "passes" and inner:  # its extra parameters must pass against the best simpler form
+            if why == "passes" and inner:  # in place of the best simpler form, its extra parameters must pass
                 best = min(inner, key=lambda x: x.held_out_sse)
-                if verdict(best.folds - s.folds, best.folds, own[a], min_explained, min_rms[a], n_rows[a]) != "passes":
-                    why = f"adds too little to {best.candidate.name}"
+                rule = verdict(best.folds - s.folds, best.folds, own[a], min_explained, min_rms[a], n_rows[a])
+                if rule != "passes":
+                    why = (f"adds too little to {best.candidate.name} (in its place it removes "
+                           f"{figures(best.folds - s.folds, best.folds, own[a], n_rows[a])}: "
+                           f"{_named(rule, min_rms[a])})")
             rows.append((s, float(current[a] - s.held_out_sse), why))
         record = Step(left=current.copy(), original=own.copy(), scores=rows)
         steps.append(record)
@@ -517,9 +539,12 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
             stop = "no candidate passes the significance rule"
             break
         top = max(passing, key=lambda x: x[2])
-        simpler = [x for x in passing if x[0].axis == top[0].axis and x[0].candidate.name in _simpler(top[0].candidate, by_name)]
-        if simpler and top[0].candidate.shape_free:  # named by the library's effect whose shape it refines (revised below)
-            top = max(simpler, key=lambda x: x[2])
+        plain = [x for x in passing if x[0].axis == top[0].axis and not x[0].candidate.shape_free]
+        if plain and top[0].candidate.shape_free:
+            # a curve of no set shape goes in as the best library effect of its axis, the form it refines
+            # revised to it below: flexible, it also takes up part of another effect there (on the IX's
+            # roll a friction curve removed 78 % of a Coulomb friction and a spring, Coulomb 43 %, the spring 63 %)
+            top = max(plain, key=lambda x: x[2])
         near = [x for x in passing if x[0].axis == top[0].axis and x[1] >= top[1] - tie and not x[0].candidate.shape_free]
         pick = min(near or [top], key=lambda x: (x[0].candidate.n_params, -x[1]))[:2]
         params = refine(scorer, pick[0], cache)
@@ -538,14 +563,15 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
         model, prep, scorer = new_model, new_prep, new_scorer
         cache.use(prep)
         # with the new pick in, is another form of an earlier pick on its axis better now? The new pick
-        # itself is revisited towards its forms of no set shape (its shape refined, now that its
-        # nonlinear parameters are too)
-        richer = {c.name for c in candidates if c.shape_free and pick[0].candidate.name in c.extends}
+        # itself is tried against the forms that refine it (a friction curve, a load-dependent level,
+        # a position map in place of a spring: its shape refined, now that its nonlinear parameters are too)
+        richer = {c.name for c in candidates if pick[0].candidate.name in c.extends}
         for k, (s, share, before) in enumerate(selected):
             latest = k == len(selected) - 1
             if (latest and not richer) or s.axis != pick[0].axis:  # a pick on another axis changes little here
                 continue
-            other = _other_form(s, model, scorer, context, cache, only=richer if latest else None)
+            other = _other_form(s, model, scorer, context, cache, only=richer if latest else None,
+                                tried=record.replacements)
             if other is not None:
                 record.revised.append(f"{s.candidate.name}@{axes[s.axis]} -> {other[0].candidate.name}@{axes[s.axis]}")
                 selected[k] = (other[0], share, before)
@@ -575,32 +601,23 @@ def _without(model: PhysicalModel, key: str) -> PhysicalModel:
                                effects=tuple(e for e in model.fitted_effects if e.key != key))
 
 
-def _simpler(cand: Candidate, by_name: dict[str, Candidate]) -> set[str]:
-    """Names of every candidate whose form ``cand`` contains (``extends``, followed through)."""
-    out, todo = set(), list(cand.extends)
-    while todo:
-        name = todo.pop()
-        if name not in out and name in by_name:
-            out.add(name)
-            todo.extend(by_name[name].extends)
-    return out
-
-
 def _forms(cand: Candidate, candidates: Sequence[Candidate]) -> list[str]:
     """Names of the other forms of ``cand``: the simpler ones it extends and those that extend it."""
     return [c.name for c in candidates if c.name != cand.name and (c.name in cand.extends or cand.name in c.extends)]
 
 
 def _other_form(s: Score, model: PhysicalModel, scorer: Scorer, ctx: _Context, shared: ColumnCache,
-                only: set[str] | None = None) -> tuple[Score, PhysicalModel, Prepared] | None:
+                only: set[str] | None = None, tried: list[str] | None = None
+                ) -> tuple[Score, PhysicalModel, Prepared] | None:
     """Revisit a pick that has another form (asymmetric friction and the Coulomb friction it extends)
     once later picks are in: each form is scored against the model without the pick, and a richer
     one is kept only where its extra parameters pass the significance rule against what the
     simpler one leaves (a direction-dependent level can stand in for part of a one-sided spring
     until the spring is in; a spring picked first can hide a friction's asymmetry). ``only``: the
     forms to try (default all); ``shared``: the selection's column cache (columns that read no
-    model torque are the same here). Returns (the other form's Score, the model with it instead,
-    prepared), or None to keep ``s``."""
+    model torque are the same here); ``tried``: a list that gets one line per form tried, with the
+    rule's numbers (``figures``) and its verdict. Returns (the other form's Score, the model with it
+    instead, prepared), or None to keep ``s``."""
     a, axes = s.axis, ctx.axes
     others = [c for c in ctx.candidates if c.name in _forms(s.candidate, ctx.candidates) and (only is None or c.name in only)]
     if not others:
@@ -611,12 +628,25 @@ def _other_form(s: Score, model: PhysicalModel, scorer: Scorer, ctx: _Context, s
     for other in others:
         alt = score_candidate(base, other, a, without, cache, ctx.scales[a])
         if alt is None or not alt.physical:
+            if alt is not None and tried is not None:
+                tried.append(f"{other.name}@{axes[a]} in place of {s.candidate.name}@{axes[a]}: unphysical sign")
             continue
         richer, simpler = (alt, None) if s.candidate.name in other.extends else (None, alt)
         richer_sse = scorer.fold_sse(a) if richer is None else alt.folds
         simpler_sse = scorer.fold_sse(a) if simpler is None else alt.folds
-        richer_needed = verdict(simpler_sse - richer_sse, simpler_sse, ctx.own[a], ctx.min_explained, ctx.min_rms[a],
-                                ctx.n_rows[a]) == "passes"
+        rule = verdict(simpler_sse - richer_sse, simpler_sse, ctx.own[a], ctx.min_explained, ctx.min_rms[a],
+                       ctx.n_rows[a])
+        richer_needed = rule == "passes"
+        if tried is not None:
+            key, pick = f"{other.name}@{axes[a]}", f"{s.candidate.name}@{axes[a]}"
+            numbers = figures(simpler_sse - richer_sse, simpler_sse, ctx.own[a], ctx.n_rows[a])
+            if richer is not None:
+                tried.append(f"{key} in place of {pick}: removes {numbers}: "
+                             + ("better by the significance rule" if richer_needed else _named(rule, ctx.min_rms[a])))
+            else:
+                tried.append(f"{key} in place of {pick}: {pick} removes {numbers}: "
+                             + ("needed, kept" if richer_needed else f"{_named(rule, ctx.min_rms[a])}, the simpler "
+                                                                     "form taken"))
         if (richer is not None and richer_needed) or (simpler is not None and not richer_needed):
             if best is None or alt.held_out_sse < best.held_out_sse:
                 best = alt

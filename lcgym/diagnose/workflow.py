@@ -437,7 +437,8 @@ def _step_row(k: int, step, axes, n_rows: np.ndarray) -> dict:
     """One greedy step for the report: each axis's held-out RMS left, and every candidate scored
     then, the most removed first (``removed_RMS``: RMS of what it removes; ``share_of_left`` of
     the axis's held-out energy then; ``share_of_original`` of its original error; ``verdict``);
-    ``revised``: earlier picks put in another form of theirs once this one was in."""
+    ``revised``: earlier picks put in another form of theirs once this one was in; ``replacements``:
+    every other form tried in place of a pick, with the rule's numbers and verdict."""
     rows = []
     for s, removed, why in sorted(step.scores, key=lambda x: -x[1]):
         a = s.axis
@@ -447,7 +448,7 @@ def _step_row(k: int, step, axes, n_rows: np.ndarray) -> dict:
                      "verdict": why})
     picked = None if step.picked is None else f"{step.picked.candidate.name}@{axes[step.picked.axis]}"
     return {"step": k, "left_RMS": {ax: math.sqrt(float(step.left[i]) / n_rows[i]) for i, ax in enumerate(axes)},
-            "picked": picked, "revised": list(step.revised), "candidates": rows}
+            "picked": picked, "revised": list(step.revised), "replacements": list(step.replacements), "candidates": rows}
 
 
 def replay_plant(trials: Sequence, system: systems.System, spec: str | None = None):
