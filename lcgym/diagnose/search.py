@@ -77,6 +77,9 @@ from .candidates import Candidate
 from .layout import Layout, fold_assignment
 
 DEG = math.pi / 180.0
+OVER_POSITION = ("spring", "position", "gravity", "periodic")
+"""Families of effects that are curves over their axis's position (a spring, a position map, a drape,
+a gear's ripple): on an axis that moves in proportion with another, data cannot tell whose position."""
 LATE_FACTOR = 0.5  # a pick must also remove this fraction of min_explained of its axis's original error ...
 REVEALED = 1 / 4  # ... unless it removes at least this share of what is left: an effect a larger one hid
 FOLD_SHARE = 1 / 3  # and in each fold at least this fraction of min_explained of that fold's held-out error
@@ -473,7 +476,7 @@ class Ranking:
 def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes: Sequence[str], layout: Layout,
          min_explained: float = 0.1, min_rms: float | Sequence[float] = 0.004, tie: float = 0.01, max_steps: int = 4,
          progress=None, search_axes: Sequence[int] | None = None, scales: Sequence[dict] | None = None,
-         kinds: Sequence | None = None) -> Ranking:
+         kinds: Sequence | None = None, position_blind: Sequence[int] = ()) -> Ranking:
     """Score every candidate on every axis, then select greedily (module docstring). After each
     pick the model is refitted with it (centres of mass included) before the rest are rescored.
 
@@ -484,7 +487,9 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
     (``diagnose.layout``); ``search_axes``: the axis indices candidates are tried on (default all);
     ``scales``: each axis's grid scales (``score_candidate``; default the IX's 20 deg/s and 100
     deg); ``kinds``: the ``systems.Axis`` of each axis, where a candidate whose formula does not
-    apply to the axis (``Effect.applies_to``) is skipped.
+    apply to the axis (``Effect.applies_to``) is skipped; ``position_blind``: axes that move in
+    proportion with another (``workflow.proportional_groups``), where no candidate over the position
+    (``OVER_POSITION``) is tried: the data cannot tell which axis's position it would follow.
     """
     min_rms = np.broadcast_to(np.asarray(min_rms, dtype=float), (len(axes),))
     if scales is None:
@@ -496,7 +501,8 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
     n_rows = np.maximum(prep.n_used, 1)
     have = {e.key for e in prep.model.effects}  # a start model's own effects are not offered again
     pairs = [(c, a) for a in (range(len(axes)) if search_axes is None else search_axes) for c in candidates
-             if (kinds is None or c.effect.applies_to(kinds[a])) and f"{c.name}@{axes[a]}" not in have]
+             if (kinds is None or c.effect.applies_to(kinds[a])) and f"{c.name}@{axes[a]}" not in have
+             and not (a in position_blind and c.family in OVER_POSITION)]
     alone, selected, named, steps, model = [], [], [], [], prep.model
     stop = f"{max_steps} effects selected (the most allowed)"
     context = _Context(trials, candidates, axes, own, min_explained, min_rms, n_rows, layout, scales)

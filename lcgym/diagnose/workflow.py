@@ -170,8 +170,10 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
         regions = region_table(residual, region_masks(q, qd, qdd, prep.trial, fs_rows, system.axes), axes, prep.used)
         bar.update()
         bar.set_postfix_str("candidates")
+        groups = proportional_groups(prep.kin[1], lay.used, moving)
         ranking = rank(prep, trials, cands, axes, lay, min_explained=min_explained, min_rms=floor, max_steps=max_steps,
-                       progress=bar, search_axes=moving, scales=scales, kinds=system.axes)
+                       progress=bar, search_axes=moving, scales=scales, kinds=system.axes,
+                       position_blind=[i for g in groups for i in g["axes"]])
         bar.close()
 
         rows = []
@@ -210,7 +212,10 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
                            displays={a.name: a.display for a in system.axes},
                            resampled=_resampled_note(trials), spec=spec, steps=steps, stop=ranking.stop,
                            options="--kinematics measured" if kinematics == "measured" else "",
-                           samples=_samples_record(lay, axes, system.axes, trials, fs), blocks=_blocks_note(lay),
+                           samples={**_samples_record(lay, axes, system.axes, trials, fs),
+                                    "proportional": [{"axes": [axes[i] for i in g["axes"]], "alike": g["alike"]}
+                                                     for g in groups]},
+                           blocks=_blocks_note(lay),
                            machine_file=getattr(getattr(system.bench, "settings", None), "source", None))
         report.found = {f"{s.candidate.name}@{axes[s.axis]}": s.candidate.build(axes[s.axis], **s.params)
                         for s in ranking.alone}
@@ -321,6 +326,40 @@ def _blocks_note(lay) -> str:
     lengths = sorted(set(round(b, 2) for b in lay.blocks))
     what = f"{lengths[0]:g} s" if len(lengths) == 1 else f"{lengths[0]:g}-{lengths[-1]:g} s"
     return f"held-out blocks of {what}, alternating between two folds within each trial"
+
+
+PROPORTIONAL = 0.99
+"""Axes whose velocities are this alike over the data (|cosine| of the two velocity series) move in
+proportion (``proportional_groups``): less than 14 % of either's motion is its own."""
+
+
+def proportional_groups(qd: np.ndarray, used: np.ndarray, moving: Sequence[int], alike: float = PROPORTIONAL
+                        ) -> list[dict]:
+    """Groups of moving axes that move (nearly) in proportion over the samples both use: {"axes":
+    indices, "alike": the least |cosine| between the velocities (T, A) of two linked axes}. An effect
+    over the position of one such axis could as well follow another's: the data cannot attribute it."""
+    parent = {i: i for i in moving}
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            i = parent[i]
+        return i
+
+    least = {}
+    for k, i in enumerate(moving):
+        for j in moving[k + 1:]:
+            both = used[:, i] & used[:, j]
+            a, b = qd[both, i], qd[both, j]
+            norm = math.sqrt(float(a @ a) * float(b @ b))
+            cos = abs(float(a @ b)) / norm if norm > 0 else 0.0
+            if cos >= alike:
+                parent[root(j)] = root(i)
+                least[(i, j)] = cos
+    groups: dict[int, list[int]] = {}
+    for i in moving:
+        groups.setdefault(root(i), []).append(i)
+    return [{"axes": g, "alike": min(c for (i, j), c in least.items() if i in g and j in g)}
+            for g in groups.values() if len(g) > 1]
 
 
 def moving_axes(trials: Sequence, system: systems.System) -> list[int]:
