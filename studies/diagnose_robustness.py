@@ -22,7 +22,13 @@ axes' residual RMS after / before adding the selected effects, and what the trut
 runs without the hidden effects: their residual / before). ``tests/test_diagnose_logs.py`` runs
 each case (one seed).
 
-Run:  .venv/bin/python studies/diagnose_robustness.py [--part ix|logs|all] [--seeds 0,1,2] [--out robustness.md]
+Part "runs" (``RUN_CASES``, issue 49): what is named must hold on the next run. A validation run
+twice as fast as the runs fitted (``--validate``: the worst joint's residual with the selected
+effects over the rigid-body model's), and joints driven in proportion (an effect over one's
+position could follow the other's: none is tried there). ``tests/test_diagnose_logs.py`` runs each
+case (one seed).
+
+Run:  .venv/bin/python studies/diagnose_robustness.py [--part ix|logs|runs|all] [--seeds 0,1,2] [--out robustness.md]
 """
 
 from __future__ import annotations
@@ -31,7 +37,7 @@ import argparse
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -274,6 +280,82 @@ LOG_CASES: dict[str, LogCase] = {case.name: case for case in (
 )}
 
 
+# ---------------------------------------------------------------------------------------------
+# Part "runs": what is named must hold on the next run (issue 49)
+# ---------------------------------------------------------------------------------------------
+
+
+def make_faster(seed: int, hidden: tuple):
+    """The cobot: three runs of 20 s at a quarter of its joints' speed limits fitted, and one of 20 s
+    at half of them (twice as fast) to validate on."""
+    cobot = _cobot()
+    plant = URDFPlant(cobot, effects=hidden, seed=seed, encoder_resolution=ENCODER)
+    train = plant.run(random_references(cobot, n=3, duration=20.0, seed=seed, speed=0.25))
+    return cobot, train, plant.run(random_references(cobot, n=1, duration=20.0, seed=seed + 100, speed=0.5))
+
+
+def make_proportional(seed: int, hidden: tuple):
+    """The two-link arm, three runs of 20 s in which the elbow makes half the shoulder's moves."""
+    arm = systems.get("two_link", joints=("shoulder", "elbow"))
+    refs = []
+    for r in random_references(arm, n=3, duration=20.0, seed=seed):
+        coupled = [x.copy() for x in (r.positions, r.velocities, r.accelerations)]
+        for x, mean in zip(coupled, (r.positions[:, 0].mean(), 0.0, 0.0), strict=True):
+            x[:, 1] = 0.5 * (x[:, 0] - mean)
+        refs.append(replace(r, positions=coupled[0], velocities=coupled[1], accelerations=coupled[2]))
+    return arm, URDFPlant(arm, effects=hidden, seed=seed, encoder_resolution=ENCODER).run(refs), None
+
+
+@dataclass(frozen=True)
+class RunCase:
+    """A case of the runs part: ``make(seed, hidden)`` -> (machine, trials fitted, trials to validate
+    on or None); ``truth`` the (family, axis) pairs to be named, nothing else."""
+
+    name: str
+    hidden: tuple
+    truth: tuple[tuple[str, str], ...]
+    make: Callable[[int, tuple], tuple[systems.System, list[Trial], list[Trial] | None]]
+    note: str = ""
+
+
+RUN_CASES: dict[str, RunCase] = {case.name: case for case in (
+    RunCase("validation run twice as fast (cobot, friction growing with sqrt(speed) on the elbow)",
+            (fx.TabulatedForce.from_function("elbow_joint", "velocity", concave, -6.4, 6.4, 1024),),
+            (("friction", "elbow_joint"),), make_faster),
+    RunCase("joints driven in proportion (two-link: the elbow makes half the shoulder's moves)",
+            (fx.CoulombFriction("elbow", Fc=2.0, eps=0.01),), (("friction", "elbow"),), make_proportional),
+)}
+
+
+def run_row(case: RunCase, seeds) -> tuple:
+    """One row of the runs part: named right, selected (first seed), the worst joint's validation
+    residual with the selected effects / without them, and the time of a diagnosis."""
+    hits, worst, picks, seconds = 0, [], None, 0.0
+    for seed in seeds:
+        machine, trials, other = case.make(seed, case.hidden)
+        t0 = time.perf_counter()
+        rep = diagnose(trials, machine, validate=other)
+        seconds = max(seconds, time.perf_counter() - t0)
+        ok, sel = named(rep, case.truth)
+        hits += ok
+        picks = picks if picks is not None else (", ".join(sel) or "none")
+        if other is not None:
+            v = rep.validation
+            worst.append(max(v["residual_after"][a]["RMS"] / v["residual"][a]["RMS"] for a in machine.axis_names))
+    span = f"{min(worst):.2f}-{max(worst):.2f}x" if worst else "-"
+    return case.name, f"{hits} of {len(seeds)}", picks, span, f"{seconds:.0f} s"
+
+
+def runs_part(seeds) -> list[str]:
+    rows = []
+    for case in tqdm(RUN_CASES.values(), desc="run cases"):
+        rows.append(run_row(case, seeds))
+        tqdm.write("  ".join(rows[-1]))
+    return ["| case | named right, nothing else | selected (first seed) | worst joint on the validation run, "
+            "with / without the selected effects | time |", "|---|---|---|---|---|"] + [f"| {' | '.join(r)} |"
+                                                                                          for r in rows]
+
+
 def named(report, truth) -> tuple[bool, list[str]]:
     """Whether ``report`` named every (family, axis) of ``truth`` and nothing else; its selections."""
     picks = [(c["family"], c["axis"]) for c in report.candidates if c["selected"]]
@@ -321,7 +403,7 @@ def ix_none(seeds) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--part", choices=("ix", "logs", "all"), default="all")
+    parser.add_argument("--part", choices=("ix", "logs", "runs", "all"), default="all")
     parser.add_argument("--seeds", default="0,1,2")
     parser.add_argument("--out", type=Path, help="write the table(s) as Markdown")
     args = parser.parse_args()
@@ -329,6 +411,9 @@ def main() -> None:
     tables = []
     if args.part in ("logs", "all"):
         tables.append("\n".join(logs_part(seeds)))
+        print(tables[-1])
+    if args.part in ("runs", "all"):
+        tables.append("\n".join(runs_part(seeds)))
         print(tables[-1])
     if args.part in ("ix", "all"):
         tables.append(ix_part(seeds))

@@ -108,31 +108,6 @@ def test_the_report_states_each_effects_fitted_range_and_where_validation_data_l
     assert same.validation["outside"] == [] and "every sample within the effects' fitted ranges" in same.text()
 
 
-def test_axes_moving_in_proportion_are_named_and_get_no_effect_over_the_position():
-    """Issue 49, item 3: the elbow follows half the shoulder's motion, so a spring over the shoulder's
-    angle could as well follow the elbow's: the report names the pair, tries no effect over the
-    position on either, and still names the elbow's friction (a curve over its own speed)."""
-    import dataclasses
-
-    arm = systems.get(URDF, joints=JOINTS)
-    refs = []
-    for r in random_references(arm, n=3, duration=20.0, seed=0):
-        coupled = [x.copy() for x in (r.positions, r.velocities, r.accelerations)]
-        for x, mean in zip(coupled, (r.positions[:, 0].mean(), 0.0, 0.0), strict=True):
-            x[:, 1] = 0.5 * (x[:, 0] - mean)
-        refs.append(dataclasses.replace(r, positions=coupled[0], velocities=coupled[1], accelerations=coupled[2]))
-    hidden = (fx.CoulombFriction("elbow", Fc=2.0, eps=0.01),
-              fx.CableSpring("shoulder", k=40.0, q0=math.radians(20), width=math.radians(3)))
-    runs = URDFPlant(arm, effects=hidden, encoder_resolution=2 * math.pi / 2**16).run(refs)
-    report = diagnose(runs, arm)
-    (group,) = report.samples["proportional"]
-    assert group["axes"] == ["shoulder", "elbow"] and group["alike"] > 0.99
-    assert "moving in proportion: shoulder, elbow" in report.text()
-    tried = {(c["effect"], c["axis"]) for st in report.steps for c in st["candidates"]}
-    assert not {name for name, _ in tried} & {"cable_spring", "position_map", "cable_drape", "gear_harmonic"}
-    assert "coulomb_friction@elbow" in report.missing, report.text()
-
-
 def test_nothing_is_claimed_without_a_hidden_effect():
     arm = systems.get(URDF, joints=JOINTS)
     runs = URDFPlant(arm, encoder_resolution=2 * math.pi / 2**16).run(random_references(arm, n=3, duration=20.0, seed=0))

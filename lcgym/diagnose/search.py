@@ -505,7 +505,7 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
              and not (a in position_blind and c.family in OVER_POSITION)]
     alone, selected, named, steps, model = [], [], [], [], prep.model
     stop = f"{max_steps} effects selected (the most allowed)"
-    context = _Context(trials, candidates, axes, own, min_explained, min_rms, n_rows, layout, scales)
+    context = _Context(trials, candidates, axes, own, min_explained, min_rms, n_rows, layout, scales, position_blind)
     for step in range(max_steps):
         current = scorer.test_sse
         if progress is not None:
@@ -599,6 +599,7 @@ class _Context:
     n_rows: np.ndarray
     layout: Layout
     scales: Sequence[dict]
+    position_blind: Sequence[int] = ()
 
 
 def _without(model: PhysicalModel, key: str) -> PhysicalModel:
@@ -625,7 +626,8 @@ def _other_form(s: Score, model: PhysicalModel, scorer: Scorer, ctx: _Context, s
     rule's numbers (``figures``) and its verdict. Returns (the other form's Score, the model with it
     instead, prepared), or None to keep ``s``."""
     a, axes = s.axis, ctx.axes
-    others = [c for c in ctx.candidates if c.name in _forms(s.candidate, ctx.candidates) and (only is None or c.name in only)]
+    others = [c for c in ctx.candidates if c.name in _forms(s.candidate, ctx.candidates) and (only is None or c.name in only)
+              and not (a in ctx.position_blind and c.family in OVER_POSITION)]
     if not others:
         return None
     without = prepare(ctx.trials, _without(model, f"{s.candidate.name}@{axes[a]}"), ctx.layout)
