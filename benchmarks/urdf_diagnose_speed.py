@@ -7,7 +7,9 @@ Two logs, simulated with ``URDFPlant`` and shaped like the real ones the diagnos
 - ``cobot``: lcgym's six-joint arm logged at 100 Hz with jittered stamps (each up to 4 ms off its
   grid) and no reference, 17,000 samples (about 170 s in 8 runs);
 - ``panda``: the Franka Panda's seven joints (``tests/data/panda``) at 1 kHz, 20,000 samples in
-  one run with four logging dropouts of 8.5-8.8 ms, no reference.
+  one run with four logging dropouts of 8.5-8.8 ms, no reference;
+- ``panda_runs``: the Panda's seven joints, three runs of 25 s logged at 200 Hz with jittered
+  stamps (each up to 1 ms off its grid), no reference: issue 49's size (15,000 samples).
 
 Each log is written to a CSV file and diagnosed as a user runs it (``lcgym diagnose FILE --system
 URDF --json ...``, in this process: reading the file, resampling and the URDF included), ``--runs``
@@ -15,7 +17,7 @@ times. As a reference measured in the same run, one least-squares fit of the nom
 same trials. Prints the medians, their ratio, the budget's share, the effects selected, and a
 profile of one diagnosis by stage (cumulative seconds of the functions that make the stages).
 
-Run:  .venv/bin/python benchmarks/urdf_diagnose_speed.py [--runs 3] [--logs cobot,panda]
+Run:  .venv/bin/python benchmarks/urdf_diagnose_speed.py [--runs 3] [--logs cobot,panda,panda_runs]
 """
 
 from __future__ import annotations
@@ -45,6 +47,7 @@ from lcgym.systems.urdf_plant import URDFPlant, random_references
 
 BUDGET_S = 60.0
 PANDA = Path(__file__).resolve().parents[1] / "tests" / "data" / "panda" / "panda.urdf"
+PANDA_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
 STAGES = {  # stage -> the function whose cumulative time it is (file suffix, function name)
     "read the log, put it on a grid": ("data.py", "read_trials"),
     "nominal fit, masks, reductions (prepare)": ("search.py", "prepare"),
@@ -76,7 +79,7 @@ def cobot_log(folder: Path, samples: int = 17_000) -> Path:
 
 
 def panda_log(folder: Path, samples: int = 20_000) -> Path:
-    panda = systems.get(str(PANDA), joints=tuple(f"panda_joint{i}" for i in range(1, 8)))
+    panda = systems.get(str(PANDA), joints=PANDA_JOINTS)
     hidden = tuple(fx.CoulombFriction(f"panda_joint{i}", Fc=f, eps=0.005)
                    for i, f in zip(range(1, 8), (3.0, 3.0, 2.0, 2.0, 1.2, 1.0, 0.8), strict=True))
     run = URDFPlant(panda, effects=hidden, seed=0).run(random_references(panda, n=1, duration=samples / 1000 + 1.0,
@@ -85,6 +88,16 @@ def panda_log(folder: Path, samples: int = 20_000) -> Path:
     rng = np.random.default_rng(0)
     gaps = [(t, rng.uniform(0.0085, 0.0088)) for t in sorted(rng.uniform(2.0, samples / 1000 - 2.0, 4))]
     return write_trials(folder / "panda.csv", [logs.without_reference(logs.drop(run, gaps))])
+
+
+def panda_runs_log(folder: Path) -> Path:
+    panda = systems.get(str(PANDA), joints=PANDA_JOINTS)
+    hidden = tuple(fx.CoulombFriction(j, Fc=f, eps=0.005) for j, f in zip(PANDA_JOINTS, (3.0, 3.0, 2.0, 2.0, 1.2, 1.0, 0.8),
+                                                                          strict=True))
+    runs = URDFPlant(panda, effects=hidden, seed=0).run(random_references(panda, n=3, duration=25.0, seed=0))
+    rng = np.random.default_rng(0)
+    return write_trials(folder / "panda_runs.csv", [logs.without_reference(logs.jittered(r, 200.0, 0.001, rng))
+                                                   for r in runs])
 
 
 def profile(args: list[str]) -> list[tuple[str, float]]:
@@ -113,8 +126,8 @@ def main() -> None:
             if name == "cobot":
                 data, urdf = cobot_log(folder), "cobot6"
             else:
-                data, urdf = panda_log(folder), str(PANDA)
-            machine = systems.get(urdf, joints=None if name == "cobot" else tuple(f"panda_joint{i}" for i in range(1, 8)))
+                data, urdf = (panda_log if name == "panda" else panda_runs_log)(folder), str(PANDA)
+            machine = systems.get(urdf, joints=None if name == "cobot" else PANDA_JOINTS)
             trials = read_trials(data, axes=machine, resample="auto", max_gap=bridged_gap())  # as the CLI reads it
             n = sum(t.n_samples for t in trials)
             t0 = time.perf_counter()
