@@ -347,13 +347,18 @@ def run_row(case: RunCase, seeds) -> tuple:
 
 
 def runs_part(seeds) -> list[str]:
+    return markdown(RUN_CASES, run_row, seeds, ("case", "named right, nothing else", "selected (first seed)",
+                                                  "worst joint on the validation run, with / without the selected "
+                                                  "effects", "time"))
+
+
+def markdown(cases: dict, row: Callable, seeds, header: tuple[str, ...]) -> list[str]:
+    """The Markdown table of ``row(case, seeds)`` over ``cases``, each row printed as it comes."""
     rows = []
-    for case in tqdm(RUN_CASES.values(), desc="run cases"):
-        rows.append(run_row(case, seeds))
+    for case in tqdm(cases.values(), desc="cases"):
+        rows.append(row(case, seeds))
         tqdm.write("  ".join(rows[-1]))
-    return ["| case | named right, nothing else | selected (first seed) | worst joint on the validation run, "
-            "with / without the selected effects | time |", "|---|---|---|---|---|"] + [f"| {' | '.join(r)} |"
-                                                                                          for r in rows]
+    return [f"| {' | '.join(header)} |", "|" + "---|" * len(header)] + [f"| {' | '.join(r)} |" for r in rows]
 
 
 def named(report, truth) -> tuple[bool, list[str]]:
@@ -387,12 +392,8 @@ def log_row(case: LogCase, seeds) -> tuple:
 
 
 def logs_part(seeds) -> list[str]:
-    rows = []
-    for case in tqdm(LOG_CASES.values(), desc="log cases"):
-        rows.append(log_row(case, seeds))
-        tqdm.write("  ".join(rows[-1]))
-    return ["| case (URDF arm) | named right, nothing else | selected (first seed) | true axes' residual after / before "
-            "| the truth allows | time |", "|---|---|---|---|---|---|"] + [f"| {' | '.join(r)} |" for r in rows]
+    return markdown(LOG_CASES, log_row, seeds, ("case (URDF arm)", "named right, nothing else", "selected (first seed)",
+                                                "true axes' residual after / before", "the truth allows", "time"))
 
 
 def ix_none(seeds) -> str:
