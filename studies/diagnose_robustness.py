@@ -24,8 +24,9 @@ each case (one seed).
 
 Part "runs" (``RUN_CASES``, issue 49): what is named must hold on the next run. A validation run
 twice as fast as the runs fitted (``--validate``: the worst joint's residual with the selected
-effects over the rigid-body model's), and joints driven in proportion (an effect over one's
-position could follow the other's: none is tried there). ``tests/test_diagnose_logs.py`` runs each
+effects over the rigid-body model's), one trajectory run twice (the selection stricter; validated
+on another trajectory), and joints driven in proportion (an effect over one's position could
+follow the other's: none is tried there). ``tests/test_diagnose_logs.py`` runs each
 case (one seed).
 
 Run:  .venv/bin/python studies/diagnose_robustness.py [--part ix|logs|runs|all] [--seeds 0,1,2] [--out robustness.md]
@@ -306,6 +307,17 @@ def make_proportional(seed: int, hidden: tuple):
     return arm, URDFPlant(arm, effects=hidden, seed=seed, encoder_resolution=ENCODER).run(refs), None
 
 
+def make_repeated(seed: int, hidden: tuple):
+    """The cobot: one 20 s trajectory run twice (position noise of 2 encoder steps, a new draw each
+    run) fitted, and another 20 s trajectory to validate on."""
+    cobot = _cobot()
+    same, other = random_references(cobot, n=2, duration=20.0, seed=seed)
+    runs = [URDFPlant(cobot, effects=hidden, seed=seed + k, encoder_resolution=ENCODER, noise_rms=2 * ENCODER).run(same)
+            for k in range(2)]
+    return cobot, runs, [URDFPlant(cobot, effects=hidden, seed=seed + 2, encoder_resolution=ENCODER,
+                                   noise_rms=2 * ENCODER).run(other)]
+
+
 @dataclass(frozen=True)
 class RunCase:
     """A case of the runs part: ``make(seed, hidden)`` -> (machine, trials fitted, trials to validate
@@ -322,6 +334,8 @@ RUN_CASES: dict[str, RunCase] = {case.name: case for case in (
     RunCase("validation run twice as fast (cobot, friction growing with sqrt(speed) on the elbow)",
             (fx.TabulatedForce.from_function("elbow_joint", "velocity", concave, -6.4, 6.4, 1024),),
             (("friction", "elbow_joint"),), make_faster),
+    RunCase("one trajectory repeated (cobot, two runs of it fitted; Coulomb friction on every joint)",
+            _cobot_friction(), _friction_truth(), make_repeated),
     RunCase("joints driven in proportion (two-link: the elbow makes half the shoulder's moves)",
             (fx.CoulombFriction("elbow", Fc=2.0, eps=0.01),), (("friction", "elbow"),), make_proportional),
 )}

@@ -81,6 +81,24 @@ def test_each_run_case_names_the_truth_and_holds_on_the_validation_run(name):
         assert max(ratios.values()) <= 1.10, ratios
 
 
+def test_runs_that_repeat_one_trajectory_are_found_and_the_selection_is_stricter():
+    """Issue 49, item 2: two runs of one trajectory (a little noise apart) are one group, a run of
+    another trajectory is not; the report says so and how the selection was made stricter."""
+    from lcgym.diagnose.layout import repeated_runs
+
+    t = np.arange(0, 10, 0.01)
+    path = np.stack([np.sin(t), np.cos(0.7 * t)], axis=1)
+    rng = np.random.default_rng(0)
+    trials = [Trial(t=t[: len(p)], ref=None, pos=p, u=np.zeros_like(p), axes=("a", "b"))
+              for p in (path, path + 0.01 * rng.standard_normal(path.shape), np.stack([np.cos(t), np.sin(0.5 * t)], 1),
+                        path[:900])]  # the last: a tenth shorter, another run
+    assert repeated_runs(trials, [0, 1]) == [[0, 1]]
+    _, report = run_case_report("one trajectory repeated (cobot, two runs of it fitted; Coulomb friction on every joint)")
+    assert report.samples["repeated"] == [[0, 1]] and report.min_explained == pytest.approx(0.2)
+    assert "repeated: trials 0, 1 repeat one trajectory" in report.text()
+    assert not {c["effect"] for st in report.steps for c in st["candidates"]} & {"friction_curve", "position_map"}
+
+
 def test_axes_moving_in_proportion_are_named_and_get_no_effect_over_the_position():
     """Issue 49, item 3: the elbow makes half the shoulder's moves, so a spring over the shoulder's
     angle could as well follow the elbow's: the report names the pair and tries no effect over the

@@ -55,6 +55,32 @@ EDGE_WINDOW = 2.0  # s ... within this long of a trial's end ...
 EDGE_ENERGY = 0.2  # ... and trimmed where the edges hold this share of an axis's residual energy
 
 
+REPEAT_DIFFERENCE = 0.05  # runs repeat one trajectory where their positions differ by less than this share of the motion
+
+
+def repeated_runs(trials: Sequence, moving: Sequence[int]) -> list[list[int]]:
+    """Groups of trials (indices) that repeat one trajectory: the same number of samples (within 2 %)
+    and positions (the reference, else the measured ones) of the ``moving`` axes that differ by less
+    than ``REPEAT_DIFFERENCE`` of the motion's RMS about its mean. Held-out blocks of one trajectory
+    share its quirks (the same moves at the same places, the same transients): they cannot tell a
+    missing effect from those (``diagnose`` then selects more strictly)."""
+    paths = [np.asarray(tr.ref if tr.ref is not None else tr.pos, dtype=float)[:, list(moving)] for tr in trials]
+    group = list(range(len(trials)))
+    for i in range(len(trials)):
+        for j in range(i + 1, len(trials)):
+            a, b = paths[i], paths[j]
+            if group[j] != j or abs(len(a) - len(b)) > 0.02 * max(len(a), len(b)):
+                continue
+            n = min(len(a), len(b))
+            motion = np.sqrt(np.mean((a[:n] - a[:n].mean(axis=0)) ** 2))
+            if motion > 0 and np.sqrt(np.mean((a[:n] - b[:n]) ** 2)) < REPEAT_DIFFERENCE * motion:
+                group[j] = group[i]
+    out: dict[int, list[int]] = {}
+    for k, g in enumerate(group):
+        out.setdefault(g, []).append(k)
+    return [g for g in out.values() if len(g) > 1]
+
+
 class DataTooShort(ValueError):
     """Too little data for held-out scoring."""
 

@@ -302,6 +302,10 @@ class Diagnosis:
             speed = {ax: _fmt("eps", v, self.displays.get(ax, (180 / math.pi, "deg"))) for ax, v in s["rest_speed"].items()}
             rest = ", ".join(f"{ax} {100 * n / total:.0f}% (below {speed[ax]})" for ax, n in still.items() if n)
             out.append(f"standstill left out of its axis's fit and score: {rest}")
+        for g in s.get("repeated", []):
+            out.append(f"repeated: trials {', '.join(str(k) for k in g)} repeat one trajectory; held-out blocks of one "
+                       "trajectory cannot tell a missing effect from its own quirks, so the selection is stricter: "
+                       f"{s['strict']}")
         for g in s.get("proportional", []):
             out.append(f"moving in proportion: {', '.join(g['axes'])} (velocities alike to {g['alike']:.4f}): no effect "
                        "over the position is tried there, as the data cannot tell whose position it follows; a motion "

@@ -40,7 +40,7 @@ from ..physics.effects import Effect, parse_key
 from ..physics.kinematics import lowpass_zero_phase, reference_kinematics
 from ..physics.model import PhysicalModel, reduction_memo
 from .candidates import Candidate, candidates_for
-from .layout import edge_outliers, layout, used_samples
+from .layout import edge_outliers, layout, repeated_runs, used_samples
 from .machines import machines_with_axes
 from .regions import region_masks, region_table
 from .report import Diagnosis
@@ -149,6 +149,15 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
     corners = (model.filter_hz, _velocity_filter_hz(model, trials))
     spread = 1.0 / model.kinematics_filter_hz if any(model.uses_position(tr) for tr in trials) else 0.0
     lay = layout(trials, kin, lengths, fs, *corners, block_seconds, spread=spread, moving=moving)
+    repeats = repeated_runs(trials, moving)
+    strict = ""
+    if repeats:  # held-out blocks of one trajectory share its quirks: fewer parameters, a higher bar
+        shape_free = [c.name for c in cands if c.shape_free]
+        cands = [c for c in cands if not c.shape_free]
+        min_explained = min(STRICTER * min_explained, 0.5)
+        max_steps = len(moving) if max_steps is None else max_steps
+        strict = (f"each effect must remove {100 * min_explained:.0f}% of what its axis has left, at most "
+                  f"{max_steps} effect(s), no curve of no set shape ({', '.join(shape_free) or 'none'})")
     max_steps = 2 * len(moving) if max_steps is None else max_steps
 
     with system.caching() if system.caching is not None else nullcontext(), reduction_memo():
@@ -214,7 +223,8 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
                            options="--kinematics measured" if kinematics == "measured" else "",
                            samples={**_samples_record(lay, axes, system.axes, trials, fs),
                                     "proportional": [{"axes": [axes[i] for i in g["axes"]], "alike": g["alike"]}
-                                                     for g in groups]},
+                                                     for g in groups],
+                                    "repeated": repeats, "strict": strict},
                            blocks=_blocks_note(lay),
                            machine_file=getattr(getattr(system.bench, "settings", None), "source", None))
         report.found = {f"{s.candidate.name}@{axes[s.axis]}": s.candidate.build(axes[s.axis], **s.params)
@@ -328,6 +338,9 @@ def _blocks_note(lay) -> str:
     return f"held-out blocks of {what}, alternating between two folds within each trial"
 
 
+STRICTER = 2.0
+"""Where runs repeat one trajectory (``layout.repeated_runs``), ``min_explained`` is this many times
+higher, at most one effect per moving axis is selected and no curve of no set shape is tried."""
 PROPORTIONAL = 0.99
 """Axes whose velocities are this alike over the data (|cosine| of the two velocity series) move in
 proportion (``proportional_groups``): less than 14 % of either's motion is its own."""
