@@ -227,8 +227,10 @@ class Diagnosis:
                 lines.append("  fitted parameters: " + ", ".join(f"{n} {v:.4g}" for n, v in params.items()))
             for e in self.after["effects"]:
                 display = self.displays.get(e["effect"].partition("@")[2], (180 / math.pi, "deg"))
+                fitted = self.range_text(e["effect"])
                 lines.append(f"  fitted {e['effect']}: " + ", ".join(f"{n} {_fmt(n, v, display)}" for n, v in e.items()
-                                                                  if n != "effect"))
+                                                                  if n != "effect")
+                             + (f" (over {fitted})" if fitted else ""))
         if self.validation is not None:
             v = self.validation
             what = f"with {', '.join(v['added'])}" if v["added"] else "with no effect added (none selected)"
