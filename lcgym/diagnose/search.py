@@ -58,7 +58,9 @@ error (``studies/diagnose_hidden_effects.py``, the cases that a 1 % bar let thro
 A candidate that ``extends`` a simpler one (asymmetric friction contains Coulomb friction) passes
 only if what it removes beyond the simpler one passes rules 1-3 against what the simpler one
 leaves. Among candidates on the same axis within ``tie`` of the best, the one with the fewest parameters
-is taken (the simpler of two friction curves that fit equally well).
+is taken (the simpler of two friction curves that fit equally well). Once a pick is in, every form
+that extends it is tried in its place (``_other_form``), and each try is recorded with the rule's
+numbers (``figures``) and its verdict.
 """
 
 from __future__ import annotations
