@@ -56,9 +56,9 @@ class Candidate:
     simpler one leaves (``diagnose.search``). ``shape_free``: a curve of no set shape (a spline):
     where a library effect of its axis passes too, the best of those is named first, and this one is
     then tried in its place where it extends that effect (its shape refined). ``fixed``: nonlinear
-    parameters the search takes from the grid and does not refine (a spline's knot range). ``above_rest``: speeds of a shape that acts at low
-    speed (a Stribeck velocity), tried only from twice the axis's rest speed up (``scale["rest"]``:
-    the samples below it are left out of the fit)."""
+    parameters the search takes from the grid and does not refine (a spline's knot range).
+    ``above_rest``: speeds of a shape that acts at low speed (a Stribeck velocity), tried only from
+    twice the axis's rest speed up (``scale["rest"]``: the samples below it are left out of the fit)."""
 
     effect: type[fx.Effect]
     family: str
