@@ -22,13 +22,21 @@ Not every sample of a real log says something about the model:
 ``settle`` is one period of the fit's low-pass corner (0.2 s at 5 Hz): the zero-phase
 Butterworth's step response is within 1 % of its end value 0.17 s from the step.
 
-Held-out scoring splits the trials into blocks that alternate between two folds
-(``diagnose.search``). Their length follows the data: about an eighth of the data
-(``TARGET_BLOCKS``), at most ``MAX_BLOCK`` s and at least ``MIN_BLOCK_SETTLES`` x settle (1 s
-at 5 Hz), each trial cut into equal blocks; rows within ``settle`` of a boundary between blocks
-are left out of the training folds, so that no held-out row is scored on a fit that saw it
-through the filter. Scoring needs ``MIN_BLOCKS_PER_FOLD`` blocks in each fold: 6 s of data at
-the least; below that ``DataTooShort`` says what is there and what is needed.
+Held-out scoring has two folds (``diagnose.search``). Where the data hold runs of different motions,
+the folds are whole runs (``run_folds``): a candidate is fitted on some motions and judged on
+others, as the next run will judge it (a curve fitted up to one speed is scored where another run
+goes faster). Runs that repeat one trajectory (``repeated_runs``) go in one fold. Whole runs are
+used where the smaller fold holds at least ``RUN_SHARE`` of the data and of the samples in which
+each moving axis moves (both folds can fit every axis), and at least ``RUN_SECONDS`` (16 s: in three
+runs of 5-6 s, one run as a fold let a cable drape take a joint's Coulomb friction); else, and for
+one run or one trajectory, the trials are cut into blocks that alternate between the folds. The
+blocks' length follows the data: about an eighth of the data (``TARGET_BLOCKS``), at most
+``MAX_BLOCK`` s and at least ``MIN_BLOCK_SETTLES`` x settle (1 s at 5 Hz), each trial cut into equal
+blocks, the repeats of one trajectory in step (a stretch of it is held out in every repeat at once);
+rows within ``settle`` of a boundary between blocks are left out of the training folds, so that no
+held-out row is scored on a fit that saw it through the filter. Scoring needs
+``MIN_BLOCKS_PER_FOLD`` blocks in each fold: 6 s of data at the least; below that ``DataTooShort``
+says what is there and what is needed.
 """
 
 from __future__ import annotations
@@ -53,6 +61,8 @@ MIN_BLOCKS_PER_FOLD = 3
 EDGE_SIGMAS = 6.0  # an edge outlier: this many robust standard deviations of its axis's residual ...
 EDGE_WINDOW = 2.0  # s ... within this long of a trial's end ...
 EDGE_ENERGY = 0.2  # ... and trimmed where the edges hold this share of an axis's residual energy
+RUN_SHARE = 0.25  # whole runs as folds where the smaller fold holds this share of the data and of each moving axis's
+RUN_SECONDS = 4 * MAX_BLOCK  # ... motion, and at least this long (s): a short run shows too few moves to fit on
 
 
 REPEAT_DIFFERENCE = 0.05  # runs repeat one trajectory where their positions differ by less than this share of the motion
@@ -89,15 +99,20 @@ class DataTooShort(ValueError):
 class Layout:
     """What the diagnosis counts (module docstring). ``used`` (N, A): per sample of all trials
     (concatenated) and axis, whether it is fitted and scored; ``blocks``: per trial, its held-out
-    blocks' length [s]; ``settle`` [s]; ``rest_speed`` (A,) [rad/s or m/s]; ``counts``: what was
-    left out, for the report ({"standstill": (A,) samples, "edges": samples per axis, "edge_trimmed":
-    samples beyond the fixed margin})."""
+    blocks' length [s] (its duration where whole runs are the folds); ``first``: per trial, the fold
+    (0 or 1) of its first block; ``whole_runs``: whether the folds are whole runs, and ``why_not``
+    the reason they are not where there are several runs; ``settle`` [s]; ``rest_speed`` (A,)
+    [rad/s or m/s]; ``counts``: what was left out, for the report ({"standstill": (A,) samples,
+    "edges": samples per axis, "edge_trimmed": samples beyond the fixed margin})."""
 
     used: np.ndarray
     blocks: tuple[float, ...]
     settle: float
     rest_speed: np.ndarray
     counts: dict
+    first: tuple[int, ...] = ()
+    whole_runs: bool = False
+    why_not: str = ""
 
 
 def settle_time(filter_hz: float) -> float:
@@ -105,12 +120,36 @@ def settle_time(filter_hz: float) -> float:
     return 1.0 / float(filter_hz)
 
 
+def run_folds(durations: Sequence[float], repeats: Sequence[Sequence[int]] = ()) -> tuple[int, ...] | None:
+    """Per trial, its fold where whole runs are the folds: the runs of each trajectory together
+    (``repeats``: groups of trials that repeat one, ``repeated_runs``), the trajectories dealt the
+    longest first to the fold with less data. None where there is one trajectory, or where the
+    smaller fold would hold less than ``RUN_SHARE`` of the data or less than ``RUN_SECONDS``."""
+    group = list(range(len(durations)))
+    for g in repeats:
+        for k in g:
+            group[k] = g[0]
+    trajectories = sorted(set(group), key=lambda g: -sum(d for k, d in enumerate(durations) if group[k] == g))
+    if len(trajectories) < 2:
+        return None
+    fold_of, held = {}, [0.0, 0.0]
+    for g in trajectories:
+        f = int(held[1] < held[0])
+        fold_of[g] = f
+        held[f] += sum(d for k, d in enumerate(durations) if group[k] == g)
+    if min(held) < max(RUN_SHARE * sum(held), RUN_SECONDS):
+        return None
+    return tuple(fold_of[g] for g in group)
+
+
 def block_lengths(durations: Sequence[float], settle: float, block_seconds: float | None = None,
-                  coverage: Callable[[tuple[float, ...]], float] | None = None) -> tuple[float, ...]:
+                  coverage: Callable[[tuple[float, ...]], float] | None = None,
+                  first: Sequence[int] | None = None) -> tuple[float, ...]:
     """Per trial, the length [s] of its equal held-out blocks (module docstring); ``block_seconds``
     fixes the target length instead. ``coverage``: a score of a choice of lengths (``fold_coverage``):
     of the lengths within 0.7-1.4 times the target, the one that scores best is taken (a motion that
     repeats with about two blocks' period would otherwise put all of one direction in one fold).
+    ``first``: per trial, the fold of its first block (default trial k's in fold k mod 2).
     Raises ``DataTooShort`` when a fold would get fewer than ``MIN_BLOCKS_PER_FOLD`` blocks."""
     shortest = MIN_BLOCK_SETTLES * settle
     total = float(sum(durations))
@@ -120,21 +159,23 @@ def block_lengths(durations: Sequence[float], settle: float, block_seconds: floa
         if not block_seconds > 0:
             raise ValueError(f"block_seconds must be > 0, got {block_seconds}")
         target = float(block_seconds)
-    first = _blocks(durations, target, shortest, block_seconds)
+    first = [k % 2 for k in range(len(durations))] if first is None else list(first)
+    target_blocks = _blocks(durations, target, shortest, block_seconds, first)
     if coverage is None or block_seconds is not None:
-        return first
-    options = [first]
+        return target_blocks
+    options = [target_blocks]
     for factor in COVERAGE_FACTORS:
         length = min(MAX_BLOCK, max(shortest, factor * target))
         try:
-            options.append(_blocks(durations, length, shortest, block_seconds))
+            options.append(_blocks(durations, length, shortest, block_seconds, first))
         except DataTooShort:
             continue
     scores = [coverage(b) for b in options]
     return options[int(np.argmax(scores))]  # the first best: the target's own where it is as good
 
 
-def _blocks(durations: Sequence[float], target: float, shortest: float, block_seconds: float | None) -> tuple[float, ...]:
+def _blocks(durations: Sequence[float], target: float, shortest: float, block_seconds: float | None,
+            first: Sequence[int]) -> tuple[float, ...]:
     """``block_lengths`` at one target length [s]."""
     total = float(sum(durations))
     blocks, per_fold = [], [0, 0]
@@ -142,7 +183,7 @@ def _blocks(durations: Sequence[float], target: float, shortest: float, block_se
         n = max(1, int(math.floor(d / target + 1e-9)))
         blocks.append(d / n)
         for b in range(n):
-            per_fold[(b + k) % 2] += 1
+            per_fold[(b + first[k]) % 2] += 1
     if min(per_fold) < MIN_BLOCKS_PER_FOLD:
         need = 2 * MIN_BLOCKS_PER_FOLD * max(target if block_seconds else shortest, shortest)
         raise DataTooShort(
@@ -153,22 +194,25 @@ def _blocks(durations: Sequence[float], target: float, shortest: float, block_se
     return tuple(blocks)
 
 
-def fold_assignment(lengths: Sequence[int], fs: float, blocks: Sequence[float]) -> np.ndarray:
+def fold_assignment(lengths: Sequence[int], fs: float, blocks: Sequence[float],
+                    first: Sequence[int] | None = None) -> np.ndarray:
     """The fold (0 or 1) of every sample (N,) for the blocks of ``block_lengths``: blocks alternate
-    within each trial, the first block of trial k in fold k mod 2."""
+    within each trial, the first block of trial k in fold ``first[k]`` (default k mod 2)."""
     out = []
     for k, n in enumerate(lengths):
         t = np.arange(n) / fs
         n_blocks = max(1, int(round(n / fs / blocks[k])))
-        out.append((np.minimum(np.floor(t / blocks[k] + 1e-9).astype(int), n_blocks - 1) + k) % 2)
+        start = k % 2 if first is None else first[k]
+        out.append((np.minimum(np.floor(t / blocks[k] + 1e-9).astype(int), n_blocks - 1) + start) % 2)
     return np.concatenate(out)
 
 
 def fold_coverage(q: np.ndarray, qd: np.ndarray, used: np.ndarray, lengths: Sequence[int], fs: float,
-                  moving: np.ndarray) -> Callable[[tuple[float, ...]], float]:
+                  moving: np.ndarray, first: Sequence[int] | None = None) -> Callable[[tuple[float, ...]], float]:
     """A score of a choice of block lengths: how evenly the two folds share each way each moving
     axis turns in each quarter of its range (the used samples of bins holding at least 1 % of
-    them): the smallest fold's share over those bins, 0 (a fold never sees one) to 0.5."""
+    them): the smallest fold's share over those bins, 0 (a fold never sees one) to 0.5 (``first``:
+    as ``fold_assignment`` takes it)."""
     bins = []
     for i in np.flatnonzero(moving):
         m = used[:, i]
@@ -178,7 +222,7 @@ def fold_coverage(q: np.ndarray, qd: np.ndarray, used: np.ndarray, lengths: Sequ
         bins.append(np.where(m, quarter * 2 + (qd[:, i] > 0), -1))
 
     def score(blocks: tuple[float, ...]) -> float:
-        fold = fold_assignment(lengths, fs, blocks)
+        fold = fold_assignment(lengths, fs, blocks, first)
         worst = 0.5
         for b in bins:
             keep = b >= 0
@@ -289,14 +333,37 @@ def used_samples(trials: Sequence, kin: tuple[np.ndarray, np.ndarray, np.ndarray
 def layout(trials: Sequence, kin: tuple[np.ndarray, np.ndarray, np.ndarray], lengths: Sequence[int], fs: float,
            filter_hz: float, velocity_filter_hz: float, block_seconds: float | None = None,
            trim: Sequence[tuple[int, int]] | None = None, spread: float = 0.0,
-           moving: Sequence[int] | None = None) -> Layout:
-    """The ``Layout`` of ``trials`` (``used_samples``, and the held-out blocks: ``block_lengths``,
-    chosen for the folds' coverage of the ``moving`` axes, indices; default all)."""
+           moving: Sequence[int] | None = None, repeats: Sequence[Sequence[int]] = ()) -> Layout:
+    """The ``Layout`` of ``trials`` (``used_samples``, and the held-out folds: whole runs, ``run_folds``,
+    or blocks, ``block_lengths``, chosen for the folds' coverage of the ``moving`` axes, indices;
+    default all). ``repeats``: groups of trials that repeat one trajectory (``repeated_runs``);
+    ``block_seconds`` given: blocks of that length, never whole runs."""
     used, rest, counts = used_samples(trials, kin, lengths, fs, filter_hz, velocity_filter_hz, trim, spread)
     settle = settle_time(filter_hz)
     moving = np.isin(np.arange(used.shape[1]), np.arange(used.shape[1]) if moving is None else list(moving))
-    coverage = fold_coverage(kin[0], kin[1], used, lengths, fs, moving)
-    return Layout(used, block_lengths([n / fs for n in lengths], settle, block_seconds, coverage), settle, rest, counts)
+    durations = [n / fs for n in lengths]
+    first = [k % 2 for k in range(len(lengths))]
+    for g in repeats:  # the repeats of one trajectory in step: a stretch of it is held out in all at once
+        for k in g:
+            first[k] = first[g[0]]
+    blocks = block_lengths(durations, settle, block_seconds, fold_coverage(kin[0], kin[1], used, lengths, fs, moving,
+                                                                           first), first)
+    trajectories = len(lengths) - sum(len(g) - 1 for g in repeats)
+    if block_seconds is not None or trajectories < 2:
+        return Layout(used, blocks, settle, rest, counts, tuple(first))
+    runs = run_folds(durations, repeats)
+    if runs is None:
+        why_not = (f"whole runs as folds would leave one fold less than {100 * RUN_SHARE:.0f}% of the data or less than "
+                   f"{RUN_SECONDS:g} s")
+    else:
+        fold = fold_assignment(lengths, fs, durations, runs)
+        per_fold = np.stack([(used & (fold == f)[:, None]).sum(axis=0) for f in (0, 1)])[:, moving]
+        least = per_fold.min(axis=0) / np.maximum(per_fold.sum(axis=0), 1)
+        if least.min() >= RUN_SHARE:
+            return Layout(used, tuple(durations), settle, rest, counts, runs, True)
+        why_not = (f"whole runs as folds would leave one fold {100 * least.min():.0f}% of an axis's samples in motion "
+                   f"(at least {100 * RUN_SHARE:.0f}% needed)")
+    return Layout(used, blocks, settle, rest, counts, tuple(first), False, why_not)
 
 
 def edge_outliers(residual: np.ndarray, used: np.ndarray, trial: np.ndarray, time: np.ndarray,

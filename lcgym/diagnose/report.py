@@ -305,9 +305,18 @@ class Diagnosis:
             rest = ", ".join(f"{ax} {100 * n / total:.0f}% (below {speed[ax]})" for ax, n in still.items() if n)
             out.append(f"standstill left out of its axis's fit and score: {rest}")
         for g in s.get("repeated", []):
-            out.append(f"repeated: trials {', '.join(str(k) for k in g)} repeat one trajectory; held-out blocks of one "
-                       "trajectory cannot tell a missing effect from its own quirks, so the selection is stricter: "
-                       f"{s['strict']}")
+            trials = ", ".join(str(k) for k in g)
+            out.append(f"repeated: trials {trials} repeat one trajectory; held-out blocks of one trajectory cannot tell "
+                       f"a missing effect from its own quirks, so the selection is stricter: {s['strict']}"
+                       if s.get("strict") else
+                       f"repeated: trials {trials} repeat one trajectory; they share a fold, so that what is held out is "
+                       "another motion")
+        band = s.get("bandwidth")
+        if band:
+            out.append("bandwidth (99.9% of the energy below) [Hz]: input " + ", ".join(
+                f"{ax} {f:.3g}" for ax, f in band["input"].items()) + "; position " + ", ".join(
+                f"{ax} {f:.3g}" for ax, f in band["position"].items())
+                + " (a candidate whose torque lies mostly where the input holds less is refused)")
         for g in s.get("proportional", []):
             out.append(f"moving in proportion: {', '.join(g['axes'])} (velocities alike to {g['alike']:.4f}): no effect "
                        "over the position is tried there, as the data cannot tell whose position it follows; a motion "

@@ -5,16 +5,16 @@ low-pass of u and of every regressor column, then decimation), so that the encod
 noise the feedback puts into u does not count as something to explain.
 
 Held-out scoring (blocked two-fold cross-validation). Each trial is cut into blocks of
-``block_seconds``; blocks alternate between fold 0 and fold 1 (shifted by one from trial to
-trial). For fold f, the model (its linear parameters) plus the candidate (its coefficients, and
-its nonlinear parameters chosen among the grid values by the training fit) is fitted on the
-other fold and evaluated on f. A candidate's ``explained`` share is
+``block_seconds``; blocks alternate between fold 0 and fold 1 (shifted by one from trial to trial,
+the repeats of one trajectory in step). For fold f, the model (its linear parameters) plus the
+candidate (its coefficients, and its nonlinear parameters chosen among the grid values by the
+training fit) is fitted on the other fold and evaluated on f. A candidate's ``explained`` share is
 
     1 - sum_f SSE_f(model + candidate) / sum_f SSE_f(model)
 
-on its axis, both SSE held-out. Blocks within trials, rather than whole trials, let a candidate
-be judged on configurations that only a few trials visit. A flexible candidate that fits noise
-gains nothing held-out.
+on its axis, both SSE held-out. Where the data hold runs of different motions, the folds are whole
+runs instead (``layout.run_folds``): a candidate is then judged on motions it was not fitted on, as
+the next run will judge it. A flexible candidate that fits noise gains nothing held-out.
 
 Periods of periodic candidates come from the spectrum of the training fold's residual over the
 axis position, |sum_k r_k w_k exp(-2 pi i q_k / P)|^2 (w = 1, or the model torque for torque
@@ -45,7 +45,9 @@ them. A candidate passes when, at its step,
    share);
 4. both folds fit the coefficients that are positive physically (``Effect.positive``: a friction
    level, a stiffness, an inertia) with that sign: a negative friction level or rotor inertia is
-   some other structure, not the effect.
+   some other structure, not the effect;
+5. its torque as fitted lies mostly at frequencies the input holds (``spectra.unheld_share``): a
+   gear's ripple at 12-18 Hz cannot be in torques a logger low-passed at 2 Hz.
 
 A large effect can hide a second one on the same axis until it is in: the FlexArm's payload
 hides its joints' Coulomb friction, which then removes 78-79 % of what is left, 9.7-10 % of the
@@ -77,6 +79,7 @@ from ..physics.effects import SMOOTHING, Loads
 from ..physics.model import PhysicalModel
 from .candidates import Candidate
 from .layout import Layout, fold_assignment
+from .spectra import UNHELD_SHARE, unheld_share
 
 DEG = math.pi / 180.0
 OVER_POSITION = ("spring", "position", "gravity", "periodic")
@@ -166,7 +169,7 @@ def prepare(trials: Sequence, model: PhysicalModel, layout: Layout) -> Prepared:
         nearest = np.clip(np.round(t / length), 1, max(1, n_blocks - 1))  # the closest boundary between two blocks
         trial.append(np.full(t.size, k))
         guard.append((np.abs(t - nearest * length) < layout.settle) & (n_blocks > 1))
-    fold = fold_assignment(lengths, model.fs, layout.blocks)[rows]
+    fold = fold_assignment(lengths, model.fs, layout.blocks, layout.first or None)[rows]
     offset = free.shape[2] + (0 if nonlinear is None else nonlinear.shape[2])
     return Prepared(model, kin, lengths, torque, Loads(torque=rigid_torque), u, design, layout.used, used,
                     fold, np.concatenate(guard), rows, np.concatenate(trial), model.penalties(offset))
@@ -506,6 +509,7 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
              if (kinds is None or c.effect.applies_to(kinds[a])) and f"{c.name}@{axes[a]}" not in have
              and not (a in position_blind and c.family in OVER_POSITION)]
     alone, selected, named, steps, model = [], [], [], [], prep.model
+    inputs = np.concatenate([np.asarray(tr.u, dtype=float) for tr in trials])
     stop = f"{max_steps} effects selected (the most allowed)"
     context = _Context(trials, candidates, axes, own, min_explained, min_rms, n_rows, layout, scales, position_blind)
     for step in range(max_steps):
@@ -539,6 +543,8 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
                     why = (f"adds too little to {best.candidate.name} (in its place it removes "
                            f"{figures(best.folds - s.folds, best.folds, own[a], n_rows[a])}: "
                            f"{_named(rule, min_rms[a])})")
+            if why == "passes":
+                why = _spectral_verdict(scorer, s, prep, inputs, axes)
             rows.append((s, float(current[a] - s.held_out_sse), why))
         record = Step(left=current.copy(), original=own.copy(), scores=rows)
         steps.append(record)
@@ -586,6 +592,23 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
                 model, prep, scorer = other[1], other[2], Scorer.of(other[2])
                 cache.use(prep)
     return Ranking(baseline, n_rows, alone, selected, model, min_explained, min_rms, steps, stop, named)
+
+
+def _spectral_verdict(scorer: Scorer, s: Score, prep: Prepared, inputs: np.ndarray, axes: Sequence[str]) -> str:
+    """"passes", or the refusal of a candidate whose torque as fitted (both folds' coefficients
+    averaged, its columns at the full rate) lies mostly where the input ``inputs`` (T, A) holds less
+    power than it would add (``spectra.unheld_share``)."""
+    a = s.axis
+    rough = s.candidate.effect.roughness()
+    coef = np.mean([scorer.evaluate(s.cols, a, f, rough)[2] for f in (0, 1)], axis=0)
+    eff = s.candidate.build(axes[a], **s.params).bound(axes)
+    loads = prep.with_gravity().loads if "gravity" in eff.reads else prep.loads
+    y = eff.columns(*prep.kin, loads) @ coef
+    share, above = unheld_share(y, inputs[:, a], prep.lengths, prep.model.fs)
+    if share <= UNHELD_SHARE:
+        return "passes"
+    return (f"not in the input's spectrum ({100 * share:.0f}% of its torque lies where the input holds less, mostly "
+            f"above {above:.3g} Hz)")
 
 
 @dataclass

@@ -45,6 +45,7 @@ from .machines import machines_with_axes
 from .regions import region_masks, region_table
 from .report import Diagnosis
 from .search import prepare, rank
+from .spectra import bandwidths
 
 DEG = math.pi / 180.0
 NOISE_SHARE = 0.01  # a machine without its own noise_rms: 1 % of each axis's low-passed input RMS
@@ -148,10 +149,10 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
     kin, lengths = model.kinematics(trials)
     corners = (model.filter_hz, _velocity_filter_hz(model, trials))
     spread = 1.0 / model.kinematics_filter_hz if any(model.uses_position(tr) for tr in trials) else 0.0
-    lay = layout(trials, kin, lengths, fs, *corners, block_seconds, spread=spread, moving=moving)
     repeats = repeated_runs(trials, moving)
+    lay = layout(trials, kin, lengths, fs, *corners, block_seconds, spread=spread, moving=moving, repeats=repeats)
     strict = ""
-    if repeats:  # held-out blocks of one trajectory share its quirks: fewer parameters, a higher bar
+    if repeats and not lay.whole_runs:  # held-out blocks of one trajectory share its quirks: fewer parameters, a higher bar
         shape_free = [c.name for c in cands if c.shape_free]
         cands = [c for c in cands if not c.shape_free]
         min_explained = min(STRICTER * min_explained, 0.5)
@@ -168,7 +169,7 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
         time = (prep.rows - np.concatenate([[0], np.cumsum(lengths)[:-1]])[prep.trial]) / fs
         trim = edge_outliers(prep.residual, prep.used, prep.trial, time, [n / fs for n in lengths], fs, lay.settle)
         if trim is not None:  # the residual is dominated by trial edges: leave them out, fit again
-            lay = layout(trials, kin, lengths, fs, *corners, block_seconds, trim, spread, moving)
+            lay = layout(trials, kin, lengths, fs, *corners, block_seconds, trim, spread, moving, repeats)
             prep = prepare(trials, model, lay)
         bar.update()
         residual = prep.residual
@@ -222,6 +223,9 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
                            resampled=_resampled_note(trials), spec=spec, steps=steps, stop=ranking.stop,
                            options="--kinematics measured" if kinematics == "measured" else "",
                            samples={**_samples_record(lay, axes, system.axes, trials, fs),
+                                    "bandwidth": {k: dict(zip(axes, map(float, bandwidths(x, lengths, fs)), strict=True))
+                                                  for k, x in (("input", np.concatenate([tr.u for tr in trials])),
+                                                               ("position", np.concatenate([tr.pos for tr in trials])))},
                                     "proportional": [{"axes": [axes[i] for i in g["axes"]], "alike": g["alike"]}
                                                      for g in groups],
                                     "repeated": repeats, "strict": strict},
@@ -333,9 +337,14 @@ def _samples_record(lay, axes, kinds, trials, fs) -> dict:
 
 
 def _blocks_note(lay) -> str:
+    """How the held-out folds were made, in one line (``layout.layout``)."""
+    if lay.whole_runs:
+        folds = [", ".join(str(k) for k, f in enumerate(lay.first) if f == fold) for fold in (0, 1)]
+        return f"whole runs as the two folds (trials {folds[0]} | {folds[1]}): runs of different motions"
     lengths = sorted(set(round(b, 2) for b in lay.blocks))
     what = f"{lengths[0]:g} s" if len(lengths) == 1 else f"{lengths[0]:g}-{lengths[-1]:g} s"
-    return f"held-out blocks of {what}, alternating between two folds within each trial"
+    return (f"held-out blocks of {what}, alternating between two folds within each trial"
+            + (f" ({lay.why_not})" if lay.why_not else ""))
 
 
 STRICTER = 2.0
@@ -377,9 +386,9 @@ def proportional_groups(qd: np.ndarray, used: np.ndarray, moving: Sequence[int],
 
 def moving_axes(trials: Sequence, system: systems.System) -> list[int]:
     """Indices of the axes whose reference (or, without one, measured position) spans at least the
-    axis's ``min_travel`` over the trials."""
-    x = np.concatenate([tr.ref if tr.ref is not None else tr.pos for tr in trials])
-    return [i for i, a in enumerate(system.axes) if np.ptp(x[:, i]) >= a.min_travel]
+    axis's ``min_travel`` within some trial (an axis held at another place in each run does not move)."""
+    span = np.max([np.ptp(tr.ref if tr.ref is not None else tr.pos, axis=0) for tr in trials], axis=0)
+    return [i for i, a in enumerate(system.axes) if span[i] >= a.min_travel]
 
 
 def axis_scales(system: systems.System, q: np.ndarray, qd: np.ndarray) -> list[dict]:

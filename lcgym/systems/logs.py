@@ -12,7 +12,8 @@ returns a new one; the simulated signals themselves are not changed except where
   while friction carries an unknown share of the load: the input differs from the holding torque
   the run ends with by a constant within +-``levels`` per axis and window (static friction can hold
   anything up to its breakaway level);
-- ``cut`` keeps a window of a run, which then starts and ends wherever it was cut (mid-move).
+- ``cut`` keeps a window of a run, which then starts and ends wherever it was cut (mid-move);
+- ``lowpassed`` filters the input and the positions as a logger's own causal low-pass does.
 """
 
 from __future__ import annotations
@@ -91,4 +92,24 @@ def cut(trial: Trial, start: float, stop: float) -> Trial:
     return _rows(trial, keep, trial.t[keep] - trial.t[keep[0]])
 
 
-__all__ = ["cut", "drop", "held_at_rest", "jittered", "without_reference"]
+def lowpassed(trial: Trial, input_hz: float | None, position_hz: float | None, order: int = 2) -> Trial:
+    """``trial`` with its input and its measured positions through a causal Butterworth low-pass of
+    ``order`` at ``input_hz`` and ``position_hz`` [Hz] (None: that signal as it was), started at rest
+    at the first sample: a logger that filters what it records (the delay included). The
+    reference is not filtered (a controller's own signal)."""
+    from scipy.signal import butter, lfilter, lfilter_zi
+
+    def filtered(x, hz):
+        if hz is None or x is None:
+            return x
+        if not 0 < hz < trial.fs / 2:
+            raise ValueError(f"a low-pass corner must lie in (0, {trial.fs / 2:g}) Hz, got {hz}")
+        b, a = butter(order, hz, fs=trial.fs)
+        x = np.asarray(x, dtype=float)
+        return lfilter(b, a, x, axis=0, zi=lfilter_zi(b, a)[:, None] * x[:1])[0]
+
+    return dataclasses.replace(trial, u=filtered(trial.u, input_hz), pos=filtered(trial.pos, position_hz),
+                               meta={**trial.meta, "lowpassed": [input_hz, position_hz]})
+
+
+__all__ = ["cut", "drop", "held_at_rest", "jittered", "lowpassed", "without_reference"]
