@@ -398,10 +398,10 @@ def validation_ratios(report, machine, other) -> tuple[float, float]:
 
 
 def run_row(case: RunCase, seeds) -> tuple:
-    """One row of the runs part: named right, selected (first seed), the worst joint's validation
-    residual with the selected effects / without them (the joints that move there; all joints), and
-    the time of a diagnosis."""
-    hits, worst, every, picks, seconds = 0, [], [], None, 0.0
+    """One row of the runs part: named right, selected (first seed), the cut on the true axes and what
+    the truth allows (``truth_cut``), the worst joint's validation residual with the selected effects
+    / without them (the joints that move there; all joints), and the time of a diagnosis."""
+    hits, worst, every, cuts, floors, picks, seconds = 0, [], [], [], [], None, 0.0
     for seed in seeds:
         machine, trials, other = case.make(seed, case.hidden)
         t0 = time.perf_counter()
@@ -410,16 +410,20 @@ def run_row(case: RunCase, seeds) -> tuple:
         ok, sel = named(rep, case.truth)
         hits += ok
         picks = picks if picks is not None else (", ".join(sel) or "none")
+        cut, floor = truth_cut(case, seed, machine, trials, rep)
+        cuts, floors = cuts + cut, floors + floor
         if other is not None:
             moving, everything = validation_ratios(rep, machine, other)
             worst.append(moving)
             every.append(everything)
-    span = lambda x: f"{min(x):.2f}-{max(x):.2f}x" if x else "-"  # noqa: E731
-    return case.name, f"{hits} of {len(seeds)}", picks, span(worst), span(every), f"{seconds:.0f} s"
+    span = lambda x: f"{min(x):.2g}-{max(x):.2g}x" if x else "-"  # noqa: E731
+    return (case.name, f"{hits} of {len(seeds)}", picks, span(cuts), span(floors), span(worst), span(every),
+            f"{seconds:.0f} s")
 
 
 def runs_part(seeds) -> list[str]:
     return markdown(RUN_CASES, run_row, seeds, ("case", "named right, nothing else", "selected (first seed)",
+                                                  "true axes' residual after / before", "the truth allows",
                                                   "worst moving joint on the validation run, with / without the "
                                                   "selected effects", "worst of all joints", "time"))
 
@@ -440,6 +444,20 @@ def named(report, truth) -> tuple[bool, list[str]]:
                                                                        report.candidates if c["selected"]]
 
 
+def truth_cut(case, seed: int, machine, trials, rep) -> tuple[list[float], list[float]]:
+    """On the true effects' axes: the residual RMS after / before adding the selected effects, and
+    what the truth allows (the same runs without the hidden effects: their residual / before)."""
+    axes = sorted({a for _, a in case.truth})
+    if not axes:
+        return [], []
+    cuts = []
+    if rep.missing:
+        after = diagnose(trials, machine, add=rep.missing).after["residual"]
+        cuts = [after[a]["RMS"] / rep.residual[a]["RMS"] for a in axes]
+    twin = diagnose(case.make(seed, ())[1], machine)
+    return cuts, [twin.residual[a]["RMS"] / rep.residual[a]["RMS"] for a in axes]
+
+
 def log_row(case: LogCase, seeds) -> tuple:
     """One table row of the logs part: named right, selected (first seed), cut, what the truth allows, time."""
     hits, cuts, floors, picks, seconds = 0, [], [], None, 0.0
@@ -451,14 +469,8 @@ def log_row(case: LogCase, seeds) -> tuple:
         ok, sel = named(rep, case.truth)
         hits += ok
         picks = picks if picks is not None else (", ".join(sel) or "none")
-        axes = sorted({a for _, a in case.truth})
-        if rep.missing and axes:
-            after = diagnose(trials, machine, add=rep.missing).after["residual"]
-            cuts += [after[a]["RMS"] / rep.residual[a]["RMS"] for a in axes]
-        if axes:
-            _, clean = case.make(seed, ())
-            twin = diagnose(clean, machine)
-            floors += [twin.residual[a]["RMS"] / rep.residual[a]["RMS"] for a in axes]
+        cut, floor = truth_cut(case, seed, machine, trials, rep)
+        cuts, floors = cuts + cut, floors + floor
     span = lambda x: f"{min(x):.2g}-{max(x):.2g}x" if x else "-"  # noqa: E731  (2 digits: a floor may be 0.003x)
     return case.name, f"{hits} of {len(seeds)}", picks, span(cuts), span(floors), f"{seconds:.0f} s"
 

@@ -301,7 +301,8 @@ def test_read_back_keeps_the_plant_record_for_replay(tmp_path):
 @pytest.mark.bad_input
 def test_cli_refuses_too_short_data_and_an_unusable_plot_folder(tmp_path, capsys):
     runs = _trials(())
-    short = [Trial(t=r.t[:600], ref=r.ref[:600], pos=r.pos[:600], u=r.u[:600], axes=r.axes) for r in runs]  # 3 x 1.2 s
+    short = [Trial(t=r.t[:600], ref=r.ref[5000:5600], pos=r.pos[5000:5600], u=r.u[5000:5600], axes=r.axes)
+             for r in runs]  # 3 x 1.2 s of motion (the runs' first 1.2 s barely move)
     data = write_trials(tmp_path / "short.csv", short)
     out = tmp_path / "r.json"
     out.write_text("{}")

@@ -246,7 +246,7 @@ def test_a_loggers_lowpass_is_causal_and_starts_at_rest():
         logs.lowpassed(tr, 600.0, None)
 
 
-def test_an_axis_held_in_another_place_in_each_run_does_not_move():
+def test_an_axis_held_in_another_place_in_each_run_does_not_move_and_a_split_run_still_does():
     from lcgym.diagnose.workflow import moving_axes
 
     arm = systems.get("two_link", joints=("shoulder", "elbow"))
@@ -254,6 +254,10 @@ def test_an_axis_held_in_another_place_in_each_run_does_not_move():
     trials = [Trial(t=t, ref=np.stack([np.sin(t), np.full_like(t, place)], 1), pos=None, u=np.zeros((t.size, 2)),
                     axes=arm.axis_names) for place in (0.0, 0.5)]
     assert moving_axes(trials, arm) == [0]
+    slow = 0.004 * t  # a run split in two at a gap: 0.57 deg in each half, 1.15 deg together
+    halves = [Trial(t=t[:250], ref=np.stack([x, 0 * x], 1), pos=None, u=np.zeros((250, 2)), axes=arm.axis_names)
+              for x in (slow[:250], slow[250:])]
+    assert moving_axes(halves, arm) == [0] and moving_axes(halves[:1], arm) == []
 
 
 @pytest.mark.bad_input

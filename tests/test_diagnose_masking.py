@@ -54,8 +54,8 @@ def _spring(axis: str, q0: float, times: float) -> fx.CableSpring:
 
 
 @cache
-def _report(effects: tuple):
-    return diagnose(IXPlant(effects=effects).run(_refs()), IX)
+def _report(effects: tuple, block_seconds: float | None = None):
+    return diagnose(IXPlant(effects=effects).run(_refs()), IX, block_seconds=block_seconds)
 
 
 def _step(rep, k: int, key: str) -> dict:
@@ -64,8 +64,12 @@ def _step(rep, k: int, key: str) -> dict:
 
 
 def test_a_friction_behind_a_five_times_larger_spring_on_its_axis_is_found_once_the_spring_is_in():
+    """Held out in 4 s blocks the spring hides the friction at first (6 % of the residual alone);
+    held out on whole runs, as by default for these three runs, the friction alone already removes
+    18 %, and the same two effects are selected in the same order."""
     spring = _spring("roll", 20 * DEG, 5.0)
-    rep = _report((FRICTION, spring))
+    assert _report((FRICTION, spring)).missing == ["cable_spring@roll", "coulomb_friction@roll"]
+    rep = _report((FRICTION, spring), 4.0)
     assert rep.missing == ["cable_spring@roll", "coulomb_friction@roll"], rep.text()
     first, second = _step(rep, 0, "coulomb_friction@roll"), _step(rep, 1, "coulomb_friction@roll")
     assert first["verdict"] != "passes" and first["share_of_left"] < 0.1  # hidden: 6 % of the residual alone

@@ -385,9 +385,10 @@ def proportional_groups(qd: np.ndarray, used: np.ndarray, moving: Sequence[int],
 
 
 def moving_axes(trials: Sequence, system: systems.System) -> list[int]:
-    """Indices of the axes whose reference (or, without one, measured position) spans at least the
-    axis's ``min_travel`` within some trial (an axis held at another place in each run does not move)."""
-    span = np.max([np.ptp(tr.ref if tr.ref is not None else tr.pos, axis=0) for tr in trials], axis=0)
+    """Indices of the axes whose reference (or, without one, measured position) travels at least the
+    axis's ``min_travel`` within the trials: the sum of each trial's span (an axis held at another
+    place in each run does not move; a run split at its gaps still does)."""
+    span = np.sum([np.ptp(tr.ref if tr.ref is not None else tr.pos, axis=0) for tr in trials], axis=0)
     return [i for i, a in enumerate(system.axes) if span[i] >= a.min_travel]
 
 
