@@ -12,15 +12,29 @@ the IX, N m on a revolute joint, N on a prismatic one).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import TypeAlias
 
 import numpy as np
 import pandas as pd
 
 METRICS = ("MA", "RMS", "Inf")
+"""The norms of every results row, in column order (``norms`` computes them). The leaderboard takes
+its columns, checks and rankings from this tuple: a new norm is added here, in ``norms``, alone."""
+RANKED_BY = "RMS"
+"""The norm the leaderboard ranks methods by, gives a spread over seeds and compares with a base."""
 PERIODS = ("all", "dynamic", "static")  # the samples a norm is taken over: all, the reference moving, at rest
 Units: TypeAlias = str | Sequence[str]
 """One unit for every axis of a table, or one per axis (a machine with revolute and prismatic axes)."""
+
+
+@dataclass(frozen=True)
+class Signal:
+    """A signal a bench scores: ``name`` in the results (``tracking_error``) and ``label`` on the
+    leaderboard ("tracking error"). Its unit is each row's, given by the bench's tables."""
+
+    name: str
+    label: str
 
 
 def norms(x) -> dict[str, np.ndarray]:

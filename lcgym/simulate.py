@@ -51,13 +51,13 @@ class SimulationResult:
 
 def simulate(
     controllers: Sequence[str], system: str = "ix", seed: int = 0, n_train: int = 8, n_validation: int = 4,
-    duration: float = 40.0, plant=None, progress: bool = True,
+    duration: float = 40.0, progress: bool = True,
 ) -> list[SimulationResult]:
     """Fit each named controller on seeded training references of a benchmark machine and run it on
     validation ones. ``duration`` [s]: moving time of a reference (a FlexArm reference is one TCP
     line out and back); ``system``: "ix", "flexarm", "two_link" (their newest versions), a
-    versioned name, "ix-v0", or a machine file, URDF or ``module:attr`` (``systems.benchmark``);
-    ``plant``: the machine's plant (default the plant of that version)."""
+    versioned name, "ix-v0", or a machine file, URDF or ``module:attr`` (``systems.benchmark``), with
+    the plant of that version."""
     machine = systems.benchmark(system)  # a clear error for a machine without a plant
     available = controllers_for(machine.name)
     unknown = [c for c in controllers if c not in available]
@@ -65,8 +65,6 @@ def simulate(
         raise ValueError(f"unknown controller {', '.join(unknown)} on {machine.name}; choose from {', '.join(available)} "
                          "(the others run in lcgym bench)")
     bench = systems.make_bench(system)
-    if plant is not None:
-        bench.plant = plant
     # a context manager: a failure closes the bar before its message is printed, not after
     with tqdm(total=2 + 2 * len(controllers), desc="simulate", disable=not progress, leave=False) as steps:
         train_refs = bench.references("train", seed, n_train, duration)

@@ -145,15 +145,20 @@ def test_store_refuses_a_corrupt_csv(tmp_path):
 
 
 @pytest.mark.bad_input
-def test_store_reads_files_from_before_the_period_column_and_refuses_an_unknown_period(tmp_path):
+def test_store_reads_files_of_schema_1_and_refuses_an_unknown_period(tmp_path):
+    """A file written before the ``schema`` column (and before ``period``, ``note`` and ``base``) reads
+    in today's columns, its rows marked schema 1, each signal labelled by its name in words."""
     out = tmp_path / "r.csv"
     run_benchmark(BenchConfig(methods=("feedback",), **TINY), out, progress=False)
     # as text, so that the file written back holds what it held (a commit such as 0913454 is no number)
     df = pd.read_csv(out, dtype=str, keep_default_na=False)
-    df.drop(columns="period").to_csv(tmp_path / "old.csv", index=False)
-    old = read_results(tmp_path / "old.csv")
-    assert list(old.columns) == list(COLUMNS) and (old["period"] == "all").all()
-    pd.testing.assert_frame_equal(old, read_results(out))
+    df.drop(columns=["period", "note", "base", "signal_label", "schema"]).to_csv(tmp_path / "old.csv", index=False)
+    old, new = read_results(tmp_path / "old.csv"), read_results(out)
+    assert list(old.columns) == list(COLUMNS) and (old["period"] == "all").all() and (old["schema"] == 1).all()
+    assert set(new["schema"]) == {2} and set(old["signal_label"]) == {"tracking error", "input residual"}
+    assert set(new["signal_label"]) == {"tracking error", "input residual u - f"}
+    same = [c for c in COLUMNS if c not in ("signal_label", "schema")]
+    pd.testing.assert_frame_equal(old[same], new[same])
     df.loc[2, "period"] = "moving"
     df.to_csv(out, index=False)
     with pytest.raises(ResultsFileError, match="column 'period', row 3: invalid value 'moving'"):
@@ -415,7 +420,8 @@ def test_the_summary_names_each_machines_best_method_against_the_physical_model(
 
     def row(system, method, axis, rms, unit="deg"):
         return {"run_id": "r", "system": system, "method": method, "seed": 0, "reference_set": "validation",
-                "axis": axis, "signal": "tracking_error", "period": "all", "MA": rms, "RMS": rms, "Inf": rms,
+                "axis": axis, "signal": "tracking_error", "signal_label": "tracking error", "period": "all",
+                "base": "", "MA": rms, "RMS": rms, "Inf": rms,
                 "unit": unit, "plant_trials": 1, "env_steps": 0, "fit_seconds": 0.0, "status": "ok", "error": "",
                 "config_hash": "c", "note": ""}
 

@@ -19,6 +19,8 @@ machine packages are found by name at run time (``systems.get``: ``importlib``),
 from __future__ import annotations
 
 import ast
+import subprocess
+import sys
 from pathlib import Path
 
 from lcgym import systems
@@ -277,3 +279,28 @@ def test_every_cached_kernel_is_keyed_by_the_sources_it_calls():
                 if not cache._cache_path.startswith(root):
                     stale.append(f"{info.name}.{name}: {cache._cache_path}")
     assert seen > 10 and not stale, stale
+
+
+LEADERBOARD_VIEWS = ("lcgym.leaderboard.store", "lcgym.leaderboard.report", "lcgym.leaderboard.page",
+                     "lcgym.leaderboard.plots", "lcgym.leaderboard.browser")
+"""The leaderboard's reading side: what it shows comes from the results rows (each bench declares
+its signals, labels and units there), not from the machines."""
+
+
+def _machines_loaded(modules: tuple[str, ...]) -> list[str]:
+    """The machine modules (under ``lcgym.systems`` beyond its registry and ``System``) and pinocchio
+    that importing ``modules`` loads, in a fresh interpreter."""
+    code = ("import sys\n" + "".join(f"import {m}\n" for m in modules)
+            + "print('\\n'.join(m for m in sys.modules if (m.startswith('lcgym.systems.') and m != 'lcgym.systems.system')"
+              " or m.split('.')[0] == 'pinocchio'))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    return sorted(out.split())
+
+
+def test_importing_the_leaderboard_loads_no_machine():
+    assert _machines_loaded(LEADERBOARD_VIEWS) == []
+
+
+def test_the_machine_finder_finds_a_machine():
+    """Control for the test above."""
+    assert "lcgym.systems.ix" in _machines_loaded(("lcgym.leaderboard.page", "lcgym.systems.ix"))

@@ -26,7 +26,7 @@ from lcgym.leaderboard.browser import VIEWPORT, BrowserUnavailable, chromium_pat
 from lcgym.leaderboard.page import page_path, ratio_colour, write_html
 from lcgym.leaderboard.report import select
 from lcgym.leaderboard.runner import trace_path
-from lcgym.leaderboard.store import SIGNALS, append_rows, read_results
+from lcgym.leaderboard.store import append_rows, read_results
 from lcgym.metrics import norms
 
 REPO = Path(__file__).resolve().parents[1]
@@ -43,9 +43,8 @@ SYNTHETIC = {
 }
 
 
-def _unit(signal: str, system: str) -> str:
-    unit = SIGNALS[signal]
-    return unit if isinstance(unit, str) else unit[system]
+SIGNALS = {"tracking_error": ("tracking error", "deg"), "tcp_position_error": ("TCP position error", "mm")}
+"""signal -> (label, unit) as the benches declare them."""
 
 
 def _synthetic_csv(folder: Path) -> Path:
@@ -62,7 +61,8 @@ def _synthetic_csv(folder: Path) -> Path:
                 for reference_set in ("train", "validation"):
                     rows.append({**provenance, "system": system, "method": method, "seed": seed,
                                  "reference_set": reference_set, "axis": axis, "signal": signal, "period": "all",
-                                 "MA": 0.8 * value, "RMS": value, "Inf": 3 * value, "unit": _unit(signal, system),
+                                 "signal_label": SIGNALS[signal][0], "unit": SIGNALS[signal][1],
+                                 "MA": 0.8 * value, "RMS": value, "Inf": 3 * value,
                                  "plant_trials": 4, "env_steps": 0, "fit_seconds": 0.5, "status": "ok", "error": ""})
     rows.append({**provenance, "system": "ix-v1", "method": "evil", "seed": 0, "status": "failed", "error": EVIL})
     append_rows(out, rows)
@@ -246,10 +246,12 @@ def _rail_csv(folder: Path) -> Path:
             shown = norms(factor * trace[f"error_{axis}"].to_numpy(dtype=float))
             for reference_set in ("train", "validation"):
                 rows.append({**base, "method": method, "reference_set": reference_set, "axis": axis,
-                             "signal": "tracking_error", "unit": unit, **{m: float(v) for m, v in shown.items()},
+                             "signal": "tracking_error", "signal_label": "tracking error", "unit": unit,
+                             **{m: float(v) for m, v in shown.items()},
                              "base": "physical" if method == "ilc" else ""})
                 rows.append({**base, "method": method, "reference_set": reference_set, "axis": axis,
-                             "signal": "input_residual", "unit": input_unit, "MA": scale, "RMS": 1.2 * scale,
+                             "signal": "input_residual", "signal_label": "input residual u - f", "unit": input_unit,
+                             "MA": scale, "RMS": 1.2 * scale,
                              "Inf": 3 * scale})
     append_rows(out, rows)
     return out

@@ -19,7 +19,7 @@ import pytest
 from lcgym import systems
 from lcgym.leaderboard.report import format_text
 from lcgym.leaderboard.runner import BenchConfig, run_benchmark, trace_path
-from lcgym.leaderboard.store import COLUMNS, SIGNALS, SYSTEMS, ResultsFileError, append_rows, read_results
+from lcgym.leaderboard.store import COLUMNS, ResultsFileError, append_rows, read_results
 
 RAIL_ARM = Path(__file__).parent / "data" / "rail_arm" / "rail_arm.toml"
 UNITS = {"rail": ("mm", "N"), "shoulder": ("deg", "N m"), "elbow": ("deg", "N m")}
@@ -51,14 +51,15 @@ def test_a_rail_arms_rows_carry_each_axis_unit(tmp_path):
 def test_built_in_machines_keep_their_one_input_unit():
     """Per-axis input units give the built-in machines' rows the unit they always had."""
     expected = {"ix": "V", "flexarm": "N m", "two_link": "N m", "emps_sim": "N"}
-    for name in SYSTEMS:
-        machine = systems.get(name)
-        assert set(machine.input_units) == {SIGNALS["input_residual"][name]} == {expected[systems.family_of(name)]}
+    assert set(expected) == set(systems.BUILT_IN)
+    for name, unit in expected.items():
+        assert set(systems.get(name).input_units) == {unit}
 
 
 def _row(system: str, signal: str, axis: str, unit: str) -> dict:
     return {"run_id": "r1", "system": system, "method": "feedback", "seed": 0, "reference_set": "validation",
-            "axis": axis, "signal": signal, "period": "all", "MA": 0.1, "RMS": 0.2, "Inf": 0.5, "unit": unit,
+            "axis": axis, "signal": signal, "signal_label": signal.replace("_", " "), "period": "all",
+            "MA": 0.1, "RMS": 0.2, "Inf": 0.5, "unit": unit,
             "plant_trials": 2, "env_steps": 0, "fit_seconds": 0.1, "status": "ok", "error": "", "config_hash": "c"}
 
 
@@ -74,15 +75,13 @@ def test_the_store_reads_per_axis_and_older_joined_units(tmp_path):
 
 
 @pytest.mark.bad_input
-@pytest.mark.parametrize(("system", "signal", "unit"), [
-    ("two_link-v0", "input_residual", "N"),  # a built-in machine's unit is its own
-    ("emps_sim-v0", "tracking_error", "deg"),  # the EMPS's carriage is prismatic: mm
-    ("rail_arm.toml", "tracking_error", "m"),  # a tracking error is shown in deg or mm
-    ("rail_arm.toml", "input_residual", " "),
-])
-def test_the_store_refuses_a_unit_that_is_not_the_axis(tmp_path, system, signal, unit):
+@pytest.mark.parametrize("units", [(" ",), ("",), ("deg", "mm")], ids=["blank", "empty", "two for one axis"])
+def test_the_store_refuses_a_row_without_a_unit_or_an_axis_of_two(tmp_path, units):
+    """The store knows no machine: a row's unit is what its bench wrote, and one configuration gives an
+    axis's signal one unit."""
     out = tmp_path / "r.csv"
-    out.write_text(pd.DataFrame([_row(system, signal, "x", unit)]).reindex(columns=COLUMNS).to_csv(index=False))
+    rows = [_row("rail_arm.toml", "tracking_error", "x", unit) | {"seed": k} for k, unit in enumerate(units)]
+    out.write_text(pd.DataFrame(rows).reindex(columns=COLUMNS).assign(schema=2).to_csv(index=False))
     with pytest.raises(ResultsFileError, match="column 'unit', row 1"):
         read_results(out)
 

@@ -296,12 +296,6 @@ class Scorer:
         pred = P["test_axis"][axis] @ theta + cols[te] @ coef
         return float(train), float(((P["u_te"][axis] - pred) ** 2).sum()), coef
 
-    def with_columns(self, cols: np.ndarray, axis: int) -> Scorer:
-        """A scorer whose design has ``cols`` (R, k) added on ``axis`` (a selected effect)."""
-        extra = np.zeros((cols.shape[0], self.design.shape[1], cols.shape[1]))
-        extra[:, axis, :] = cols
-        return Scorer(np.concatenate([self.design, extra], axis=2), self.u, self.fold, self.guard, self.penalties)
-
     @classmethod
     def of(cls, prep: Prepared) -> Scorer:
         return cls(prep.design, prep.u, prep.fold, prep.guard, prep.penalties)
@@ -467,9 +461,6 @@ class Ranking:
 
     def explained(self, s: Score) -> float:
         return max(0.0, 1.0 - s.held_out_sse / self.baseline[s.axis]) if self.baseline[s.axis] > 0 else 0.0
-
-    def removed_rms(self, s: Score) -> float:
-        return math.sqrt(max(self.baseline[s.axis] - s.held_out_sse, 0.0) / self.n_rows[s.axis])
 
     def passes_alone(self, s: Score) -> bool:
         """Whether ``s`` passed the significance rule against the model alone (the first step; a

@@ -40,11 +40,13 @@ import numpy as np
 import pandas as pd
 
 from ..data import atomic_write
+from ..metrics import METRICS, RANKED_BY
 from ..provenance import __version__
 from .report import (
     KEYS,
     REFERENCE_METHOD,
     SCORED_NOTE,
+    SPREAD,
     bar_figures,
     count_text,
     failures,
@@ -56,15 +58,10 @@ from .report import (
     trace_figures,
 )
 
-OVERVIEW_SIGNALS = ("tracking_error", "tcp_position_error")
-"""Signals whose axes are the overview's columns (period ``all``): how well each method tracks."""
-SIGNAL_LABELS = {
-    "tracking_error": "tracking error",
-    "input_residual": "input residual u - f",
-    "model_following_error": "model-following error",
-    "ee_acceleration_error": "end-effector acceleration error",
-    "tcp_position_error": "TCP position error",
-}
+POSITION_UNITS = ("deg", "mdeg", "rad", "mrad", "mm", "um", "µm", "m")
+"""Units of a position error: the overview's columns are the axes of the signals measured in them
+(period ``all``), how well each method tracks; the first such signal of a machine is its own
+tracking error, whose table opens."""
 PERIOD_LABELS = {"all": "whole trial", "dynamic": "while the reference moves", "static": "at rest"}
 SATURATION_DECADES = 1.5
 """Ratios beyond 10**+-1.5 (about 32x better or worse) get the full colour."""
@@ -158,20 +155,34 @@ def _ratios(values: pd.Series, reference: float | None) -> pd.Series:
     return values / base if base and np.isfinite(base) else values * np.nan
 
 
-def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str, scored: set) -> str:
+def _tracked(table: pd.DataFrame, system: str) -> list[str]:
+    """The signals of ``system``'s ranking rows measured in a unit of position (``POSITION_UNITS``), in
+    the rows' order: its tracking error first."""
+    part = table[table["system"] == system]
+    units = part.groupby("signal", sort=False)["unit"].agg(lambda u: set(map(str, u)))
+    return [s for s, used in units.items() if used <= set(POSITION_UNITS)]
+
+
+def _labels(df: pd.DataFrame) -> dict[str, str]:
+    """Each signal's label as its bench declared it (the rows' ``signal_label``)."""
+    return dict(zip(df["signal"].astype(str), df["signal_label"].astype(str), strict=True))
+
+
+def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str, scored: set, labels: dict[str, str]) -> str:
     """One machine's overview table (or a note where it has no tracking rows); ``scored``: the methods
-    to mark as learned on the references they are scored on."""
-    part = table[(table["system"] == system) & (table["period"] == "all") & table["signal"].isin(OVERVIEW_SIGNALS)]
+    to mark as learned on the references they are scored on; ``labels``: the signals' labels."""
+    tracked = _tracked(table, system)
+    part = table[(table["system"] == system) & (table["period"] == "all") & table["signal"].isin(tracked)]
     if part.empty:
         return f"<section class='machine'><h3>{e(system)}</h3><p class='muted'>no tracking-error rows</p></section>"
-    columns = [(s, a) for s in OVERVIEW_SIGNALS for a in dict.fromkeys(part.loc[part["signal"] == s, "axis"])]
-    methods = method_order(part[part["signal"] == OVERVIEW_SIGNALS[0]]) or method_order(part)
+    columns = [(s, a) for s in tracked for a in dict.fromkeys(part.loc[part["signal"] == s, "axis"])]
+    methods = method_order(part[part["signal"] == tracked[0]]) or method_order(part)
     methods += [m for m in dict.fromkeys(part["method"]) if m not in methods]
     cells = part.set_index(["signal", "axis", "method"]).sort_index()
     has_reference = REFERENCE_METHOD in set(part["method"])
     ratio_of, best_of = {}, {}
     for col in columns:
-        rms = cells.loc[col, "RMS"] if col in cells.index.droplevel(2) else pd.Series(dtype=float)
+        rms = cells.loc[col, RANKED_BY] if col in cells.index.droplevel(2) else pd.Series(dtype=float)
         ref = rms.get(REFERENCE_METHOD) if has_reference else None
         ratio_of[col] = _ratios(rms, ref)
         best_of[col] = rms.idxmin() if len(rms) else None
@@ -192,8 +203,8 @@ def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str, scored: set
     unit_of = part.groupby(["signal", "axis"], sort=False)["unit"].first()
     for i, (signal, axis) in enumerate(columns, start=1):
         unit = str(unit_of[(signal, axis)])
-        label = SIGNAL_LABELS.get(signal, str(signal))
-        kind = "" if signal == OVERVIEW_SIGNALS[0] else f"{label.split(' ')[0]}, "
+        label = labels.get(signal, str(signal))
+        kind = "" if signal == tracked[0] else f"{label.split(' ')[0]}, "
         head.append(f"<th data-col='{i}' scope='col' title='{e(label)}, RMS ± std [{e(unit)}]'>"
                     f"{e(str(axis))}<small>{e(kind)}{e(unit)}</small></th>")
     n = len(columns)
@@ -217,8 +228,8 @@ def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str, scored: set
             style = f" style='background:{colour}'" if colour else ""
             tip = f"{ratio:.3g} × {ref_name}; {int(r['seeds'])} seed(s)" if np.isfinite(ratio) else f"{int(r['seeds'])} seed(s)"
             mark = "<span class='best' aria-label='lowest RMS'>★</span>" if best else ""
-            tds.append(f"<td data-value='{_value(r['RMS'])}'{style} title='{e(tip)}' class='{'top' if best else ''}'>"
-                       f"{mark}{e(_pm(r['RMS'], r['RMS_std'], int(r['seeds'])))}</td>")
+            tds.append(f"<td data-value='{_value(r[RANKED_BY])}'{style} title='{e(tip)}' class='{'top' if best else ''}'>"
+                       f"{mark}{e(_pm(r[RANKED_BY], r[SPREAD], int(r['seeds'])))}</td>")
         times = "×" if np.isfinite(summary) else ""
         other_base = (f"<small title='geometric mean of RMS / RMS of its base, {e(base)}'>{e(_num(gain))}× {e(base)}"
                       f"</small>" if base and base != REFERENCE_METHOD and np.isfinite(gain) else "")
@@ -230,8 +241,7 @@ def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str, scored: set
     if not failed.empty:
         listed = ", ".join(f"{r['method']} (seed {r['seed']})" for r in failed.to_dict("records"))
         note = f"<p class='failnote'>failed cells, not ranked: {e(listed)} (see <a href='#failed'>below</a>)</p>"
-    shown = " and ".join(f"{SIGNAL_LABELS.get(s, s)} [{_joined_units(part[part['signal'] == s])}]"
-                         for s in OVERVIEW_SIGNALS if s in set(part["signal"]))
+    shown = " and ".join(f"{labels.get(s, s)} [{_joined_units(part[part['signal'] == s])}]" for s in tracked)
     return (f"<section class='machine' id='overview-{_slug(system)}'><h3>{e(str(system))} "
             f"<span class='muted'>· {e(shown)} per axis, RMS ± std</span></h3>"
             f"<table class='sortable overview' data-system='{e(system)}'><thead><tr>{''.join(head)}</tr></thead>"
@@ -260,18 +270,19 @@ def _details_table(part: pd.DataFrame, scored: set) -> str:
     head1 = ["<th rowspan='2' data-col='0' class='method' scope='col'>method</th>"]
     head2 = []
     col = 1
+    shown = [RANKED_BY, *(m for m in METRICS if m != RANKED_BY)]  # the ranked norm first, with its spread
     for a in axes_names:
-        head1.append(f"<th colspan='3' class='group' scope='colgroup'>{e(str(a))} [{e(str(unit_of[a]))}]</th>")
-        head2 += [f"<th data-col='{col}' scope='col'>RMS ± std</th>",
-                  f"<th data-col='{col + 1}' scope='col'>MA</th>", f"<th data-col='{col + 2}' scope='col'>Inf</th>"]
-        col += 3
+        head1.append(f"<th colspan='{len(shown)}' class='group' scope='colgroup'>{e(str(a))} [{e(str(unit_of[a]))}]</th>")
+        for i, m in enumerate(shown):
+            head2.append(f"<th data-col='{col + i}' scope='col'>{e(m)}{' ± std' if m == RANKED_BY else ''}</th>")
+        col += len(shown)
     for label, tip in (("seeds", "seeds averaged"), ("trials", "plant trials learned from, mean over seeds"),
                        ("env steps", "environment steps, mean over seeds"), ("fit s", "fit and learn wall time [s], mean")):
         head1.append(f"<th rowspan='2' data-col='{col}' scope='col' title='{e(tip)}'>{e(label)}</th>")
         col += 1
     ratio_of, best_of = {}, {}
     for a in axes_names:
-        rms = cells.loc[a, "RMS"]
+        rms = cells.loc[a, RANKED_BY]
         ratio_of[a] = _ratios(rms, rms.get(REFERENCE_METHOD) if has_reference else None)
         best_of[a] = rms.idxmin()
     body = []
@@ -279,17 +290,16 @@ def _details_table(part: pd.DataFrame, scored: set) -> str:
         tds = [_method(str(m), scored)]
         for a in axes_names:
             if (a, m) not in cells.index:
-                tds += ["<td data-value=''>–</td>"] * 3
+                tds += ["<td data-value=''>–</td>"] * len(shown)
                 continue
             r = cells.loc[(a, m)]
             colour = ratio_colour(ratio_of[a].get(m, np.nan))
             style = f" style='background:{colour}'" if colour else ""
             best = best_of[a] == m
             mark = "<span class='best' aria-label='lowest RMS'>★</span>" if best else ""
-            tds.append(f"<td data-value='{_value(r['RMS'])}'{style} class='{'top' if best else ''}'>{mark}"
-                       f"{e(_pm(r['RMS'], r['RMS_std'], int(r['seeds'])))}</td>")
-            tds.append(f"<td data-value='{_value(r['MA'])}'>{e(_num(r['MA']))}</td>")
-            tds.append(f"<td data-value='{_value(r['Inf'])}'>{e(_num(r['Inf']))}</td>")
+            tds.append(f"<td data-value='{_value(r[RANKED_BY])}'{style} class='{'top' if best else ''}'>{mark}"
+                       f"{e(_pm(r[RANKED_BY], r[SPREAD], int(r['seeds'])))}</td>")
+            tds += [f"<td data-value='{_value(r[x])}'>{e(_num(r[x]))}</td>" for x in shown[1:]]
         first = part[part["method"] == m].iloc[0]
         tds.append(f"<td data-value='{_value(float(first['seeds']))}' class='count'>{e(_num(float(first['seeds']), True))}</td>")
         for c in ("plant_trials", "env_steps"):
@@ -332,6 +342,7 @@ def render(df: pd.DataFrame, reference_set: str = "validation", source: str = ""
                                                        if s not in set(table["system"])]
     colours = method_colours(sorted({str(m) for m in df["method"]}))
     scored = learned_on_scored(table["method"])
+    labels = _labels(df)
     out = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'>"
            f"<meta name='viewport' content='width=device-width, initial-scale=1'>"
            f"<title>lcgym leaderboard</title><style>{CSS}</style></head><body>",
@@ -343,7 +354,7 @@ def render(df: pd.DataFrame, reference_set: str = "validation", source: str = ""
         out.append(f"<p class='muted'>No ranked rows: no cell with status ok on the {e(reference_set)} references.</p>")
     else:
         out.append("<section id='overview'>" + _legend(REFERENCE_METHOD in set(table["method"]), scored)
-                   + "<div class='machines'>" + "".join(_overview(table, fails, s, set(scored)) for s in systems)
+                   + "<div class='machines'>" + "".join(_overview(table, fails, s, set(scored), labels) for s in systems)
                    + "</div></section>")
     trace_of = {system: _figure(stem, caption, fig)
                 for system, stem, caption, fig in (trace_figures(df, source, colours, reference_set) if source else ())}
@@ -354,9 +365,9 @@ def render(df: pd.DataFrame, reference_set: str = "validation", source: str = ""
         out.append(f"<section class='system' id='details-{_slug(system)}'><h2>{e(str(system))}: details</h2>")
         part = table[table["system"] == system]
         for (signal, period), sub in part.groupby(["signal", "period"], sort=False):
-            label = SIGNAL_LABELS.get(signal, str(signal))
+            label = labels.get(signal, str(signal))
             units = _joined_units(sub)
-            is_open = " open" if (signal == OVERVIEW_SIGNALS[0] and period == "all") else ""
+            is_open = " open" if (signal == next(iter(_tracked(table, system)), None) and period == "all") else ""
             out.append(f"<details{is_open}><summary>{e(label)} <code>{e(str(signal))}</code>, "
                        f"{e(PERIOD_LABELS.get(period, str(period)))} [{e(units)}]</summary>"
                        + _details_table(sub.drop(columns=[k for k in KEYS if k != "axis"]), set(scored)) + "</details>")

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..data import atomic_write
 from ..figures import wrapped_title
+from ..metrics import RANKED_BY
 
 DISPLAY_FACTORS = {"deg": 180.0 / math.pi, "mm": 1000.0}
 """A tracking error's shown unit -> the factor from its stored SI value (rad -> deg, m -> mm)."""
@@ -114,14 +115,14 @@ def rms_bar_figure(part, title: str, colours: dict | None = None, reference: str
                 continue
             rows = table.loc[m].reindex(names)
             x = np.arange(len(names)) - 0.4 + (j + 0.5) * width
-            rms = rows["RMS"].to_numpy(dtype=float)
+            rms = rows[RANKED_BY].to_numpy(dtype=float)
             one_seed = rows["seeds"].fillna(1).to_numpy() < 2 if "seeds" in rows else np.zeros(len(names), bool)
-            std = np.where(one_seed, np.nan, rows["RMS_std"].to_numpy(dtype=float))  # nan: no whisker
+            std = np.where(one_seed, np.nan, rows[f"{RANKED_BY}_std"].to_numpy(dtype=float))  # nan: no whisker
             lower = np.minimum(std, 0.9 * rms)  # a log axis has no zero: the bar's lower whisker stops above it
             ax.bar(x, rms, width * 0.92, yerr=[lower, std], color=colours.get(m), label=m, capsize=1.5,
                    error_kw={"elinewidth": 0.7, "alpha": 0.8})
         if reference in methods:
-            ref = table.loc[reference].reindex(names)["RMS"].to_numpy(dtype=float)
+            ref = table.loc[reference].reindex(names)[RANKED_BY].to_numpy(dtype=float)
             for i, value in enumerate(ref):
                 ax.hlines(value, i - 0.45, i + 0.45, colors="k", linestyles="--", lw=0.8,
                           label=f"{reference} (reference)" if i == 0 else None)

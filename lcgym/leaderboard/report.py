@@ -28,13 +28,14 @@ import numpy as np
 import pandas as pd
 
 from ..data import atomic_write
-from ..metrics import PERIODS
+from ..metrics import METRICS, PERIODS, RANKED_BY
 from ..provenance import __version__
-from .store import SIGNALS
-
-SIGNAL_UNITS = {s: u for s, u in SIGNALS.items() if isinstance(u, str)}
 
 KEYS = ["system", "signal", "period", "axis"]
+SPREAD = f"{RANKED_BY}_std"
+"""The ranking's column of the ranked norm's sample standard deviation over seeds."""
+NORM_COLUMNS = [m for c in METRICS for m in ((c, SPREAD) if c == RANKED_BY else (c,))]
+"""The ranking's norm columns: each of ``metrics.METRICS``, the ranked one followed by its spread."""
 
 
 def select(df: pd.DataFrame, config_hash: str | None = None) -> tuple[pd.DataFrame, list[str]]:
@@ -62,42 +63,40 @@ def ranking(df: pd.DataFrame, reference_set: str = "validation") -> pd.DataFrame
     """Mean norms over seeds and the rank by RMS per (system, signal, axis); each machine's axes in the
     order of its rows (the machine's own order)."""
     ok = df[(df["status"] == "ok") & (df["reference_set"] == reference_set)]
-    if "period" not in ok.columns:  # a frame of rows made before the column existed
-        ok = ok.assign(period="all")
-    if "base" not in ok.columns:
-        ok = ok.assign(base="")
     if ok.empty:
-        return pd.DataFrame(columns=[*KEYS, "rank", "method", "base", "vs_base", "MA", "RMS", "RMS_std", "Inf", "unit",
-                                     "seeds"])
+        return pd.DataFrame(columns=[*KEYS, "rank", "method", "base", "vs_base", *NORM_COLUMNS, "unit", "seeds"])
     g = ok.groupby([*KEYS, "method"], sort=False)
-    table = g.agg(MA=("MA", "mean"), RMS=("RMS", "mean"), RMS_std=("RMS", "std"), Inf=("Inf", "mean"),
+    norms = {c: (c, "mean") for c in METRICS} | {SPREAD: (RANKED_BY, "std")}
+    table = g.agg(**{c: norms[c] for c in NORM_COLUMNS},
                   unit=("unit", "first"), base=("base", "first"), seeds=("seed", "nunique"),
                   plant_trials=("plant_trials", "mean"),
                   plant_trials_min=("plant_trials", "min"), plant_trials_max=("plant_trials", "max"),
                   env_steps=("env_steps", "mean"), env_steps_min=("env_steps", "min"),
                   env_steps_max=("env_steps", "max"), fit_seconds=("fit_seconds", "mean")).reset_index()
-    table["RMS_std"] = table["RMS_std"].fillna(0.0)
+    table[SPREAD] = table[SPREAD].fillna(0.0)
     table["base"] = table["base"].fillna("").astype(str)
     table["vs_base"] = _versus_base(table)
-    table["rank"] = table.groupby(KEYS)["RMS"].rank(method="min").astype(int)
-    order = {"signal": {s: i for i, s in enumerate(SIGNALS)}, "period": {p: i for i, p in enumerate(PERIODS)}}
+    table["rank"] = table.groupby(KEYS)[RANKED_BY].rank(method="min").astype(int)
+    # signals in the order the rows give them (each bench's declared order), periods in PERIODS' order
+    order = {"signal": {s: i for i, s in enumerate(dict.fromkeys(ok["signal"]))},
+             "period": {p: i for i, p in enumerate(PERIODS)}}
     # each machine's axes in the order its rows give them (the machine's: rail, shoulder, elbow), not alphabetical
     seen = {key: i for i, key in enumerate(dict.fromkeys(zip(ok["system"], ok["signal"], ok["axis"], strict=True)))}
     table["axis_order"] = [seen[key] for key in zip(table["system"], table["signal"], table["axis"], strict=True)]
     table = table.sort_values(["system", "signal", "period", "axis_order", "rank"],
                               key=lambda c: c.map(order[c.name]) if c.name in order else c, kind="stable")
-    return table[[*KEYS, "rank", "method", "base", "vs_base", "MA", "RMS", "RMS_std", "Inf", "unit", "seeds",
-                  "plant_trials", "env_steps", "fit_seconds", *COUNT_RANGES]].reset_index(drop=True)
+    return table[[*KEYS, "rank", "method", "base", "vs_base", *NORM_COLUMNS, "unit", "seeds", "plant_trials",
+                  "env_steps", "fit_seconds", *COUNT_RANGES]].reset_index(drop=True)
 
 
 def _versus_base(table: pd.DataFrame) -> pd.Series:
     """Per ranking row, its RMS / the RMS of its base's row (the method named as its ``base``,
     "physical" or "basic", on the same system, signal, period and axis): below 1, the learner
     improved on what it built on. NaN for a method with no base or whose base was not run."""
-    rms = table.set_index([*KEYS, "method"])["RMS"]
+    rms = table.set_index([*KEYS, "method"])[RANKED_BY]
     keys = list(zip(*(table[k] for k in KEYS), table["base"], strict=True))
     base = [rms.get(k, np.nan) if k[-1] else np.nan for k in keys]
-    return pd.Series(table["RMS"].to_numpy() / np.asarray(base, dtype=float), index=table.index)
+    return pd.Series(table[RANKED_BY].to_numpy() / np.asarray(base, dtype=float), index=table.index)
 
 
 COUNT_RANGES = ("plant_trials_min", "plant_trials_max", "env_steps_min", "env_steps_max")
@@ -161,10 +160,9 @@ def format_shares(df: pd.DataFrame, of: str, base: str, reference_set: str = "va
     table = share_table(df, of, base, reference_set)
     out = [f"\nshare of what {of} changed against {base} (paper 002 Table 6: |RMS - RMS_{base}| / "
            f"|RMS_{of} - RMS_{base}|; signed: whether the method moved the error the way {of} did)"]
-    units = ({key: ", ".join(dict.fromkeys(map(str, u.dropna()))) for key, u in df.groupby(["system", "signal"])["unit"]}
-             if "unit" in df else {})  # each unit of the signal's axes
+    units = {key: ", ".join(dict.fromkeys(map(str, u.dropna()))) for key, u in df.groupby(["system", "signal"])["unit"]}
     for (system, signal), part in table.groupby(["system", "signal"], sort=False):
-        unit = units.get((system, signal), SIGNAL_UNITS.get(signal, ""))
+        unit = units.get((system, signal), "")  # each unit of the signal's axes
         out.append(f"\n{system} / {signal} [{unit}] (RMS over its axes together)")
         out.append(part.drop(columns=["system", "signal"]).to_string(index=False, float_format=lambda x: f"{x:.4g}"))
     return "\n".join(out)
@@ -240,7 +238,7 @@ def summary(df: pd.DataFrame, reference_set: str = "validation") -> pd.DataFrame
     table = table[(table["signal"] == "tracking_error") & (table["period"] == "all")]
     rows = []
     for system, part in table.groupby("system", sort=False):
-        rms = part.pivot_table(index="method", columns="axis", values="RMS", sort=False)
+        rms = part.pivot_table(index="method", columns="axis", values=RANKED_BY, sort=False)
         against = REFERENCE_METHOD if REFERENCE_METHOD in rms.index else ""
         if against:
             ratio = np.exp(np.log(rms / rms.loc[against]).mean(axis=1)).sort_values(kind="stable")
@@ -284,10 +282,10 @@ def _as_shown(part: pd.DataFrame) -> pd.DataFrame:
     for a method with no base)."""
     counts = {c: [count_text(lo, hi) for lo, hi in zip(part[f"{c}_min"], part[f"{c}_max"], strict=True)]
               for c in ("plant_trials", "env_steps")}
-    spread = ["" if seeds < 2 else f"{std:.4g}" for std, seeds in zip(part["RMS_std"], part["seeds"], strict=True)]
+    spread = ["" if seeds < 2 else f"{std:.4g}" for std, seeds in zip(part[SPREAD], part["seeds"], strict=True)]
     versus = ["–" if not np.isfinite(v) else f"{v:.2f}x" for v in part["vs_base"]]
     base = [b or "–" for b in part["base"]]
-    return part.drop(columns=list(COUNT_RANGES)).assign(**counts, RMS_std=spread, base=base, vs_base=versus)
+    return part.drop(columns=list(COUNT_RANGES)).assign(**counts, **{SPREAD: spread}, base=base, vs_base=versus)
 
 
 REFERENCE_METHOD = "physical"
@@ -299,7 +297,7 @@ def method_order(table: pd.DataFrame) -> list[str]:
     """Methods of ranking rows, best first: by mean rank over the rows' axes, then by mean RMS."""
     if table.empty:
         return []
-    score = table.groupby("method", sort=False).agg(rank=("rank", "mean"), rms=("RMS", "mean"))
+    score = table.groupby("method", sort=False).agg(rank=("rank", "mean"), rms=(RANKED_BY, "mean"))
     return list(score.sort_values(["rank", "rms"], kind="stable").index)
 
 
@@ -393,7 +391,7 @@ def write_markdown(df: pd.DataFrame, path: str | Path, reference_set: str = "val
         lines.append(f"{', '.join(f'`{m}`' for m in scored)}: {SCORED_NOTE}.\n")
     for (system, signal, axis), part in _sections(table):
         lines.append(f"\n## {system} / {signal} / {axis}\n")
-        cols = ["rank", "method", "base", "vs_base", "MA", "RMS", "RMS_std", "Inf", "unit", "seeds", "plant_trials",
+        cols = ["rank", "method", "base", "vs_base", *NORM_COLUMNS, "unit", "seeds", "plant_trials",
                 "env_steps", "fit_seconds"]
         lines.append("| " + " | ".join(cols) + " |")
         lines.append("|" + "---|" * len(cols))

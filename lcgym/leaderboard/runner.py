@@ -233,11 +233,10 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_th
                 if set_name == "validation":
                     trace = bench.trace(trials[0])
                 nn_rms = dict(zip(bench.axes, _rms_per_axis(nn), strict=True)) if nn else {}
-                for table in bench.tables(trials, ffs, refs[set_name]):
-                    for row in table.to_dict("records"):
-                        row.pop("label")
-                        rows.append({**key, "period": "all", **row, "reference_set": set_name,
-                                     "nn_rms": nn_rms.get(row["axis"], np.nan)})
+                for row in _scored_rows(bench, bench.tables(trials, ffs, refs[set_name])):
+                    row.pop("label")
+                    rows.append({**key, "period": "all", **row, "reference_set": set_name,
+                                 "nn_rms": nn_rms.get(row["axis"], np.nan)})
             cost = getattr(controller, "cost_", Cost())
             for row in rows:
                 row.update(plant_trials=config.n_train + cost.plant_trials, env_steps=cost.env_steps,
@@ -246,6 +245,19 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_th
             return rows, trace
     except Exception as exc:  # a method's failure is a result, not a crash of the benchmark
         return [{**key, "status": "failed", "error": _failure(exc, stage[0])[:500]}], None
+
+
+def _scored_rows(bench, tables: Sequence[pd.DataFrame]) -> list[dict]:
+    """The rows of a bench's norm tables in the order of the signals it declares (``bench.signals``),
+    each with its signal's label; a signal it does not declare is an error of the bench."""
+    labels = {s.name: s.label for s in bench.signals}
+    order = {name: i for i, name in enumerate(labels)}
+    rows = [row for table in tables for row in table.to_dict("records")]
+    undeclared = sorted({row["signal"] for row in rows} - set(labels))
+    if undeclared:
+        raise ValueError(f"bench {bench.name} scores {', '.join(undeclared)} without declaring it in its signals")
+    rows.sort(key=lambda row: order[row["signal"]])  # stable: each signal's rows keep their order
+    return [{**row, "signal_label": labels[row["signal"]]} for row in rows]
 
 
 def _regressors_kept(machine, config: BenchConfig):

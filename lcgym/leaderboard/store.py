@@ -1,20 +1,24 @@
 """The results store: one tidy CSV, one row per (run, system, method, seed, reference set, axis, signal).
 
 Columns (``COLUMNS``): identification (``run_id``, ``system``: the machine and its version,
-``ix-v1``, ``method``, ``base``: the feedforward a learning method builds on, ``physical`` or
-``basic`` (``baselines.bases``; empty for a method with none; older files: empty), ``seed``,
-``reference_set``, ``axis``, ``signal``, ``period``: the samples the norms are taken over, ``all``,
-``dynamic`` while the reference moves or ``static``; older files without the column read as
-``all``), the norms of paper 000 eqs. (34)-(36) (``MA``, ``RMS``,
-``Inf``) with their ``unit`` (per row: the tracking error in deg on a revolute axis and mm on a
-prismatic one, the input residual in the axis's input unit: V on the IX, N m on a revolute joint,
-N on a prismatic one), the method's cost (``plant_trials``: closed-loop runs it learned
-from, the shared training runs included; ``env_steps``; ``fit_seconds``: wall time of fit and
-learn, plus that of learning reused from a cache, ``Cost.cached_seconds``), ``nn_rms`` (RMS of
-a neural network's feedforward contribution, where the method has one), ``status`` (``ok`` or
-``failed``) and ``error``, and provenance (``lcgym_version``, ``git_commit``, ``timestamp`` in
-UTC, ``config_hash`` of the benchmark's configuration), and ``note``: what the method says of its
-cell (a method's ``note_``; the ``rl`` safeguard's dropped residual; older files read as empty).
+``ix-v1``, or a user's machine as it was named, ``method``, ``base``: the feedforward a learning
+method builds on, ``physical`` or ``basic`` (``baselines.bases``; empty for a method with none),
+``seed``, ``reference_set``, ``axis``, ``signal`` and ``signal_label``: what the machine's bench
+scores, by name and as the leaderboard shows it (``metrics.Signal``), ``period``: the samples the
+norms are taken over, ``all``, ``dynamic`` while the reference moves or ``static``), the norms
+``metrics.METRICS`` (paper 000 eqs. (34)-(36): ``MA``, ``RMS``, ``Inf``) with their ``unit`` (per
+row, as the bench gives it: the tracking error in deg on a revolute axis and mm on a prismatic one,
+the input residual in the axis's input unit), the method's cost (``plant_trials``: closed-loop runs
+it learned from, the shared training runs included; ``env_steps``; ``fit_seconds``: wall time of fit
+and learn, plus that of learning reused from a cache, ``Cost.cached_seconds``), ``nn_rms`` (RMS of a
+neural network's feedforward contribution, where the method has one), ``status`` (``ok`` or
+``failed``) and ``error``, provenance (``lcgym_version``, ``git_commit``, ``timestamp`` in UTC,
+``config_hash`` of the benchmark's configuration), ``note``: what the method says of its cell, and
+``schema``: the version of these columns (``SCHEMA``).
+
+The store knows no machine: a row's machine, signal and unit are what its bench wrote. It checks
+that every ok row has finite norms >= 0, a signal and a unit, and that one configuration gives each
+(system, signal, axis) one unit.
 
 A failed cell is one row with ``status = failed``, its error message and empty metrics.
 
@@ -34,34 +38,21 @@ from pathlib import Path
 
 import pandas as pd
 
-from .. import systems
 from ..data import atomic_write
-from ..metrics import PERIODS
+from ..metrics import METRICS, PERIODS
 
+SCHEMA = 2
+"""The version of ``COLUMNS``. 1: files written before the column existed (``_from_schema_1``); 2
+added ``signal_label`` and ``schema``."""
 COLUMNS = (
-    "run_id", "system", "method", "base", "seed", "reference_set", "axis", "signal", "period", "MA", "RMS", "Inf", "unit",
-    "plant_trials", "env_steps", "fit_seconds", "nn_rms", "status", "error",
-    "lcgym_version", "git_commit", "timestamp", "config_hash", "note",
+    "run_id", "system", "method", "base", "seed", "reference_set", "axis", "signal", "signal_label", "period",
+    *METRICS, "unit", "plant_trials", "env_steps", "fit_seconds", "nn_rms", "status", "error",
+    "lcgym_version", "git_commit", "timestamp", "config_hash", "note", "schema",
 )
-SYSTEMS = (*(f"{m}-{v}" for m, versions in systems.VERSIONS.items() for v in versions), *systems.BUILT_IN)
-"""Versioned built-in machines ("ix-v1"), and the bare names of files written before versions (their v0).
-Any other non-empty name is a user's machine (a machine file, a URDF, ``module:attr``), whose input
-units are its own: each input-residual row carries its axis's (N m, N, ...; files written before
-the units were per axis carry the machine's joined "N m / N", which still reads)."""
 REFERENCE_SETS = ("train", "validation", "test")
-SIGNALS = {
-    "tracking_error": "deg",
-    "input_residual": {name: systems.get(name).input_unit for name in SYSTEMS},
-    "model_following_error": "rad/s^2",
-    "ee_acceleration_error": "m/s^2",
-    "tcp_position_error": "mm",
-}
 IDENTITY = ("run_id", "system", "method", "signal")
 """Columns a file must have to be taken for a results CSV at all (``validate``)."""
 STATUS = ("ok", "failed")
-TRACKING_UNITS = {name: {axis.display[1] for axis in systems.get(name).axes} for name in SYSTEMS}
-"""The units a built-in machine's tracking-error rows may carry: its axes' display units (deg on a
-revolute axis, mm on a prismatic one: the EMPS)."""
 
 
 class ResultsFileError(ValueError):
@@ -106,7 +97,8 @@ def _same_file(fh, path: Path) -> bool:
 
 
 def append_rows(path: str | Path, rows: Sequence[dict]) -> None:
-    """Append rows (dicts keyed by COLUMNS) to the results CSV atomically and under the lock."""
+    """Append rows (dicts keyed by COLUMNS, ``schema`` left out) to the results CSV atomically and
+    under the lock."""
     path = Path(path)
     if not rows:
         return
@@ -114,7 +106,7 @@ def append_rows(path: str | Path, rows: Sequence[dict]) -> None:
     unknown = set(new.columns) - set(COLUMNS)
     if unknown:
         raise ValueError(f"unknown result columns {sorted(unknown)}")
-    new = new.reindex(columns=COLUMNS)
+    new = new.reindex(columns=COLUMNS).assign(schema=SCHEMA)
     with locked(path):
         old = read_results(path) if path.exists() and path.stat().st_size > 0 else None
         table = new if old is None else pd.concat([old, new], ignore_index=True)
@@ -122,23 +114,31 @@ def append_rows(path: str | Path, rows: Sequence[dict]) -> None:
 
 
 def read_results(path: str | Path) -> pd.DataFrame:
-    """Read and validate a results CSV (schema, allowed values, metrics of ok rows finite)."""
+    """Read and validate a results CSV (schema, allowed values, metrics of ok rows finite); a file of
+    an older schema is read in today's columns, each row keeping the ``schema`` it was written in."""
     path = Path(path)
     try:
         df = pd.read_csv(path, keep_default_na=True, dtype={"error": str, "git_commit": str, "run_id": str,
-                                                           "config_hash": str, "note": str, "base": str})
+                                                           "config_hash": str, "note": str, "base": str,
+                                                           "signal_label": str})
     except pd.errors.EmptyDataError:
         raise ResultsFileError(f"{path}: empty results file") from None
-    _results_file(df, str(path))  # before the columns added below, so that a stranger's own columns are named
-    if "period" not in df.columns and "signal" in df.columns:  # written before the column existed: all samples
-        df.insert(int(df.columns.get_loc("signal")) + 1, "period", "all")
-    if "note" not in df.columns:  # written before the column existed: no method said anything
-        df["note"] = ""
-    if "base" not in df.columns:  # written before the column existed: no base recorded
-        df.insert(int(df.columns.get_loc("method")) + 1, "base", "")
-    df["base"] = df["base"].fillna("")
+    _results_file(df, str(path))  # before any column is added, so that a stranger's own columns are named
+    if "schema" not in df.columns:
+        df = _from_schema_1(df)
+    df[["base", "note"]] = df[["base", "note"]].fillna("")
     validate(df, str(path))
     return df
+
+
+def _from_schema_1(df: pd.DataFrame) -> pd.DataFrame:
+    """Rows written before the ``schema`` column, in today's columns: a file older still may lack
+    ``period`` (its rows: all samples), ``note`` (nothing said) and ``base`` (none recorded); the
+    signal's label is its name in words (the bench that declared it is not asked)."""
+    defaults = {"period": "all", "note": "", "base": ""}
+    df = df.assign(**{c: v for c, v in defaults.items() if c not in df.columns})
+    df["signal_label"] = df["signal"].astype(str).str.replace("_", " ")
+    return df.reindex(columns=COLUMNS).assign(schema=1)
 
 
 def validate(df: pd.DataFrame, where: str = "results") -> None:
@@ -154,18 +154,24 @@ def validate(df: pd.DataFrame, where: str = "results") -> None:
             r = int(rows[0])
             raise ResultsFileError(f"{where}: column {column!r}, row {r + 1}: invalid value {df[column].iloc[r]!r}")
 
-    bad("system", ~(df["system"].isin(SYSTEMS) | (df["system"].astype(str).str.strip().str.len() > 0)))
+    def named(column: str) -> pd.Series:
+        return df[column].notna() & (df[column].astype(str).str.strip().str.len() > 0)
+
+    bad("system", ~named("system"))
+    bad("schema", ~pd.to_numeric(df["schema"], errors="coerce").isin(range(1, SCHEMA + 1)))
     bad("status", ~df["status"].isin(STATUS))
     ok = df["status"] == "ok"
     bad("reference_set", ok & ~df["reference_set"].isin(REFERENCE_SETS))
-    bad("signal", ok & ~df["signal"].isin(list(SIGNALS)))
+    bad("signal", ok & ~named("signal"))
+    bad("signal_label", ok & ~named("signal_label"))
     bad("period", ok & ~df["period"].isin(PERIODS))
-    for col in ("MA", "RMS", "Inf"):
+    for col in METRICS:
         values = pd.to_numeric(df[col], errors="coerce")
         bad(col, ok & ~(values.notna() & (values >= 0) & values.abs().lt(float("inf"))))
     bad("seed", ~pd.to_numeric(df["seed"], errors="coerce").ge(0))
-    expected_unit = [_unit(s, sys, unit) for s, sys, unit in zip(df["signal"], df["system"], df["unit"], strict=True)]
-    bad("unit", ok & (df["unit"] != pd.Series(expected_unit, index=df.index)))
+    bad("unit", ok & ~named("unit"))
+    units = df[ok].groupby(["config_hash", "system", "signal", "axis"], dropna=False)["unit"].transform("nunique")
+    bad("unit", ok & units.reindex(df.index, fill_value=1).gt(1))  # one axis's signal in two units
 
 
 def _results_file(df: pd.DataFrame, where: str) -> None:
@@ -176,20 +182,6 @@ def _results_file(df: pd.DataFrame, where: str) -> None:
         has = ", ".join(map(str, df.columns[:6])) + (", ..." if len(df.columns) > 6 else "")
         raise ResultsFileError(f"{where}: not an lcgym results file (no column {', '.join(map(repr, absent))}; "
                                f"its columns: {has or 'none'}); lcgym bench writes one")
-
-
-def _unit(signal: str, system: str, unit: str):
-    """The unit a row of ``signal`` on ``system`` must carry (``unit``, the row's, where it may be its own:
-    a user machine's input residual, its axis's; a prismatic axis's tracking error in mm)."""
-    expected = SIGNALS.get(signal)
-    if signal == "tracking_error" and system in SYSTEMS:  # its axes' display units (the EMPS's: mm only)
-        return unit if unit in TRACKING_UNITS[system] else sorted(TRACKING_UNITS[system])[0]
-    if system not in SYSTEMS:
-        if signal == "input_residual" and isinstance(unit, str) and unit.strip():
-            return unit
-        if signal == "tracking_error" and unit in ("deg", "mm"):
-            return unit
-    return expected.get(system) if isinstance(expected, dict) else expected
 
 
 def completed_cells(path: str | Path, config_hash: str) -> set[tuple[str, str, int]]:

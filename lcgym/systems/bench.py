@@ -10,6 +10,8 @@ A bench machine (``systems/ix/bench.py``, ``systems/flexarm/bench.py``) has
   (with the references, also any per-period rows the machine reports);
 * ``trace(trial)``: the tracking error of one trial to plot, per scored axis;
 * ``scored``: the indices of the axes it scores (None: all);
+* ``signals``: the signals its tables score (``metrics.Signal``: name and label), in the order its
+  rows are stored and shown;
 * ``tracking_error(trial)``: a class-level function, the tracking error (T, n_axes) [rad or m] its
   tables score (the encoders' on the IX and a URDF machine, the true load angles' on the FlexArm).
 """
@@ -21,7 +23,12 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
+from ..metrics import Signal
+
 TRACE_DECIMATION = 5  # samples per stored trace point
+TRACKING_ERROR = Signal("tracking_error", "tracking error")
+INPUT_RESIDUAL = Signal("input_residual", "input residual u - f")
+"""The two signals every bench scores: reference minus position, and input minus feedforward."""
 
 
 def trace_frame(trial, axes: Sequence[str], error: np.ndarray, columns: Sequence[int]) -> pd.DataFrame:

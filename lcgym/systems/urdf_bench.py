@@ -17,7 +17,7 @@ import pandas as pd
 
 from ..metrics import input_residual_table, norms_table
 from ..references import DEG, AxisLimits, stream, sweeps
-from .bench import trace_frame
+from .bench import INPUT_RESIDUAL, TRACKING_ERROR, trace_frame
 from .system import System
 
 VERSIONS = ("v0",)  # a machine of a machine file has one plant: the file's
@@ -30,6 +30,7 @@ class URDFBench:
     settings = None  # MachineSettings, set on the machine's subclass
     system: System | None = None
     scored = None  # every axis
+    signals = (TRACKING_ERROR, INPUT_RESIDUAL)
     versions = VERSIONS
 
     def __init__(self, version: str = "v0"):

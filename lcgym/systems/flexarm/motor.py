@@ -93,7 +93,7 @@ def _nominal_friction() -> tuple[tuple[float, ...], tuple[float, ...]]:
 
 def regressor(zeta_n, q, qd, qdd) -> np.ndarray:
     """X (T, 6, 78) with u = X theta for kinematics (T, 6) [rad, rad/s, rad/s^2]; ``zeta_n`` is
-    unused (the arm has no nonlinear parameter; kept for the ``RigidBodySystem`` signature).
+    unused (the arm has no nonlinear parameter; kept for the signature of ``System.regressor``).
 
     Inside ``with cached_regressors():`` the last ``CACHE_SIZE`` results are kept (``RegressorCache``):
     one evaluation costs about 40 us per sample (60 RNEA passes)."""

@@ -1,7 +1,7 @@
 """The IX: the interventional X-ray C-arm of paper 000 (propeller theta2, roll theta3), input in V.
 
 ``IX`` is the machine: its rigid body of eqs. (2)-(9) (``dynamics.py``, the compiled regressor of
-Lemma 1 in ``regressor.py``), its guidance friction (``effects.py``), and for the benchmark its
+Lemma 1 in ``compiled.py``), its guidance friction (``effects.py``), and for the benchmark its
 plant with the hidden effects (``plant.py``, ``kernel.py``), reference sets (``references.py``),
 Gymnasium envs (``env.py``: ``lcgym/IX-v0`` and its vector env) and scoring (``bench.py``).
 """

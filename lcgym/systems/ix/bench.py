@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 
 from ...metrics import input_residual_table, tracking_error_table
-from ..bench import trace_frame
+from ..bench import INPUT_RESIDUAL, TRACKING_ERROR, trace_frame
 from .plant import VERSIONS, IXPlant
 from .references import reference_set
 
@@ -17,6 +17,7 @@ class IXBench:
 
     family = "ix"
     scored = None  # both axes
+    signals = (TRACKING_ERROR, INPUT_RESIDUAL)
     versions = tuple(VERSIONS)  # the plant's, oldest first (systems.VERSIONS names them without importing this)
 
     def __init__(self, version: str = "v1"):
