@@ -31,13 +31,12 @@ from .data import Trial
 # fitted on the training trials (the PGNN also records its training data once on the plant:
 # ``learns_once``); the methods that learn on the plant per reference (ILC, the RBF expert, RL) run
 # in ``lcgym bench``
-SIMULATE_CONTROLLERS = {name: c for name, c in CONTROLLERS.items()
-                        if not getattr(c, "uses_plant", False) or getattr(c, "learns_once", False)}
+SIMULATE_CONTROLLERS = {name: c for name, c in CONTROLLERS.items() if not c.uses_plant or c.learns_once}
 
 
 def controllers_for(system: str) -> list[str]:
     """The controllers ``simulate`` runs on a built-in machine (a method's ``systems`` limits it)."""
-    return [n for n, c in SIMULATE_CONTROLLERS.items() if system in (getattr(c, "systems", None) or (system,))]
+    return [n for n, c in SIMULATE_CONTROLLERS.items() if system in (c.systems or (system,))]
 
 
 @dataclass

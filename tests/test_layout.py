@@ -304,3 +304,43 @@ def test_importing_the_leaderboard_loads_no_machine():
 def test_the_machine_finder_finds_a_machine():
     """Control for the test above."""
     assert "lcgym.systems.ix" in _machines_loaded(("lcgym.leaderboard.page", "lcgym.systems.ix"))
+
+
+METHOD_DRIVERS = ("leaderboard/*.py", "simulate.py", "cli.py", "baselines/protocol.py", "baselines/bases.py",
+                  "baselines/safeguard.py")
+"""The modules that build and run methods: they read the contract (``protocol.Controller``), never
+ask a method what it has."""
+WRAPPER = {"UserMethod", "_wrapped", "_load_class"}
+"""Where a user's class that is no ``Controller`` is asked once what it has, and wrapped."""
+NOT_METHODS = {"os", "signal", "process_executor", "module", "datasets", "bench"}
+"""Objects the drivers may ask: the platform, loky, a user's module, the datasets' readers, a bench."""
+
+
+def _probes(path: Path, root: Path = ROOT.parent) -> list[str]:
+    """``getattr``/``hasattr`` calls outside ``WRAPPER`` on anything but ``NOT_METHODS``."""
+    out = []
+
+    def visit(node, inside: bool) -> None:
+        if isinstance(node, (ast.ClassDef, ast.FunctionDef)) and node.name in WRAPPER:
+            inside = True
+        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in ("getattr", "hasattr")
+                and not inside and not (isinstance(node.args[0], ast.Name) and node.args[0].id in NOT_METHODS)):
+            out.append(f"{path.relative_to(root)}:{node.lineno}")
+        for child in ast.iter_child_nodes(node):
+            visit(child, inside)
+
+    visit(ast.parse(path.read_text(), str(path)), False)
+    return out
+
+
+def test_no_driver_asks_a_method_what_it_has():
+    found = [hit for pattern in METHOD_DRIVERS for path in sorted(ROOT.glob(pattern)) for hit in _probes(path)]
+    assert not found, f"getattr/hasattr on a method (declare the attribute on protocol.Controller): {found}"
+
+
+def test_the_probe_finder_finds_a_probe(tmp_path):
+    """Control for the test above."""
+    p = tmp_path / "probe.py"
+    p.write_text('def f(controller, os):\n    return getattr(controller, "cost_", None), hasattr(os, "x")\n\n\n'
+                 'class UserMethod:\n    def g(self):\n        return getattr(self.inner, "note_", "")\n')
+    assert _probes(p, tmp_path) == ["probe.py:2"]

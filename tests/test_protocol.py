@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from lcgym.baselines import CONTROLLERS, FeedbackOnly, PhysicalFeedforward
-from lcgym.baselines.protocol import build_method, given_system, takes_system
+from lcgym.baselines.protocol import Controller, Cost, apply, build_method, given_system, load_method, takes_system
 from lcgym.data import Trial
 from lcgym.leaderboard.runner import BenchConfig, run_cell
 from lcgym.pgnn import PGNN, PGNNConfig
@@ -106,3 +106,53 @@ def test_the_cell_hands_its_machine_and_builds_a_class_without_one_as_before(tmp
             rows, trace = run_cell(system, method, 0, BenchConfig(systems=(system,), methods=(method,), **TINY))
             assert {r["status"] for r in rows} == {"ok"}, rows[0].get("error")
         assert handed_methods.HANDED == [("Handed", machine), ("ByKeywords", machine), ("Plain", None)]
+
+
+def test_a_users_class_is_wrapped_once_and_keeps_what_it_declares(tmp_path, monkeypatch):
+    """A class that is no ``Controller`` comes back from ``load_method`` as one (``UserMethod``), of its
+    name, constructor signature and class attributes; the built method forwards the contract to it."""
+    (tmp_path / "duck_methods.py").write_text(textwrap.dedent("""
+        import numpy as np
+        from lcgym.baselines import Cost
+
+        class Duck:
+            systems = ("ix",)
+            relative_cost = 3.0
+            def __init__(self, system=None):
+                self.system = system
+            def fit(self, trials):
+                self.cost_, self.note_ = Cost(plant_trials=2), "quack"
+                return self
+            def feedforward(self, reference):
+                return np.ones_like(reference.positions)
+            def nn_contribution(self, reference):
+                return 0.5 * np.ones_like(reference.positions)
+
+        class Plain:
+            def fit(self, trials):
+                return self
+            def feedforward(self, reference):
+                return np.zeros_like(reference.positions)
+    """))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    cls = load_method("duck_methods:Duck", CONTROLLERS)
+    assert issubclass(cls, Controller) and cls is load_method("duck_methods:Duck", CONTROLLERS)  # wrapped once
+    assert (cls.__name__, cls.systems, cls.relative_cost, cls.uses_plant, takes_system(cls)) == ("Duck", ("ix",), 3.0,
+                                                                                                False, True)
+    duck = build_method("duck_methods:Duck", IX, CONTROLLERS)
+    assert duck.system is IX and duck.cost_ == Cost() and duck.note_ == ""
+    ref = random_moves("r", np.random.default_rng(0), duration=1.0)
+    signals = apply(duck.fit(_trials()), None, [ref], ix.AXES)
+    assert duck.cost_ == Cost(plant_trials=2) and duck.note_ == "quack"
+    np.testing.assert_array_equal(signals.nn_contributions[0], 0.5)
+    assert signals.offsets == [None]
+    plain = build_method("duck_methods:Plain", IX, CONTROLLERS)
+    assert plain.system is None and plain.nn_contribution(ref) is None and plain.reference_offset(ref) is None
+
+
+def test_a_controller_must_give_its_feedforward():
+    class NoFeedforward(Controller):
+        pass
+
+    with pytest.raises(TypeError, match="abstract method.*feedforward"):
+        NoFeedforward()

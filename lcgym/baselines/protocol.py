@@ -1,34 +1,19 @@
-"""The controller protocol: what every method in the leaderboard (and a user's own) provides.
+"""The method contract: ``Controller``, the abstract base class every method in the leaderboard
+implements, and the driver that builds and runs one.
 
-A feedforward controller has
+``Controller`` declares the whole contract with its defaults: ``feedforward(reference)`` (abstract),
+``fit(trials)``, ``learn(plant, reference)``, ``reference_offset`` and ``nn_contribution``, the
+class attributes the runner reads before it builds one (``systems``, ``base``, ``uses_plant``,
+``learns_once``, ``learns_on_scored_references``, ``relative_cost``) and what it reads after
+(``system``, ``cost_``, ``note_``). A constructor may take the keywords ``system`` (the machine,
+scikit-learn style: stored as given and resolved in ``fit``, ``given_system``), ``budget`` (the
+fraction of its full learning budget, lowered by ``lcgym bench --quick``) and ``base`` (the
+feedforward a learner builds on, ``METHOD@BASE``, ``bases``).
 
-* ``name``: a short display name (the results name a method by the id or ``module:Class`` it was
-  run with, so that ``--resume`` finds it again);
-* ``fit(trials)``: learn offline from measured training trials (may do nothing);
-* ``learn(plant, reference)``: learn by running the plant on this reference (ILC, RL); the runner
-  calls it before ``feedforward`` on every evaluation reference when ``uses_plant`` is true;
-* ``feedforward(reference) -> (T, n_axes)``: the signal to apply [V for the IX];
-* ``cost_``: a ``Cost`` with the plant trials and env steps it used beyond the shared training
-  data (the runner adds wall time);
-* optionally ``reference_offset(reference) -> (T, n_axes)`` [rad] or None: added to the reference
-  the feedback tracks, on systems with that channel (the FlexArm's motor reference);
-  ``systems``: the systems it runs on (default all); and ``relative_cost``: about how many
-  seconds a quick cell of it takes (default 1), which only orders the parallel workers' cells;
-* optionally a constructor keyword ``budget`` (default 1): the fraction of its full learning budget
-  a method spends (the PGNN's iterations, ILC's trials), which ``lcgym bench --quick`` lowers
-  (``BenchConfig.budget``) for a smoke run of every cell;
-* optionally a constructor keyword ``base`` (the learning methods: default "physical"): the
-  feedforward it builds on (``bases``), which ``METHOD@BASE`` on the command line sets.
-
-Subclassing ``Controller`` gives the no-op defaults; duck typing works too. A user's class is
-named on the command line as ``module:Class`` (see ``load_method``).
-
-Each method is handed its machine, scikit-learn style: the constructor takes ``system`` (a
-``System``, or what ``systems.get`` resolves: a name such as "ix", a .urdf file, ``module:attr``),
-stores it as given, and ``fit`` resolves it (``given_system``). Whoever builds a method hands it
-the machine: the benchmark's cell and ``simulate`` through ``build_method``, which builds a user's
-class whose constructor takes no ``system`` without it. ``apply`` then runs the protocol on a list
-of references, the same way for both.
+A user's class is named on the command line as ``module:Class`` (``load_method``); one that does
+not subclass ``Controller`` but has ``fit`` and ``feedforward`` is wrapped once, where it is
+loaded (``UserMethod``). ``build_method`` builds a method for a machine, and ``apply`` runs the
+contract on a list of references, the same way for the benchmark and ``simulate``.
 """
 
 from __future__ import annotations
@@ -38,9 +23,11 @@ import inspect
 import os
 import sys
 import time
+from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Literal
+from functools import cache
+from typing import ClassVar, Literal
 
 import numpy as np
 
@@ -80,37 +67,138 @@ class Cost:
     cached_seconds: float = 0.0
 
 
-class Controller:
-    """Base class with the protocol's defaults: nothing to fit, nothing to learn online."""
+class Controller(ABC):
+    """The contract every method implements, in the style of stable-baselines3's ``BaseAlgorithm``:
+    ``feedforward`` is abstract; everything else has its default here, so that the runner and
+    ``simulate`` read it without asking whether it exists.
 
-    name = "controller"
-    uses_plant = False
-    learns_on_scored_references = False
-    """True for a method whose ``learn`` runs the plant on each evaluation reference itself before it
-    is scored (ILC): the leaderboard marks its rows as learned on the references they score."""
-    relative_cost = 1.0
-    """About how long a cell of this method takes, in seconds of ``lcgym bench --quick``'s cells on the
-    built-in machines (the median of their cells' times; pgnn, pgnn-ls, rl and ilc from a serial run,
-    ``--jobs 1``, of 2026-12-05, the others 2026-12-04): the runner starts the
+    What the runner reads from the class, before it builds one: ``name``, ``systems``, ``base``,
+    ``uses_plant``, ``learns_once``, ``learns_on_scored_references`` and ``relative_cost``. What it
+    reads from a built one: ``system`` (the machine it was handed), and after ``fit`` and ``learn``
+    the learned ``cost_`` and ``note_``.
+    """
+
+    name: ClassVar[str] = "controller"
+    """The method's id in ``CONTROLLERS`` (a user's class: its ``module:Class`` names it in the results)."""
+    systems: ClassVar[tuple[str, ...] | None] = None
+    """The machines (families: "flexarm") it runs on; None: every machine."""
+    base: ClassVar[str] = ""
+    """A fixed base it builds on (``bases``; "" none) for a class without a ``base`` keyword."""
+    uses_plant: ClassVar[bool] = False
+    """Whether it learns on the plant: the runner calls ``learn(plant, reference)`` before the
+    ``feedforward`` of every evaluation reference."""
+    learns_once: ClassVar[bool] = False
+    """Whether its ``learn`` runs the plant on its first call only (the PGNN records its training
+    data): ``simulate``, which learns once, runs it too."""
+    learns_on_scored_references: ClassVar[bool] = False
+    """Whether its ``learn`` runs the plant on each evaluation reference itself before it is scored
+    (ILC): the leaderboard marks its rows as learned on the references they score."""
+    relative_cost: ClassVar[float] = 1.0
+    """About how long a quick cell of it takes [s] (``docs/speed.md``): the runner starts the
     costlier cells first, so that its parallel workers end together. It orders, nothing else."""
+    system = None
+    """The machine it was handed (a ``System`` or a spec for ``systems.get``; ``given_system``)."""
+    note_: str = ""
+    """What it says of its cell after learning (the results' ``note``)."""
+
+    @property
+    def cost_(self) -> Cost:
+        """What it used to learn beyond the shared training data (``Cost``; nothing until it says)."""
+        return self.__dict__.setdefault("_cost", Cost())
+
+    @cost_.setter
+    def cost_(self, value: Cost) -> None:
+        self.__dict__["_cost"] = value
 
     def fit(self, trials: Sequence) -> Controller:
-        self.cost_ = getattr(self, "cost_", Cost())
+        """Learn offline from measured training trials (by default: nothing to learn)."""
         return self
 
     def learn(self, plant, reference) -> Controller:
-        self.cost_ = getattr(self, "cost_", Cost())
+        """Learn by running ``plant`` on ``reference`` (a method with ``uses_plant``)."""
         return self
 
-    def feedforward(self, reference) -> np.ndarray:  # pragma: no cover - abstract
-        raise NotImplementedError
+    @abstractmethod
+    def feedforward(self, reference) -> np.ndarray:
+        """The feedforward (T, n_axes) for ``reference``, in the machine's input units [V, N m, N]."""
+
+    def reference_offset(self, reference) -> np.ndarray | None:
+        """An offset (T, n_axes) [rad, load side] added to the reference the feedback tracks, on a
+        machine with that channel (the FlexArm's motor reference); None: none."""
+        return None
+
+    def nn_contribution(self, reference) -> np.ndarray | None:
+        """A neural network's part (T, n_axes) of the feedforward (the results' ``nn_rms``); None:
+        the method has no network."""
+        return None
 
 
-def load_method(spec: str, registry: dict[str, type]) -> type:
+class UserMethod(Controller):
+    """A user's class that does not subclass ``Controller``, wrapped once where it is loaded
+    (``load_method``): the wrapper class carries the user's class attributes (or the defaults),
+    builds the user's object with the constructor's own arguments, and forwards the protocol to it.
+    The one place that asks a user's object what it has."""
+
+    wrapped: ClassVar[type]
+
+    def __init__(self, **kwargs):
+        self.inner = self.wrapped(**kwargs)
+
+    @property
+    def system(self):
+        return getattr(self.inner, "system", None)
+
+    @property
+    def cost_(self) -> Cost:
+        return getattr(self.inner, "cost_", None) or Cost()
+
+    @property
+    def note_(self) -> str:
+        return getattr(self.inner, "note_", "")
+
+    def fit(self, trials: Sequence) -> UserMethod:
+        self.inner.fit(trials)
+        return self
+
+    def learn(self, plant, reference) -> UserMethod:
+        if callable(getattr(self.inner, "learn", None)):
+            self.inner.learn(plant, reference)
+        return self
+
+    def feedforward(self, reference) -> np.ndarray:
+        return self.inner.feedforward(reference)
+
+    def reference_offset(self, reference) -> np.ndarray | None:
+        offset = getattr(self.inner, "reference_offset", None)
+        return offset(reference) if callable(offset) else None
+
+    def nn_contribution(self, reference) -> np.ndarray | None:
+        part = getattr(self.inner, "nn_contribution", None)
+        return part(reference) if callable(part) else None
+
+
+@cache
+def _wrapped(cls: type) -> type[Controller]:
+    """``cls`` as a ``Controller``: itself where it is one, else a ``UserMethod`` class of its name,
+    class attributes and constructor signature."""
+    if issubclass(cls, Controller):
+        return cls
+    declared = ("name", "systems", "base", "uses_plant", "learns_once", "learns_on_scored_references", "relative_cost")
+    attributes = {k: getattr(cls, k) for k in declared if hasattr(cls, k)}
+    try:
+        signature = inspect.signature(cls)
+    except (TypeError, ValueError):  # a signature Python cannot read: built without arguments
+        signature = inspect.Signature()
+    return type(cls.__name__, (UserMethod,), {**attributes, "wrapped": cls, "__signature__": signature,
+                                              "__module__": cls.__module__, "__qualname__": cls.__qualname__})
+
+
+def load_method(spec: str, registry: dict[str, type]) -> type[Controller]:
     """A controller class from a method id of ``registry`` or from ``module:Class``, either with an
-    optional ``@BASE`` (``bases.split_spec``; a class that takes no ``base`` is refused one)."""
+    optional ``@BASE`` (``bases.split_spec``; a class that takes no ``base`` is refused one). A
+    user's class that is no ``Controller`` comes wrapped (``UserMethod``)."""
     spec, base = split_spec(spec)
-    cls = _load_class(spec, registry)
+    cls = _wrapped(_load_class(spec, registry))
     if base is not None and not takes_keyword(cls, "base"):
         raise ValueError(f"method {spec!r} builds on no base: write it without @{base} (the learning methods take "
                          f"one: {', '.join(sorted(n for n, c in registry.items() if takes_keyword(c, 'base')))})")
@@ -138,11 +226,11 @@ def _load_class(spec: str, registry: dict[str, type]) -> type:
     return cls
 
 
-def given_system(method, alternative: str = "") -> systems.System:
+def given_system(method: Controller, alternative: str = "") -> systems.System:
     """The machine ``method`` was handed (its ``system``: a ``System`` or a spec for ``systems.get``),
     or a ValueError that says how to give it (``alternative``: another way the method accepts)."""
-    if getattr(method, "system", None) is None:
-        example = next(iter(getattr(method, "systems", None) or ()), "ix")  # a machine it runs on
+    if method.system is None:
+        example = next(iter(method.systems or ()), "ix")  # a machine it runs on
         raise ValueError(f"{method.name}: give the machine, {type(method).__name__}(system={example!r}) (a name, a "
                          f".urdf file, module:attr or a System){alternative}")
     return systems.get(method.system)
@@ -178,12 +266,11 @@ def method_base(spec: str, registry: dict[str, type]) -> str:
     base = split_spec(spec)[1]
     cls = load_method(spec, registry)
     if not takes_keyword(cls, "base"):  # a fixed base, declared as a class attribute (the paper variants, the PGNN)
-        fixed = getattr(cls, "base", "")
-        return fixed if isinstance(fixed, str) else ""
+        return cls.base if isinstance(cls.base, str) else ""
     return base or inspect.signature(cls).parameters["base"].default
 
 
-def build_method(spec: str, system: systems.System, registry: dict[str, type], budget: float = 1.0):
+def build_method(spec: str, system: systems.System, registry: dict[str, type], budget: float = 1.0) -> Controller:
     """The controller of method ``spec`` (an id of ``registry`` or ``module:Class``, with an
     optional ``@BASE``, ``load_method``) for ``system``: ``cls(system=system)`` (and
     ``base=BASE``); a user's class whose constructor takes no ``system`` is built without arguments.
@@ -212,7 +299,7 @@ class Signals:
     learn_seconds: float = 0.0
 
 
-def apply(controller, plant, references: Sequence, axes: Sequence[str], learn: Literal["each", "first"] = "each",
+def apply(controller: Controller, plant, references: Sequence, axes: Sequence[str], learn: Literal["each", "first"] = "each",
           stage: list[str] | None = None) -> Signals:
     """Run a fitted controller's protocol on ``references``, one reference after the other: a method
     that learns on the plant (``uses_plant``) gets ``learn(plant, reference)`` first, before every
@@ -225,17 +312,18 @@ def apply(controller, plant, references: Sequence, axes: Sequence[str], learn: L
     stage = [""] if stage is None else stage
     out = Signals()
     for i, r in enumerate(references):
-        if getattr(controller, "uses_plant", False) and (learn == "each" or i == 0):
+        if controller.uses_plant and (learn == "each" or i == 0):
             stage[0] = f"learn on {r.name}"
             t0 = time.perf_counter()
             controller.learn(plant, r)
             out.learn_seconds += time.perf_counter() - t0
         stage[0] = f"feedforward of {r.name}"
         out.feedforwards.append(checked(controller.feedforward(r), r, "feedforward", axes))
-        offset = getattr(controller, "reference_offset", lambda _: None)(r)
+        offset = controller.reference_offset(r)
         out.offsets.append(None if offset is None else checked(offset, r, "reference_offset", axes))
-        if hasattr(controller, "nn_contribution"):
-            out.nn_contributions.append(controller.nn_contribution(r))
+        part = controller.nn_contribution(r)
+        if part is not None:
+            out.nn_contributions.append(part)
     return out
 
 

@@ -195,8 +195,8 @@ def learned_on_scored(methods: Iterable[str]) -> list[str]:
     classes are asked; a user's ``module:Class`` is not imported to read a results file."""
     from ..baselines import CONTROLLERS  # light: the methods import their heavy dependencies when used
 
-    return [m for m in dict.fromkeys(map(str, methods))
-            if getattr(CONTROLLERS.get(m.rpartition("@")[0] or m), "learns_on_scored_references", False)]
+    scored = {name for name, cls in CONTROLLERS.items() if cls.learns_on_scored_references}
+    return [m for m in dict.fromkeys(map(str, methods)) if (m.rpartition("@")[0] or m) in scored]
 
 
 SCORED_NOTE = ("learned on each reference it is scored on (it runs the plant on that very reference before "

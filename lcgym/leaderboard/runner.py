@@ -45,7 +45,7 @@ import pandas as pd
 from tqdm.auto import tqdm
 
 from .. import systems
-from ..baselines import CONTROLLERS, Cost, load_method, protocol
+from ..baselines import CONTROLLERS, load_method, protocol
 from ..baselines.bases import runs_on
 from ..baselines.protocol import apply, build_method, display_name, method_base, split_spec
 from ..data import atomic_write
@@ -127,7 +127,7 @@ class BenchConfig:
 
 def _runs_on(method: str) -> tuple[str, ...] | None:
     """The machines (families) a method id, with its base, runs on (None: all)."""
-    return runs_on(getattr(load_method(method, CONTROLLERS), "systems", None), split_spec(method)[1])
+    return runs_on(load_method(method, CONTROLLERS).systems, split_spec(method)[1])
 
 
 def _worker_setup() -> None:
@@ -237,11 +237,11 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_th
                     row.pop("label")
                     rows.append({**key, "period": "all", **row, "reference_set": set_name,
                                  "nn_rms": nn_rms.get(row["axis"], np.nan)})
-            cost = getattr(controller, "cost_", Cost())
+            cost = controller.cost_
             for row in rows:
                 row.update(plant_trials=config.n_train + cost.plant_trials, env_steps=cost.env_steps,
                            fit_seconds=round(learn_seconds + cost.cached_seconds, 3), status="ok", error="",
-                           note=getattr(controller, "note_", ""))
+                           note=controller.note_)
             return rows, trace
     except Exception as exc:  # a method's failure is a result, not a crash of the benchmark
         return [{**key, "status": "failed", "error": _failure(exc, stage[0])[:500]}], None
@@ -287,7 +287,7 @@ def costliest_first(cells: Sequence[tuple[str, str, int]]) -> list[tuple[str, st
     """The cells in the order parallel workers take them: the methods' ``relative_cost`` from the
     costliest down (a stable sort: a method's cells keep the machines' and seeds' order). Started
     last, a long cell would run on alone while the other workers idle."""
-    cost = {m: float(getattr(load_method(m, CONTROLLERS), "relative_cost", 1.0)) for m in {c[1] for c in cells}}
+    cost = {m: float(load_method(m, CONTROLLERS).relative_cost) for m in {c[1] for c in cells}}
     return sorted(cells, key=lambda c: -cost[c[1]])
 
 
