@@ -39,7 +39,7 @@ def _physics_only(calls, q, qd, tau, parent, kind, axis, rotation, translation, 
 
 
 def measure(name: str, repeat: int) -> dict:
-    plant = systems.benchmark(name).bench("v0").plant  # a machine file's plant, or a URDF's with the defaults
+    plant = systems.resolve(name).bench().plant  # a machine file's plant, or a URDF's with the defaults
     if not isinstance(plant, URDFPlant):
         raise SystemExit(f"{name} is not a URDF machine")
     refs = random_references(plant.system, n=1, duration=10.0, fs=plant.fs, seed=0)

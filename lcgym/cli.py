@@ -41,10 +41,10 @@ DATASETS = ("emps",)  # lcgym import: readers of lcgym.datasets
 
 
 def _bench_system(text: str) -> str:
-    from .systems import benchmark_name
+    from .systems import resolve
 
     try:
-        benchmark_name(text)
+        resolve(text)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
     return text
@@ -389,13 +389,13 @@ def cmd_simulate(args) -> int:
     from .data import write_trials
     from .leaderboard.plots import plot_tracking_errors
     from .simulate import metric_table, simulate
-    from .systems import benchmark_name
+    from .systems import resolve
 
     results = simulate(args.controller, system=args.system, seed=args.seed, n_train=args.n_train,
                        n_validation=args.n_validation, duration=args.duration)
     table = metric_table(results)
     with pd.option_context("display.float_format", "{:.4f}".format, "display.width", 120):
-        print(f"{benchmark_name(args.system)}, {args.n_validation} validation reference{'s' if args.n_validation > 1 else ''} "
+        print(f"{resolve(args.system).name}, {args.n_validation} validation reference{'s' if args.n_validation > 1 else ''} "
               f"(seed {args.seed}), norms MA, RMS, Inf (paper 000, Kon et al. 2025, eqs. (34)-(36); lcgym.metrics):")
         print(table.to_string(index=False))
     if args.out:

@@ -126,7 +126,7 @@ def main() -> None:
     missing = [name for name in RUNS if not (folder / name).is_file()]
     if missing:
         raise SystemExit(f"{folder}: missing {', '.join(missing)} (the EMPS benchmark's files)")
-    plant = systems.make_bench("emps_sim").plant
+    plant = systems.resolve("emps_sim").bench().plant
     results = [compare(folder / name, plant) for name in RUNS]
     for r in [*results, compare(folder / RUNS[1], plant, pulses_as="N")]:
         print(json.dumps({k: v for k, v in r.items() if not k.startswith("_")}))

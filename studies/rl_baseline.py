@@ -53,7 +53,7 @@ def main() -> None:
     args = parser.parse_args()
     torch.set_num_threads(1)
     overrides = {k: ast.literal_eval(v) for k, v in (s.split("=", 1) for s in args.set)}
-    bench = systems.make_bench(args.system)
+    bench = systems.resolve(args.system).bench()
     family = bench.family
     machine = systems.get(family)
     passes = [float(p) for p in args.passes.split(",")] if args.passes else [RLConfig().setting("passes", machine)]

@@ -26,7 +26,7 @@ M = 95.154
 
 @pytest.fixture(scope="module")
 def plant():
-    return systems.make_bench("emps_sim").plant
+    return systems.resolve("emps_sim").bench().plant
 
 
 def test_the_machine_carries_the_published_numbers(plant):
@@ -90,7 +90,7 @@ def test_sim_to_real_study_on_files_of_the_benchmark_layout(plant, tmp_path):
     with pulses logged in volts and included in vir): it reports a near-zero difference for both,
     and a plot."""
     for name, seed in (("DATA_EMPS.mat", 0), ("DATA_EMPS_PULSES.mat", 1)):
-        ref = systems.make_bench("emps_sim").references("validation", seed, 1, 6.0)[0]
+        ref = systems.resolve("emps_sim").bench().references("validation", seed, 1, 6.0)[0]
         pulses = np.zeros((ref.n_samples, 1))
         extra = {}
         if "PULSES" in name:
@@ -118,7 +118,7 @@ def test_rl_reports_a_prismatic_axis_in_mm(tmp_path):
     from lcgym.baselines.rl import RLConfig, RLFeedforward
 
     machine = systems.get("emps_sim")
-    bench = systems.make_bench("emps_sim")
+    bench = systems.resolve("emps_sim").bench()
     refs = bench.references("train", 0, n=1, duration=2.0)
     trials = bench.run(refs)
     rl = RLFeedforward(RLConfig(total_steps=2 * refs[0].n_samples + 512, num_envs=1, cache_dir=str(tmp_path),

@@ -150,7 +150,7 @@ def test_physical_base_observes_the_fitted_model_and_runs_it_as_the_benchmark_do
     assert truncated and not terminated
     trial = info["trial"]
     assert trial.meta["base_feedforward"] == "physical"
-    run = FlexArmBench().run([line], [ff], [offset])[0]
+    run = FLEXARM.make_bench().run([line], [ff], [offset])[0]
     np.testing.assert_array_equal(trial.u, run.u)
     np.testing.assert_array_equal(FlexArmBench.load_error(trial), FlexArmBench.load_error(run))
 

@@ -312,8 +312,8 @@ METHOD_DRIVERS = ("leaderboard/*.py", "simulate.py", "cli.py", "baselines/protoc
 ask a method what it has."""
 WRAPPER = {"UserMethod", "_wrapped", "_load_class"}
 """Where a user's class that is no ``Controller`` is asked once what it has, and wrapped."""
-NOT_METHODS = {"os", "signal", "process_executor", "module", "datasets", "bench"}
-"""Objects the drivers may ask: the platform, loky, a user's module, the datasets' readers, a bench."""
+NOT_METHODS = {"os", "signal", "process_executor", "module", "datasets"}
+"""Objects the drivers may ask: the platform, loky, a user's module, the datasets' readers."""
 
 
 def _probes(path: Path, root: Path = ROOT.parent) -> list[str]:

@@ -86,16 +86,35 @@ def test_machine_file_makes_a_benchmark_machine(machine_file):
     m = systems.get(str(machine_file))
     assert m.name == "yaw_pitch" and m.axis_names == ("yaw", "pitch") and m.fs == 1000.0
     assert m.env_id == "lcgym/Machine-v0" and m.bench is not None
-    assert systems.benchmark_name(str(machine_file)) == str(machine_file)
-    assert systems.family_of(str(machine_file)) == str(machine_file)
-    bench = systems.make_bench(str(machine_file))
+    assert systems.resolve(str(machine_file)).name == str(machine_file)
+    assert systems.resolve(str(machine_file)).family == str(machine_file)
+    bench = systems.resolve(str(machine_file)).bench()
     assert [e.key for e in bench.plant.bound_effects] == ["coulomb_friction@yaw", "cable_spring@pitch"]
     assert np.allclose(bench.plant.encoder_resolution, 1e-4)
     assert np.allclose(bench.plant.u_max, [60.0, 40.0])  # the URDF's effort limits
 
 
+def test_a_machine_is_resolved_once_and_again_when_its_file_changes(machine_file, monkeypatch):
+    """``systems.resolve`` loads a machine file once (its URDF parsed once), gives each caller a
+    bench of its own, and loads the file again once its content changed."""
+    import pinocchio as pin
+
+    parses = []
+    parse = pin.buildModelFromUrdf
+    monkeypatch.setattr(pin, "buildModelFromUrdf", lambda *a, **k: parses.append(a) or parse(*a, **k))
+    first = systems.resolve(str(machine_file))
+    loaded = len(parses)
+    assert loaded >= 1 and systems.resolve(str(machine_file)) is first and len(parses) == loaded
+    one, two = first.bench(), first.bench()
+    assert one is not two and one.plant is not two.plant and len(parses) == loaded
+    machine_file.write_text(machine_file.read_text().replace("Fc = 1.5", "Fc = 3.0"))
+    edited = systems.resolve(str(machine_file))
+    assert edited is not first and len(parses) > loaded
+    assert edited.bench().plant.bound_effects[0].Fc == 3.0
+
+
 def test_reference_sets_are_seeded_disjoint_and_within_limits(machine_file):
-    bench = systems.make_bench(str(machine_file))
+    bench = systems.resolve(str(machine_file)).bench()
     train = bench.references("train", 0, 2, 6.0)
     again = bench.references("train", 0, 2, 6.0)
     val = bench.references("validation", 0, 2, 6.0)
@@ -130,7 +149,7 @@ def test_a_bad_machine_file_says_what_and_where(tmp_path, text, key):
 
 def test_env_episode_is_the_plants_run(machine_file):
     """A zero action replays what the plant's own run gives, bit for bit; the checker passes."""
-    bench = systems.make_bench(str(machine_file))
+    bench = systems.resolve(str(machine_file)).bench()
     ref = bench.references("validation", 1, 1, 3.0)[0]
     env = gym.make("lcgym/Machine-v0", machine=str(machine_file), references=[ref], episode_steps=None)
     obs, info = env.reset(seed=0)
@@ -160,7 +179,7 @@ def test_env_residual_on_the_physical_model_and_bad_actions(machine_file):
 
 
 def test_vector_env_steps_its_sub_envs_as_single_envs(machine_file):
-    refs = systems.make_bench(str(machine_file)).references("train", 0, 2, 1.0)
+    refs = systems.resolve(str(machine_file)).bench().references("train", 0, 2, 1.0)
     venv = gym.make_vec("lcgym/Machine-v0", num_envs=2, machine=str(machine_file), references=refs,
                         vectorization_mode="vector_entry_point")
     env = gym.make("lcgym/Machine-v0", machine=str(machine_file), references=refs)
@@ -233,26 +252,26 @@ def test_a_machine_files_runs_record_the_plant_and_rebuild_it(machine_file, tmp_
     refuses a record of another machine or of a plant the file no longer describes."""
     from lcgym.data import read_trials, write_trials
 
-    bench = systems.make_bench(str(machine_file))
+    bench = systems.resolve(str(machine_file)).bench()
     runs = bench.run(bench.references("validation", 0, 1, 2.0))
     back = read_trials(write_trials(tmp_path / "run.csv", runs), axes=bench.axes)
     record = back[0].meta["plant"]
     assert record["system"] == "yaw_pitch" and record["machine_file"] == str(machine_file)
-    plant = type(bench).plant_from_record(record)
+    plant = bench.plant_from_record(record)
     assert repr(plant) == repr(bench.plant)
     with pytest.raises(ValueError, match="simulated on machine 'other'"):
-        type(bench).plant_from_record({**record, "system": "other"})
+        bench.plant_from_record({**record, "system": "other"})
     with pytest.raises(ValueError, match="its URDF"):
-        type(bench).plant_from_record({**record, "urdf_sha256": "0" * 64})
+        bench.plant_from_record({**record, "urdf_sha256": "0" * 64})
     with pytest.raises(ValueError, match="its hidden effects"):
-        type(bench).plant_from_record({**record, "description": "URDFPlant('yaw_pitch', effects=[])"})
+        bench.plant_from_record({**record, "description": "URDFPlant('yaw_pitch', effects=[])"})
 
 
 def test_two_link_is_a_built_in_machine_from_one_folder():
     m = systems.get("two_link")
-    assert m.env_id == "lcgym/TwoLink-v0" and systems.benchmark_name("two_link") == "two_link-v0"
+    assert m.env_id == "lcgym/TwoLink-v0" and systems.resolve("two_link").name == "two_link-v0"
     assert "two_link-v0" in systems.newest_benchmarks()
-    bench = systems.make_bench("two_link-v0")
+    bench = systems.resolve("two_link-v0").bench()
     assert [e.key for e in bench.plant.bound_effects] == ["coulomb_friction@elbow", "cable_spring@shoulder"]
     env = gym.make("lcgym/TwoLink-v0", references="validation", n_references=1, duration=1.0)
     assert env.reset(seed=0)[0].shape == env.observation_space.shape
@@ -365,9 +384,9 @@ def test_bench_on_a_urdf_alone_and_on_a_machine_of_python(tmp_path, monkeypatch)
     assert set(df["system"]) == {"yaw_pitch.urdf", "my_machine:MACHINE"}
     rms = e.pivot_table(index=["system", "axis"], columns="method", values="RMS")
     assert (rms["physical"] < rms["feedback"]).all(), rms
-    bench = systems.make_bench("my_machine:MACHINE")
+    bench = systems.resolve("my_machine:MACHINE").bench()
     assert [e.key for e in bench.plant.bound_effects] == ["coulomb_friction@yaw"]
-    assert not systems.make_bench("yaw_pitch.urdf").plant.bound_effects
+    assert not systems.resolve("yaw_pitch.urdf").bench().plant.bound_effects
 
 
 def test_simulate_and_the_command_line_take_a_machine_file(machine_file, tmp_path, capsys):

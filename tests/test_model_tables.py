@@ -55,7 +55,7 @@ def folder(tmp_path_factory) -> Path:
 def runs(folder):
     """Feedback-only runs of the plant (the same for both files): two training references and two
     validation references of about 20 s (``lcgym bench --quick``'s sets, seed 0)."""
-    bench = systems.make_bench(str(folder / "arm.toml"))
+    bench = systems.resolve(str(folder / "arm.toml")).bench()
     train = bench.run(bench.references("train", 0, 2, 20.0))
     return bench, train, bench.references("validation", 0, 2, 20.0)
 
@@ -75,7 +75,7 @@ def test_model_tables_put_their_effects_in_the_machines_models(folder):
         assert model.search_shapes == ("coulomb_friction@elbow",)
     assert plain.physical_model(fs=1000.0).effects == ()
     # the plant is the file's [[hidden]] alone: [[model]] changes the model, not the machine
-    assert repr(plain.bench("v0").plant) == repr(with_model.bench("v0").plant)
+    assert repr(plain.make_bench().plant) == repr(with_model.make_bench().plant)
 
 
 @pytest.mark.bad_input
@@ -181,7 +181,7 @@ def test_a_periodic_effect_in_the_model_finds_its_period(folder, tmp_path):
             'axis = "elbow"\ns1 = 1.0\nc1 = 0.5\nperiod = 0.2\nv_ref = 0.5\n')
     (tmp_path / "gear.toml").write_text(gear)
     (tmp_path / "gear_model.toml").write_text(gear + '\n[[model]]\neffect = "gear_harmonic"\naxis = "elbow"\n')
-    bench = systems.make_bench(str(tmp_path / "gear.toml"))
+    bench = systems.resolve(str(tmp_path / "gear.toml")).bench()
     train = bench.run(bench.references("train", 0, 2, 20.0))
     validation = bench.references("validation", 0, 2, 20.0)
     before, after = (systems.get(str(tmp_path / f)).physical_model(fs=1000.0).fit(train)

@@ -24,7 +24,7 @@ torch.set_num_threads(1)
 @pytest.fixture(scope="module")
 def ix_data():
     """A short IX task: 2 training references of 4 s of moves, 1 validation reference."""
-    bench = IX.bench()
+    bench = IX.make_bench()
     train = bench.references("train", 0, 2, 4.0)
     val = bench.references("validation", 0, 1, 4.0)
     return bench, bench.run(train), val
@@ -99,7 +99,7 @@ def test_cache_reuses_verified_models_only(ix_data, tmp_path):
 
 def test_training_curve_rows_and_plot(tmp_path):
     short = reference_set("train", 0, 1, 0.5)  # episodes of about 1,600 samples
-    bench = IX.bench()
+    bench = IX.make_bench()
     trials = bench.run(short)
     rl = RLFeedforward(RLConfig(total_steps=8192, num_envs=2, cache_dir=str(tmp_path),
                                 hyperparameters={"n_steps": 512, "batch_size": 512, "n_epochs": 1}), system=IX)
@@ -199,7 +199,7 @@ def test_bench_cell_counts_env_steps(monkeypatch, tmp_path):
     rows, trace = run_cell("ix", "rl", 0, config)
     assert {r["status"] for r in rows} == {"ok"}, rows[0].get("error")
     steps, trials = {r["env_steps"] for r in rows}, {r["plant_trials"] for r in rows}
-    bench = IX.bench()
+    bench = IX.make_bench()
     train, val = (bench.references(s, 0, 1, 2.0)[0].n_samples for s in ("train", "validation"))
     budget = round(RLConfig().setting("passes", IX) * train)
     # the IX's agent acts at 50 Hz: each action held 10 samples, and the last of an episode's holds

@@ -18,13 +18,13 @@ from lcgym.systems.ix.plant import IX_GAINS, V1_GAINS, V1_SIZES, HiddenEffectSiz
 
 
 def test_names_resolve_to_the_newest_version():
-    assert systems.benchmark_name("ix") == "ix-v1" and systems.benchmark_name("ix-v0") == "ix-v0"
+    assert systems.resolve("ix").name == "ix-v1" and systems.resolve("ix-v0").name == "ix-v0"
     assert systems.newest_benchmarks() == ("ix-v1", "flexarm-v1", "two_link-v0", "emps_sim-v0")
     assert BenchConfig(systems=("ix", "flexarm-v0", "ix-v1")).systems == ("ix-v1", "flexarm-v0")
     assert systems.get("ix-v0") is systems.get("ix")  # one machine (its model), versions of its plant
     for bad in ("ix-v7", "crane", "ix-"):
         with pytest.raises(ValueError, match="unknown system"):
-            systems.benchmark_name(bad)
+            systems.resolve(bad)
 
 
 def test_the_version_lists_agree():
@@ -62,8 +62,8 @@ def test_v0_is_the_first_release_and_v1_the_calibrated_plant():
     assert IXPlant.of_version("v1", preroll=0.5).preroll == 0.5
     with pytest.raises(ValueError, match="unknown IX version 'v9'"):
         IXPlant.of_version("v9")
-    assert systems.make_bench("ix-v0").plant.effects == v0.effects
-    assert systems.make_bench("flexarm").plant.settled_start
+    assert systems.resolve("ix-v0").bench().plant.effects == v0.effects
+    assert systems.resolve("flexarm").bench().plant.settled_start
 
 
 @pytest.mark.parametrize("env_id, version", [("lcgym/IX-v0", "v0"), ("lcgym/IX-v1", "v1"),

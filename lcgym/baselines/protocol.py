@@ -13,7 +13,8 @@ feedforward a learner builds on, ``METHOD@BASE``, ``bases``).
 A user's class is named on the command line as ``module:Class`` (``load_method``); one that does
 not subclass ``Controller`` but has ``fit`` and ``feedforward`` is wrapped once, where it is
 loaded (``UserMethod``). ``build_method`` builds a method for a machine, and ``apply`` runs the
-contract on a list of references, the same way for the benchmark and ``simulate``.
+contract on a list of references; ``evaluate`` fits a method and scores it on a bench's reference
+sets (fit, apply, run, tables), the same way for the benchmark and ``simulate``.
 """
 
 from __future__ import annotations
@@ -24,15 +25,17 @@ import os
 import sys
 import time
 from abc import ABC, abstractmethod
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cache
 from typing import ClassVar, Literal
 
 import numpy as np
+import pandas as pd
 
 from .. import systems
 from ..envs.actions import short_repr
+from ..systems.bench import Bench
 
 DEFAULT_BASE = "physical"
 BASES = ("physical", "basic")
@@ -325,6 +328,40 @@ def apply(controller: Controller, plant, references: Sequence, axes: Sequence[st
         if part is not None:
             out.nn_contributions.append(part)
     return out
+
+
+@dataclass
+class Evaluation:
+    """A fitted controller on one reference set of a bench (``evaluate``): the closed-loop
+    ``trials``, what the controller gave (``signals``) and the bench's norm ``tables``."""
+
+    references: list
+    trials: list
+    signals: Signals
+    tables: list[pd.DataFrame]
+
+
+def evaluate(controller: Controller, bench: Bench, train_trials: list, reference_sets: Mapping[str, Sequence],
+             learn: Literal["each", "first"] = "each", stage: list[str] | None = None) -> tuple[float, dict[str, Evaluation]]:
+    """Fit ``controller`` on the training trials, then on each named reference set ``apply`` it,
+    run the bench's plant with what it gave and score the trials (``bench.tables``): the one
+    driver of the benchmark's cells and of ``lcgym simulate``. Returns the seconds the method
+    spent learning (its ``fit`` and ``learn`` calls) and each set's ``Evaluation``. ``stage[0]``
+    names the step it is in (the benchmark's time limit reports it)."""
+    stage = [""] if stage is None else stage
+    stage[0] = "fit"
+    t0 = time.perf_counter()
+    controller.fit(train_trials)
+    seconds = time.perf_counter() - t0
+    out = {}
+    for set_name, references in reference_sets.items():
+        references = list(references)
+        signals = apply(controller, bench.plant, references, bench.axes, learn=learn, stage=stage)
+        seconds += signals.learn_seconds
+        stage[0] = f"the plant runs of the {set_name} references"
+        trials = bench.run(references, signals.feedforwards, signals.offsets)
+        out[set_name] = Evaluation(references, trials, signals, bench.tables(trials, signals.feedforwards, references))
+    return seconds, out
 
 
 def checked(values, reference, what: str, axes: Sequence[str]) -> np.ndarray:

@@ -230,7 +230,7 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
                                                      for g in groups],
                                     "repeated": repeats, "strict": strict},
                            blocks=_blocks_note(lay),
-                           machine_file=getattr(getattr(system.bench, "settings", None), "source", None))
+                           machine_file=_machine_file(system))
         report.found = {f"{s.candidate.name}@{axes[s.axis]}": s.candidate.build(axes[s.axis], **s.params)
                         for s in ranking.alone}
         picked = {f"{s.candidate.name}@{axes[s.axis]}" for s, _, _ in ranking.selected}
@@ -513,9 +513,15 @@ def _step_row(k: int, step, axes, n_rows: np.ndarray) -> dict:
             "picked": picked, "revised": list(step.revised), "replacements": list(step.replacements), "candidates": rows}
 
 
+def _machine_file(system: systems.System) -> str | None:
+    """The machine file a machine's plant settings came from, if any."""
+    settings = None if system.bench is None else system.bench.settings
+    return None if settings is None else settings.source
+
+
 def replay_plant(trials: Sequence, system: systems.System, spec: str | None = None):
     """The plant recorded in the trials' metadata (``meta["plant"]``: a measurement file's sidecar),
-    rebuilt by the machine's bench (``System.bench.plant_from_record``: the IX's from the record,
+    rebuilt by the machine's bench (``Bench.plant_from_record``: the IX's from the record,
     a machine file's from the file, checked against the record). ``spec``: the machine as the user
     named it, for the messages."""
     spec = spec or system.name
@@ -523,7 +529,7 @@ def replay_plant(trials: Sequence, system: systems.System, spec: str | None = No
     if not isinstance(record, dict):
         raise ValueError(f"--replay needs a log of a plant simulated by lcgym (lcgym simulate --system {spec} --out "
                          "FILE): the file's sidecar has no 'plant' record")
-    if system.bench is None or not hasattr(system.bench, "plant_from_record"):
+    if system.bench is None or not system.bench.replays:
         named = record.get("machine_file")
         raise ValueError(f"--replay: machine {system.name} cannot rebuild a plant from a record (the IX and machine "
                          "files can)" + (f"; the log was simulated on machine file {named}: --system {named}"
@@ -531,7 +537,7 @@ def replay_plant(trials: Sequence, system: systems.System, spec: str | None = No
     if record.get("system") not in (None, system.name):
         raise ValueError(f"--replay: the log was simulated on machine {record['system']!r}, not on {system.name}")
     try:
-        return system.bench.plant_from_record(record)
+        return system.make_bench().plant_from_record(record)
     except (KeyError, TypeError, ValueError) as exc:
         raise ValueError(f"--replay: {exc}") from None
 

@@ -38,14 +38,11 @@ def plot_tracking_errors(results: Sequence, path: str | Path, trial_index: int =
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .. import systems
-
     path = Path(path)
     traces = [(r.controller, r.bench.trace(r.trials[trial_index])) for r in results]
     first = traces[0][1]
     axes = [c[len("error_"):] for c in first.columns if c.startswith("error_")]
-    bench = results[0].bench
-    machine = getattr(bench, "system", None) or systems.get(bench.name)  # a user's machine: its bench's
+    machine = results[0].bench.system
     shown = {a: machine.axis(a).display for a in axes}  # (factor, unit): rad -> deg, m -> mm
     fig, axs = plt.subplots(len(axes), 1, figsize=(10, 3.2 * len(axes)), sharex=True, squeeze=False)
     t = first["t"].to_numpy()

@@ -30,7 +30,6 @@ import os
 import signal
 import sysconfig
 import threading
-import time
 import traceback
 import uuid
 from collections.abc import Sequence
@@ -47,7 +46,7 @@ from tqdm.auto import tqdm
 from .. import systems
 from ..baselines import CONTROLLERS, load_method, protocol
 from ..baselines.bases import runs_on
-from ..baselines.protocol import apply, build_method, display_name, method_base, split_spec
+from ..baselines.protocol import build_method, display_name, evaluate, method_base, split_spec
 from ..data import atomic_write
 from ..provenance import __version__, git_commit, source_hash
 from ..systems.runs import remembered_runs
@@ -64,7 +63,7 @@ CELL_REGRESSORS = 3
 class BenchConfig:
     """What a benchmark runs: systems, method ids (or module:Class), seeds, and the budgets.
 
-    systems: benchmark names (``systems.benchmark_name``: "ix-v1", "two_link", a machine file, a
+    systems: benchmark names (``systems.resolve``: "ix-v1", "two_link", a machine file, a
     URDF, ``module:attr``); methods: the default runs every registered method on the machines it
     runs on (``basic``: the FlexArm only). n_train / n_validation: references per set; duration:
     seconds of moves per reference (an arm reference is one TCP line out and back; ``FlexArmBench``);
@@ -82,8 +81,8 @@ class BenchConfig:
 
     def __post_init__(self):
         # versioned names: "ix" is the newest version ("ix-v1"); an unknown name fails with the list
-        object.__setattr__(self, "systems", tuple(dict.fromkeys(systems.benchmark_name(s) for s in self.systems)))
-        families = {systems.family_of(s) for s in self.systems}
+        object.__setattr__(self, "systems", tuple(dict.fromkeys(systems.resolve(s).name for s in self.systems)))
+        families = {systems.resolve(s).family for s in self.systems}
         every = tuple(self.methods) == tuple(CONTROLLERS)  # the default: each method where it runs (cells)
         # "ilc@physical" is "ilc" (the default base): one name per cell, so that --resume finds it
         object.__setattr__(self, "methods", tuple(dict.fromkeys(display_name(*split_spec(m)) for m in self.methods)))
@@ -122,7 +121,7 @@ class BenchConfig:
         """(system, method, seed) of every cell; a method with ``systems`` only on those."""
         runs_on = {m: _runs_on(m) for m in self.methods}
         return [(s, m, k) for s in self.systems for m in self.methods for k in self.seeds
-                if runs_on[m] is None or systems.family_of(s) in runs_on[m]]
+                if runs_on[m] is None or systems.resolve(s).family in runs_on[m]]
 
 
 def _runs_on(method: str) -> tuple[str, ...] | None:
@@ -166,7 +165,7 @@ def _widen_leak_guard() -> None:
 def _training_trials(system: str, seed: int, config: BenchConfig) -> list:
     """The feedback-only runs of a cell's training references: the same for every method of a
     (system, seed, budget), so computed once per process (the plants are deterministic)."""
-    bench = systems.make_bench(system)
+    bench = systems.resolve(system).bench()
     return bench.run(bench.references("train", seed, config.n_train, config.duration))
 
 
@@ -203,37 +202,29 @@ def _time_limit(seconds: float | None, where: list[str]):
 def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_thread: bool = False,
              timeout: float | None = None) -> tuple[list[dict], pd.DataFrame | None]:
     """Run one cell: its result rows (without run id and provenance) and the trace of its first
-    validation reference (``BenchSystem.trace``; None for a failed cell). ``timeout`` [s]: the
+    validation reference (``Bench.trace``; None for a failed cell). ``timeout`` [s]: the
     method's part of the cell (fit, learn, feedforward and the evaluation runs) may take this
     long; past it the cell is recorded as failed with ``CellTimeout`` and the stage it was in."""
     if single_thread:
         _worker_setup()
     key = {"system": system, "method": method, "base": method_base(method, CONTROLLERS), "seed": seed,
            "config_hash": config.config_hash()}
-    bench = systems.make_bench(system)
+    machine = systems.resolve(system)
+    bench = machine.bench()
     refs = {name: bench.references(name, seed, n, config.duration)
             for name, n in (("train", config.n_train), ("validation", config.n_validation))}
     train_trials = copy.deepcopy(_training_trials(system, seed, config))  # a copy: a method may alter its trials
     stage = ["loading the method"]
-    machine = systems.benchmark(system)
     try:
-        with _time_limit(timeout, stage), _regressors_kept(machine, config), remembered_runs():
-            controller = build_method(method, machine, CONTROLLERS, config.budget)
-            stage[0] = "fit"
-            t0 = time.perf_counter()
-            controller.fit(train_trials)
-            learn_seconds = time.perf_counter() - t0
+        with _time_limit(timeout, stage), _regressors_kept(machine.system, config), remembered_runs():
+            controller = build_method(method, machine.system, CONTROLLERS, config.budget)
+            learn_seconds, evaluated = evaluate(controller, bench, train_trials, {s: refs[s] for s in EVALUATED_SETS},
+                                                stage=stage)
             rows = []
-            for set_name in EVALUATED_SETS:
-                signals = apply(controller, bench.plant, refs[set_name], bench.axes, stage=stage)
-                learn_seconds += signals.learn_seconds
-                ffs, nn = signals.feedforwards, signals.nn_contributions
-                stage[0] = f"the plant runs of the {set_name} references"
-                trials = bench.run(refs[set_name], ffs, signals.offsets)
-                if set_name == "validation":
-                    trace = bench.trace(trials[0])
+            for set_name, result in evaluated.items():
+                nn = result.signals.nn_contributions
                 nn_rms = dict(zip(bench.axes, _rms_per_axis(nn), strict=True)) if nn else {}
-                for row in _scored_rows(bench, bench.tables(trials, ffs, refs[set_name])):
+                for row in _scored_rows(bench, result.tables):
                     row.pop("label")
                     rows.append({**key, "period": "all", **row, "reference_set": set_name,
                                  "nn_rms": nn_rms.get(row["axis"], np.nan)})
@@ -242,7 +233,7 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_th
                 row.update(plant_trials=config.n_train + cost.plant_trials, env_steps=cost.env_steps,
                            fit_seconds=round(learn_seconds + cost.cached_seconds, 3), status="ok", error="",
                            note=controller.note_)
-            return rows, trace
+            return rows, bench.trace(evaluated["validation"].trials[0])
     except Exception as exc:  # a method's failure is a result, not a crash of the benchmark
         return [{**key, "status": "failed", "error": _failure(exc, stage[0])[:500]}], None
 

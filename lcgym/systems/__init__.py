@@ -7,11 +7,11 @@
     two = systems.get("two_link")                       # a built-in machine given by its machine file
     cobot = systems.get("cobot6")                       # a URDF shipped with lcgym (``URDF_EXAMPLES``)
     mine = systems.get("my_module:MY_MACHINE")          # a System (or a function returning one)
-    arm = systems.benchmark("my_arm.toml")              # a machine file: a URDF with its plant (``machine.py``)
+    arm = systems.resolve("my_arm.toml").bench()        # a machine file's bench: a URDF with its plant (``machine.py``)
 
 Built-in machines (``BUILT_IN``) live in one folder each: ``systems/ix/`` (paper 000's C-arm) and
 ``systems/flexarm/`` (paper 002's arm); they have a plant, so the benchmark, the simulator and the
-Gymnasium envs run on them. So has a machine file's or a URDF's machine (``benchmark``: a
+Gymnasium envs run on them. So has a machine file's or a URDF's machine (``resolve``: a
 ``URDFPlant`` with the hidden effects, feedback and sensors the file gives; ``lcgym/Machine-v0``).
 Any machine, built-in or not, has a rigid-body model, so the
 diagnosis, the physical model and the PGNN run on it (``System``'s docstring).
@@ -19,14 +19,21 @@ diagnosis, the physical model and the PGNN run on it (``System``'s docstring).
 
 from __future__ import annotations
 
+import hashlib
 import importlib
 import os
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 from importlib import resources
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .system import Axis, ParameterVector, SimulationDiverged, System
+
+if TYPE_CHECKING:
+    from .bench import Bench
 
 
 @dataclass(frozen=True)
@@ -87,67 +94,83 @@ def is_file_machine(spec) -> bool:
     return text.lower().endswith((".toml", ".urdf")) or (":" in text and not text.startswith(":"))
 
 
-def benchmark_name(spec: str) -> str:
-    """The name of a benchmark machine in the results: a built-in one with its version ("ix" -> the
-    newest, "ix-v1"; "ix-v0" -> "ix-v0"), a machine file, URDF or ``module:attr`` as given (it
-    must load and have a plant: ``benchmark``)."""
+@dataclass(frozen=True)
+class BenchMachine:
+    """A benchmark machine as ``resolve`` found it: ``name`` as the results store it ("ix-v1"; a
+    machine file, URDF or ``module:attr`` as given), ``family`` the machine it belongs to ("ix"; a
+    file as given: what a method's ``systems`` names) and the plant ``version``. A built-in machine
+    is imported when its ``system`` is first asked for (a benchmark's list of machines is checked
+    without loading them); any other is loaded by ``resolve``."""
+
+    name: str
+    family: str
+    version: str
+    loaded: System | None = None
+
+    @property
+    def system(self) -> System:
+        return self.loaded if self.loaded is not None else get(self.family)
+
+    def bench(self) -> Bench:
+        """A fresh bench of this machine and version (``System.make_bench``). Not shared: a plant
+        may carry state from run to run (a URDF plant's noise stream), so each benchmark cell
+        builds its own and its numbers do not depend on the cells run before it."""
+        return self.system.make_bench(self.version)
+
+
+def resolve(spec: str | System) -> BenchMachine:
+    """The benchmark machine ``spec`` names: a built-in one ("ix" is its newest version, "ix-v0" that
+    version), a machine file (its plant as the file says), a URDF (a plant with
+    ``machine.MachineSettings``' defaults: no hidden effect, 10 Hz PD feedback), ``module:attr`` or a
+    ``System``. A name or a file is resolved once per process (a file again when its content
+    changed, not when only a file it names did), so a machine is loaded and its URDF parsed once,
+    not in every cell; ``module:attr`` is looked up each time (Python keeps the module)."""
+    if isinstance(spec, System):
+        return _with_plant(spec, spec.name)
     spec = str(spec)
-    if is_file_machine(spec) or (spec not in VERSIONS and spec in URDF_EXAMPLES):
-        benchmark(spec)  # fails here, with the reason, rather than in every cell
-        return spec
+    if is_file_machine(spec) and not spec.lower().endswith((".toml", ".urdf")):
+        return _resolve.__wrapped__(spec, None)
+    return _resolve(spec, _file_key(spec))
+
+
+@lru_cache(maxsize=64)
+def _resolve(spec: str, file: tuple[str, str] | None) -> BenchMachine:
     family, sep, version = spec.rpartition("-")
-    if not sep:
-        family, version = spec, None
-    if family not in VERSIONS or (version is not None and version not in VERSIONS[family]):
-        names = ", ".join(f"{m} ({', '.join(f'{m}-{v}' for v in vs)})" for m, vs in VERSIONS.items())
-        raise ValueError(f"unknown system {spec!r}; available: {names}, or a machine file (.toml), a URDF or "
-                         "module:attr (a name without a version is the newest; the benchmark needs a machine with a plant)")
-    return f"{family}-{version or VERSIONS[family][-1]}"
+    if sep and family in VERSIONS and version in VERSIONS[family]:
+        return BenchMachine(spec, family, version)
+    if spec in VERSIONS:
+        return BenchMachine(f"{spec}-{VERSIONS[spec][-1]}", spec, VERSIONS[spec][-1])
+    if is_file_machine(spec) or spec in URDF_EXAMPLES:
+        return _with_plant(get(spec), spec)
+    names = ", ".join(f"{m} ({', '.join(f'{m}-{v}' for v in vs)})" for m, vs in VERSIONS.items())
+    raise ValueError(f"unknown system {spec!r}; available: {names}, or a machine file (.toml), a URDF or "
+                     "module:attr (a name without a version is the newest; the benchmark needs a machine with a plant)")
+
+
+def _file_key(spec: str) -> tuple[str, str] | None:
+    """(absolute path, SHA-256 of the content) of the file ``spec`` names, if it names one."""
+    path = Path(spec)
+    if spec.lower().endswith((".toml", ".urdf")) and path.is_file():
+        return str(path.resolve()), hashlib.sha256(path.read_bytes()).hexdigest()
+    return None
+
+
+def _with_plant(machine: System, name: str) -> BenchMachine:
+    """``machine`` resolved as ``name``: with its own bench, or a URDF machine's default one."""
+    if machine.bench is None:
+        from .machine import benchmark_machine
+        from .urdf import URDFRobot
+
+        if not isinstance(getattr(machine.regressor, "__self__", None), URDFRobot):
+            raise ValueError(f"machine {machine.name} has no plant, so the benchmark cannot run on it: give a machine "
+                             "file (.toml), a URDF, or a System made by lcgym.systems.machine.benchmark_machine")
+        machine = benchmark_machine(machine)
+    return BenchMachine(name, name, machine.bench.versions[-1], machine)
 
 
 def newest_benchmarks() -> tuple[str, ...]:
     """The newest version of each built-in machine: the benchmark's default systems."""
-    return tuple(benchmark_name(m) for m in VERSIONS)
-
-
-def benchmark(spec: str | System) -> System:
-    """The benchmark machine ``spec`` names: a built-in one (any version), a machine file (its plant
-    as the file says), a URDF (a plant with ``machine.MachineSettings``' defaults: no hidden effect,
-    10 Hz PD feedback), ``module:attr`` or a ``System``; it has a ``bench``."""
-    machine = get(spec)
-    if machine.bench is not None:
-        return machine
-    from .machine import benchmark_machine
-    from .urdf import URDFRobot
-
-    if isinstance(getattr(machine.regressor, "__self__", None), URDFRobot):
-        return benchmark_machine(machine)
-    raise ValueError(f"machine {machine.name} has no plant, so the benchmark cannot run on it: give a machine file "
-                     "(.toml), a URDF, or a System made by lcgym.systems.machine.benchmark_machine")
-
-
-def make_bench(spec: str):
-    """The bench (``systems/bench.py``) of a benchmark machine, "ix", "ix-v0", "flexarm-v1",
-    "my_arm.toml", ..., with the plant of that version."""
-    name = benchmark_name(spec)
-    built_in = _built_in_version(name)
-    if built_in is None:
-        return benchmark(name).bench("v0")
-    family, version = built_in
-    return get(family).bench(version)
-
-
-def family_of(spec: str) -> str:
-    """The machine a benchmark name belongs to: "ix-v0" -> "ix"; a file or ``module:attr`` as given."""
-    name = benchmark_name(spec)
-    built_in = _built_in_version(name)
-    return name if built_in is None else built_in[0]
-
-
-def _built_in_version(name: str) -> tuple[str, str] | None:
-    """("ix", "v0") of a built-in machine's versioned name "ix-v0"; None for any other name."""
-    family, sep, version = name.rpartition("-")
-    return (family, version) if sep and family in VERSIONS and version in VERSIONS[family] else None
+    return tuple(f"{m}-{vs[-1]}" for m, vs in VERSIONS.items())
 
 
 def get(spec: str | System, joints: Sequence[str] | None = None, **options) -> System:
@@ -160,8 +183,9 @@ def get(spec: str | System, joints: Sequence[str] | None = None, **options) -> S
     if isinstance(spec, System):
         return spec
     spec = str(spec)
-    if spec not in BUILT_IN and spec.rpartition("-")[0] in VERSIONS:  # "ix-v0": the machine of that plant
-        spec = family_of(spec)
+    family, _, version = spec.rpartition("-")
+    if spec not in BUILT_IN and version in VERSIONS.get(family, ()):  # "ix-v0": the machine of that plant
+        spec = family
     if spec in BUILT_IN:
         machine = getattr(importlib.import_module(BUILT_IN[spec].module), BUILT_IN[spec].attr)
         if (joints is not None and tuple(joints) != machine.axis_names) or options:
@@ -231,6 +255,6 @@ def register_envs() -> None:
 
 __all__ = [
     "Axis", "BUILT_IN", "BuiltIn", "ENVS", "EXAMPLES", "ParameterVector", "SimulationDiverged", "System",
-    "URDF_EXAMPLES", "VERSIONS", "benchmark", "benchmark_name", "built_in", "family_of", "from_python", "get",
-    "is_file_machine", "make_bench", "newest_benchmarks", "register_envs",
+    "URDF_EXAMPLES", "VERSIONS", "BenchMachine", "built_in", "from_python", "get", "is_file_machine",
+    "newest_benchmarks", "register_envs", "resolve",
 ]

@@ -71,6 +71,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .bench import BenchFactory
 from .feedback import FeedbackGains
 from .system import System
 from .urdf_bench import URDFBench
@@ -168,20 +169,17 @@ def benchmark_machine(machine: System | str | Path, settings: MachineSettings | 
                       **kwargs) -> System:
     """A benchmark machine: ``machine`` (a URDF machine, ``urdf.from_urdf``, or a URDF path with
     ``joints`` and ``name``) with a simulated plant of ``settings`` (or ``MachineSettings(**kwargs)``):
-    its ``System.bench`` (``URDFBench``), its Gymnasium ids (``envs``; default ``MACHINE_ENV``) and
+    its bench (``MachineBench``, ``System.make_bench``), its Gymnasium ids (``envs``; default ``MACHINE_ENV``) and
     the settings' hints."""
     from .urdf import from_urdf
 
     settings = settings or MachineSettings(**kwargs)
     system = machine if isinstance(machine, System) else from_urdf(machine, joints=joints, name=name)
-    bench = type(f"{system.name}Bench", (MachineBench,), {"settings": settings})
     hints = {**system.hints, **{k: dict(v) for k, v in settings.hints.items()}}
-    made = dataclasses.replace(system, fs=settings.fs, bench=bench, hints=hints,
+    return dataclasses.replace(system, fs=settings.fs, bench=BenchFactory(MachineBench, settings), hints=hints,
                                observation_error=slice(-system.n_axes, None),  # the env's error columns
                                # the id's entry points are registered once, in ``systems.ENVS``
                                envs=envs or {MACHINE_ENV: {"kwargs": {"machine": settings.source or system.name}}})
-    bench.system = made
-    return made
 
 
 class MachineBench(URDFBench):
@@ -197,12 +195,11 @@ class MachineBench(URDFBench):
             trial.meta["plant"] = record
         return trials
 
-    @classmethod
-    def plant_from_record(cls, record: Mapping):
+    def plant_from_record(self, record: Mapping):
         """The plant of the machine's settings, after checking that it is the one ``record``
         describes (else a ValueError says what differs: the log was simulated on another machine,
         or the machine file changed since)."""
-        return plant_from_record(cls.system, cls.settings, record)
+        return plant_from_record(self.system, self.settings, record)
 
 
 def plant_record(plant, settings: MachineSettings) -> dict:
@@ -310,7 +307,7 @@ def load_machine(path: str | Path, envs: Mapping | None = None) -> System:
             hidden=hidden, references=ReferenceSettings(**sections["references"]), hints=_hints(data.get("benchmark", {})),
             source=str(path), **sections["sensors"], **sections["limits"])
         made = benchmark_machine(system, settings, envs=envs)
-        made.bench.check(made)  # the plant builds: gains, limits and effects fit the machine
+        settings.plant(made)  # the plant builds: gains, limits and effects fit the machine
         return made
     except MachineFileError:
         raise

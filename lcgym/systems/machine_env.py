@@ -55,7 +55,7 @@ Render: ``render_mode="rgb_array"``: the references and tracking errors of the r
     array; ``"human"``: the same in a matplotlib window (``envs.render``).
 
 Arguments: ``machine`` (a machine file, a URDF, ``module:attr`` or a ``System``: what
-    ``systems.benchmark`` takes; or give ``plant``), ``references`` ("train", "validation", "test",
+    ``systems.resolve`` takes; or give ``plant``), ``references`` ("train", "validation", "test",
     or a list of ``Reference`` / (T, n) position arrays), ``reference_seed``, ``n_references`` (8)
     and ``duration`` (20 s) of a generated set, ``base_feedforward``, ``plant`` (a ``URDFPlant``),
     ``version`` ("v0", the only one), ``render_mode``, ``normalize_actions``, ``episode_steps``.
@@ -101,11 +101,11 @@ class MachineTask:
 
     def __init__(self, machine, references, base_feedforward, plant: URDFPlant | None, reference_seed: int,
                  n_references: int | None, duration: float, version: str = "v0", normalize_actions: bool = True):
-        from . import benchmark
+        from . import resolve
 
         if plant is None and machine is None:
             raise ValueError("lcgym/Machine-v0: give machine= (a machine file, a URDF, module:attr or a System) or plant=")
-        bench = benchmark(plant.system if plant is not None and machine is None else machine).bench(version)
+        bench = resolve(plant.system if plant is not None and machine is None else machine).system.make_bench(version)
         self.plant = plant if plant is not None else bench.plant
         self.system, self.bench = self.plant.system, bench
         n, fs = self.plant.n_axes, self.plant.fs

@@ -33,8 +33,12 @@ from collections import OrderedDict
 from collections.abc import Callable, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from .bench import Bench, BenchFactory
 
 DEG = math.pi / 180.0
 KINDS = ("revolute", "prismatic")
@@ -166,8 +170,9 @@ def _as_axes(axes) -> tuple[Axis, ...]:
 
 @dataclass(frozen=True, eq=False)
 class System:
-    """One machine (module docstring). Built-in machines also carry ``bench`` (a class whose
-    instances hold the plant, the reference sets and what the benchmark scores; ``systems/bench.py``),
+    """One machine (module docstring). Benchmark machines also carry ``bench`` (a
+    ``bench.BenchFactory``: ``make_bench`` makes a bench, which holds the plant, the reference sets
+    and what the benchmark scores; ``systems/bench.py``),
     ``envs`` (their Gymnasium ids and entry points), ``observation_error`` (where the tracking error
     sits in the env's observation) and ``nominal`` (a nominal feedforward structure that learning
     methods start from, paper 002's Basic on the FlexArm; None: they start from the fitted physical
@@ -228,7 +233,7 @@ class System:
     description: str = ""
     joint_axes: Callable | None = None
     caching: Callable | None = None
-    bench: type | None = None
+    bench: BenchFactory | None = None
     envs: Mapping[str, Mapping] = field(default_factory=dict)
     observation_error: slice | None = None
     nominal: object | None = None
@@ -276,6 +281,13 @@ class System:
     def env_id(self) -> str | None:
         """The machine's Gymnasium id (its newest version's, the last), or None (a machine without a plant)."""
         return next(reversed(self.envs), None)
+
+    def make_bench(self, version: str | None = None) -> Bench:
+        """A fresh bench of this machine with the plant of ``version`` (None: the newest); a
+        machine without a plant cannot be benchmarked (``systems.resolve`` gives a URDF one)."""
+        if self.bench is None:
+            raise ValueError(f"machine {self.name} has no plant, so the benchmark cannot run on it")
+        return self.bench(self, version)
 
     # ------------------------------------------------------------------ axes and units
     @property

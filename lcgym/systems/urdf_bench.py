@@ -17,35 +17,23 @@ import pandas as pd
 
 from ..metrics import input_residual_table, norms_table
 from ..references import DEG, AxisLimits, stream, sweeps
-from .bench import INPUT_RESIDUAL, TRACKING_ERROR, trace_frame
+from .bench import Bench, trace_frame
 from .system import System
 
 VERSIONS = ("v0",)  # a machine of a machine file has one plant: the file's
 
 
-class URDFBench:
-    """The bench of a URDF machine; ``benchmark_machine`` makes a subclass per machine with its
-    ``settings`` (``MachineSettings``) and ``system``."""
+class URDFBench(Bench):
+    """The bench of a URDF machine (``machine.benchmark_machine``): its plant is what ``settings``
+    (``MachineSettings``) give the machine; scored on every axis."""
 
-    settings = None  # MachineSettings, set on the machine's subclass
-    system: System | None = None
-    scored = None  # every axis
-    signals = (TRACKING_ERROR, INPUT_RESIDUAL)
     versions = VERSIONS
 
-    def __init__(self, version: str = "v0"):
-        if version not in VERSIONS:
-            raise ValueError(f"{self.system.name} has one version, v0, not {version!r}")
-        self.version = version
-        self.name = f"{self.system.name}-{version}"
-        self.plant = self.settings.plant(self.system)
-        self.axes = self.system.axis_names
-
-    @classmethod
-    def check(cls, system: System) -> None:
-        """Build the plant once: the settings' gains, limits and effects fit the machine (or a
-        ValueError says which does not)."""
-        cls.settings.plant(system)
+    def __init__(self, system: System, version: str, settings):
+        self.system, self.version, self.settings = system, version, settings
+        self.name = f"{system.name}-{version}"
+        self.plant = settings.plant(system)
+        self.axes = system.axis_names
 
     def references(self, set_name: str, seed: int, n: int = 8, duration: float = 20.0):
         """The seeded set ``set_name``: "train", "validation", "test" (``n`` references of random moves
@@ -79,11 +67,6 @@ class URDFBench:
         if offsets is not None and any(o is not None for o in offsets):
             raise ValueError(f"{self.system.name} has no reference-offset channel: reference_offset must return None")
         return self.plant.run(list(references), None if feedforward is None else list(feedforward))
-
-    @staticmethod
-    def tracking_error(trial) -> np.ndarray:
-        """Reference minus encoder [rad or m] (what ``tables`` scores)."""
-        return trial.error
 
     def tables(self, trials, feedforward, references=None) -> list[pd.DataFrame]:
         """The tracking error per axis [deg or mm] and the input residual u - f [each axis's input unit:

@@ -19,24 +19,23 @@ import numpy as np
 import pandas as pd
 
 from ...metrics import Signal, input_residual_table, norms_table
-from ..bench import INPUT_RESIDUAL, TRACKING_ERROR, trace_frame
+from ..bench import INPUT_RESIDUAL, TRACKING_ERROR, Bench, trace_frame
 from .errors import paper_errors, period_mask, tcp_error
 from .plant import VERSIONS, FlexArmPlant, load_error
 from .references import MOVING, arm_reference_set
 
 
-class FlexArmBench:
+class FlexArmBench(Bench):
     """The FlexArm of paper 002 in the benchmark (see the module docstring)."""
 
-    family = "flexarm"
     scored = MOVING  # joints 2, 3, 5
     signals = (TRACKING_ERROR, INPUT_RESIDUAL, Signal("model_following_error", "model-following error"),
                Signal("ee_acceleration_error", "end-effector acceleration error"),
                Signal("tcp_position_error", "TCP position error"))
     versions = tuple(VERSIONS)  # the plant's, oldest first (systems.VERSIONS names them without importing this)
 
-    def __init__(self, version: str = "v1"):
-        self.version = version
+    def __init__(self, system, version: str):
+        self.system, self.version = system, version
         self.name = f"flexarm-{version}"
         self.plant = FlexArmPlant.of_version(version)
         self.axes = self.plant.axes

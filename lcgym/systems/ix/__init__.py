@@ -13,6 +13,7 @@ import math
 import numpy as np
 
 from .. import ENVS
+from ..bench import BenchFactory
 from ..system import Axis, System
 from . import dynamics
 from .bench import IXBench
@@ -53,7 +54,7 @@ IX = System(
                          "rl": {"passes": 3.0, "num_envs": 8, "agent_rate": 50.0}}},
     description="interventional X-ray C-arm of paper 000: propeller and roll, input in V",
     joint_axes=joint_axes,
-    bench=IXBench,
+    bench=BenchFactory(IXBench),
     envs={k: v for k, v in ENVS.items() if k.startswith("lcgym/IX-")},
     observation_error=slice(34, 36),
 )

@@ -3,33 +3,25 @@
 
 from __future__ import annotations
 
-import numpy as np
 import pandas as pd
 
 from ...metrics import input_residual_table, tracking_error_table
-from ..bench import INPUT_RESIDUAL, TRACKING_ERROR, trace_frame
+from ..bench import Bench, trace_frame
 from .plant import VERSIONS, IXPlant
 from .references import reference_set
 
 
-class IXBench:
-    """The IX of paper 000 in the benchmark (see the module docstring)."""
+class IXBench(Bench):
+    """The IX of paper 000 in the benchmark (see the module docstring); scored on both axes, the
+    encoders' tracking error [rad]."""
 
-    family = "ix"
-    scored = None  # both axes
-    signals = (TRACKING_ERROR, INPUT_RESIDUAL)
     versions = tuple(VERSIONS)  # the plant's, oldest first (systems.VERSIONS names them without importing this)
 
-    def __init__(self, version: str = "v1"):
-        self.version = version
+    def __init__(self, system, version: str):
+        self.system, self.version = system, version
         self.name = f"ix-{version}"
         self.plant = IXPlant.of_version(version)
         self.axes = self.plant.axes
-
-    @staticmethod
-    def tracking_error(trial) -> np.ndarray:
-        """Reference minus encoder [rad] (what ``tables`` scores)."""
-        return trial.error
 
     def references(self, set_name: str, seed: int, n: int, duration: float):
         return reference_set(set_name, seed, n, duration, self.plant.fs)
@@ -42,8 +34,7 @@ class IXBench:
     def tables(self, trials, feedforward, references=None) -> list[pd.DataFrame]:
         return [tracking_error_table(trials), input_residual_table(trials, feedforward)]
 
-    @staticmethod
-    def plant_from_record(record: dict) -> IXPlant:
+    def plant_from_record(self, record: dict) -> IXPlant:
         """The plant a ``record()`` describes (stored in simulated measurement files' sidecars)."""
         return IXPlant.from_record(record)
 
