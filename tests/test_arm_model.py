@@ -13,7 +13,7 @@ from lcgym.systems.flexarm.model import ArmModel
 from lcgym.systems.flexarm.nominal import BasicFeedforward
 from lcgym.systems.flexarm.plant import FlexArmPlant, default_true_arm
 from lcgym.systems.flexarm.references import arm_reference_set
-from lcgym.systems.system import RegressorCache
+from lcgym.systems.system import REGRESSOR_MIN_ROWS
 
 rng = np.random.default_rng(3)
 
@@ -138,7 +138,7 @@ def test_arm_trials_round_trip_through_the_measurement_format(tmp_path, feedback
 
 
 def test_regressor_cache_lives_only_inside_its_block():
-    q, qd, qdd = _kinematics(RegressorCache.MIN_ROWS)
+    q, qd, qdd = _kinematics(REGRESSOR_MIN_ROWS)
     assert arm_motor.regressor(None, q, qd, qdd) is not arm_motor.regressor(None, q, qd, qdd)
     with arm_motor.cached_regressors():
         X = arm_motor.regressor(None, q, qd, qdd)
@@ -152,7 +152,7 @@ def test_regressor_cache_lives_only_inside_its_block():
 def test_a_cache_block_keeps_as_many_as_it_is_told():
     """A benchmark cell keeps one regressor per reference (``System.caching(size)``), then the
     machine's own number again."""
-    kin = [_kinematics(RegressorCache.MIN_ROWS) for _ in range(arm_motor.CACHE_SIZE + 2)]
+    kin = [_kinematics(REGRESSOR_MIN_ROWS) for _ in range(arm_motor.CACHE_SIZE + 2)]
     with arm_motor.cached_regressors(size=len(kin)):
         first = [arm_motor.regressor(None, *k) for k in kin]
         assert all(arm_motor.regressor(None, *k) is X for k, X in zip(kin, first, strict=True))

@@ -23,7 +23,7 @@ from lcgym.physics import effects as fx
 from lcgym.references import AxisProfile
 from lcgym.systems import SimulationDiverged
 from lcgym.systems.examples import two_link_urdf
-from lcgym.systems.system import RegressorCache
+from lcgym.systems.system import REGRESSOR_MIN_ROWS
 from lcgym.systems.urdf import base_parameters, from_urdf, structural_rank, urdf_robot
 from lcgym.systems.urdf_plant import FeedbackGains, URDFPlant, inertia_range, loop_stable, random_references, tuned_gains
 
@@ -203,7 +203,7 @@ def test_prismatic_axis_and_continuous_joint(tmp_path):
 
 
 def test_regressor_cache(arm):
-    q, qd, qdd = random_kinematics(arm, RegressorCache.MIN_ROWS, seed=7)
+    q, qd, qdd = random_kinematics(arm, REGRESSOR_MIN_ROWS, seed=7)
     outside = arm.regressor(None, q, qd, qdd)
     assert outside.flags.writeable and arm.regressor(None, q, qd, qdd) is not outside
     with arm.caching():

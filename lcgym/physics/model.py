@@ -58,10 +58,8 @@ parameters, then of the first pass's fit (two passes).
 from __future__ import annotations
 
 import dataclasses
-import hashlib
-from collections import OrderedDict
 from collections.abc import Sequence
-from contextlib import ExitStack, contextmanager
+from contextlib import ExitStack
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -73,6 +71,7 @@ from .compiled import cache_dir
 from .effects import Effect, Loads
 from .kinematics import lowpass_zero_phase, reference_kinematics, reference_positions
 from .linalg import penalty_rows, solve_min_norm  # noqa: F401 (the fit's solve; tests import it from here)
+from .memo import ArrayMemo
 
 POSITIONS = ("reference", "measured", "position")
 
@@ -373,7 +372,7 @@ class PhysicalModel:
         """``masked_reduce``, kept for the same arrays while a ``reduction_memo`` block runs (the
         designs and inputs a diagnosis's refits share)."""
         return _MEMO.get(lambda: self.masked_reduce(A, lengths, mask), A, mask,
-                         (tuple(lengths), self.fs, self.filter_hz, self.decimate))
+                         extra=(tuple(lengths), self.fs, self.filter_hz, self.decimate))
 
     def masked_reduce(self, A: np.ndarray, lengths: Sequence[int], mask: np.ndarray | None) -> np.ndarray:
         """``reduce`` of A (T, n_axes, ...) with the samples ``mask`` (T, n_axes) leaves out set to
@@ -402,7 +401,7 @@ class PhysicalModel:
         free_columns = X[:, :, : int(mask.sum())]
         self.fit_info_ = {"n_free": int(mask.sum()),
                           "rank": _MEMO.get(lambda: np.array(column_rank(free_columns, self.rcond)), free_columns, None,
-                                            ("rank", self.rcond)).item()}
+                                            extra=("rank", self.rcond)).item()}
         # the reduced design and input as fitted: unchanged by the fit where no effect reads the model's
         # torques, so the diagnosis reuses them (``diagnose.search.prepare``) instead of filtering them again
         self.reduced_ = None if loads is not None else (X, y.reshape(X.shape[:2]))
@@ -446,51 +445,10 @@ class PhysicalModel:
         return theta, resid
 
 
-class _ReductionMemo:
-    """Results of a function of arrays, kept while a ``reduction_memo`` block runs: a diagnosis refits
-    one model with one effect more or less tens of times on the same data, and filtering its rigid
-    regressor (tens of columns per axis, every sample) is most of a fit. A read-only array (a
-    machine's cached regressor, a result of this memo) is known by its identity, the entry holding
-    it so that the identity cannot pass to another array; a writable one by its bytes."""
-
-    def __init__(self, size: int = 16):
-        self.size = size
-        self.store: OrderedDict | None = None
-
-    @contextmanager
-    def active(self):
-        outer = self.store
-        self.store = OrderedDict() if outer is None else outer
-        try:
-            yield
-        finally:
-            self.store = outer
-
-    @staticmethod
-    def _key(a):
-        if a is None:
-            return None
-        if not a.flags.writeable:
-            return ("id", id(a), a.shape)
-        h = hashlib.blake2b(np.ascontiguousarray(a).view(np.uint8), digest_size=16)
-        return ("bytes", h.digest(), a.shape, a.dtype.str)
-
-    def get(self, compute, a: np.ndarray, mask: np.ndarray | None, extra: tuple) -> np.ndarray:
-        if self.store is None:
-            return compute()
-        key = (self._key(a), self._key(mask), extra)
-        if key in self.store:
-            self.store.move_to_end(key)
-            return self.store[key][0]
-        out = compute()
-        out.flags.writeable = False
-        self.store[key] = (out, a, mask)  # the inputs held: their identities stay theirs
-        while len(self.store) > self.size:
-            self.store.popitem(last=False)
-        return out
-
-
-_MEMO = _ReductionMemo()
+_MEMO = ArrayMemo(size=16, by_identity=True)
+"""A diagnosis refits one model with one effect more or less tens of times on the same data, and
+filtering its rigid regressor (tens of columns per axis, every sample) is most of a fit: kept here
+while a ``reduction_memo`` block runs."""
 
 
 def reduction_memo():

@@ -27,11 +27,8 @@ axis's ``input_unit`` (N m or N; the IX's amplifier input in V).
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import math
-from collections import OrderedDict
 from collections.abc import Callable, Mapping, Sequence
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -48,51 +45,9 @@ class SimulationDiverged(RuntimeError):
     """A simulated plant left its safe range (unstable gains, huge feedforward, ...)."""
 
 
-class RegressorCache:
-    """The last ``size`` results of an expensive function of arrays (a machine's regressor), keyed
-    by the arrays' bytes, kept only while an ``active()`` block runs and returned read-only: a
-    diagnosis evaluates the model, its effects and its refits on the same kinematics many times,
-    and a long-lived process must not hold hundreds of MB between uses. ``System.caching`` is a
-    machine's ``active``."""
-
-    MIN_ROWS = 1000
-
-    def __init__(self, size: int = 3):
-        self.size = size
-        self._store: OrderedDict | None = None
-
-    def get(self, compute: Callable[[], np.ndarray], *arrays: np.ndarray) -> np.ndarray:
-        """``compute()``, or the result kept for arrays of the same bytes and shapes (arrays of fewer
-        than ``MIN_ROWS`` rows, a training batch, are computed: hashing them costs about as much)."""
-        if self._store is None or np.shape(arrays[0])[0] < self.MIN_ROWS:
-            return compute()
-        h = hashlib.blake2b(digest_size=16)
-        for x in arrays:
-            h.update(np.ascontiguousarray(x).tobytes())
-        key = (h.digest(), *(np.shape(x) for x in arrays))
-        if key in self._store:
-            self._store.move_to_end(key)
-            return self._store[key]
-        result = compute()
-        result.flags.writeable = False
-        self._store[key] = result
-        while len(self._store) > self.size:
-            self._store.popitem(last=False)
-        return result
-
-    @contextmanager
-    def active(self, size: int | None = None):
-        """Keep results while the block runs (nested blocks share the outer one's store); ``size``:
-        keep this many for the block's duration instead of ``self.size`` (a benchmark cell keeps
-        every reference's regressor: its methods evaluate their bases on them again and again)."""
-        outer, outer_size = self._store, self.size
-        self._store = OrderedDict() if outer is None else outer
-        if size is not None:
-            self.size = max(int(size), outer_size)
-        try:
-            yield
-        finally:
-            self._store, self.size = outer, outer_size
+REGRESSOR_MIN_ROWS = 1000
+"""Kinematics of fewer samples (a training batch) are not kept by a machine's regressor memo
+(``physics.memo.ArrayMemo``): hashing them costs about as much as the regressor."""
 
 
 @dataclass(frozen=True)

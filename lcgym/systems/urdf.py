@@ -41,8 +41,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..physics.memo import ArrayMemo
 from ..physics.model import column_rank
-from .system import Axis, ParameterVector, RegressorCache, System
+from .system import REGRESSOR_MIN_ROWS, Axis, ParameterVector, System
 
 try:
     import pinocchio as pin
@@ -89,7 +90,7 @@ class URDFRobot:
         self._cols = np.concatenate([np.arange(10 * (i - 1), 10 * i) for i in ids])
         self._in_order = bool(np.array_equal(self._rows, np.arange(self.n_axes))
                               and np.array_equal(self._cols, np.arange(10 * self.n_axes)))
-        self._cache = RegressorCache(CACHE_SIZE)
+        self._cache = ArrayMemo(CACHE_SIZE, min_rows=REGRESSOR_MIN_ROWS)
 
     # ------------------------------------------------------------------ sizes and names
     @property
@@ -162,7 +163,7 @@ class URDFRobot:
         """X (T, n_axes, n_params) with u = X p [N m or N] for kinematics (T, n_axes) [rad or m, per
         s, per s^2]; ``zeta_n`` is unused (the machine is linear in all its parameters).
 
-        Inside ``with caching():`` the last ``CACHE_SIZE`` results are kept (``RegressorCache``)."""
+        Inside ``with caching():`` the last ``CACHE_SIZE`` results are kept (``physics.memo.ArrayMemo``)."""
         q, qd, qdd = (np.ascontiguousarray(np.atleast_2d(np.asarray(x, dtype=float))) for x in (q, qd, qdd))
         shapes = {x.shape for x in (q, qd, qdd)}
         if len(shapes) != 1 or q.ndim != 2 or q.shape[1] != self.n_axes:

@@ -29,7 +29,8 @@ import numpy as np
 
 from ...physics import linalg
 from ...physics.compiled import cache_dir
-from ..system import RegressorCache
+from ...physics.memo import ArrayMemo
+from ..system import REGRESSOR_MIN_ROWS
 from . import dynamics as arm
 
 N = arm.N_JOINTS
@@ -95,14 +96,14 @@ def regressor(zeta_n, q, qd, qdd) -> np.ndarray:
     """X (T, 6, 78) with u = X theta for kinematics (T, 6) [rad, rad/s, rad/s^2]; ``zeta_n`` is
     unused (the arm has no nonlinear parameter; kept for the signature of ``System.regressor``).
 
-    Inside ``with cached_regressors():`` the last ``CACHE_SIZE`` results are kept (``RegressorCache``):
+    Inside ``with cached_regressors():`` the last ``CACHE_SIZE`` results are kept (``physics.memo.ArrayMemo``):
     one evaluation costs about 40 us per sample (60 RNEA passes)."""
     q, qd, qdd = (np.ascontiguousarray(np.atleast_2d(np.asarray(x, dtype=float))) for x in (q, qd, qdd))
     return _CACHE.get(lambda: _regressor(DH_TABLE, GEAR, q, qd, qdd, arm.GRAVITY, EPS), q, qd, qdd)
 
 
 CACHE_SIZE = 3
-_CACHE = RegressorCache(CACHE_SIZE)
+_CACHE = ArrayMemo(CACHE_SIZE, min_rows=REGRESSOR_MIN_ROWS)
 cached_regressors = _CACHE.active  # the FlexArm's ``System.caching``
 
 
