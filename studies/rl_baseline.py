@@ -56,7 +56,7 @@ def main() -> None:
     bench = systems.resolve(args.system).bench()
     family = bench.family
     machine = systems.get(family)
-    passes = [float(p) for p in args.passes.split(",")] if args.passes else [RLConfig().setting("passes", machine)]
+    passes = [float(p) for p in args.passes.split(",")] if args.passes else [RLConfig().on(machine).passes]
     cfg = BenchConfig()
     train = bench.references("train", args.seed, cfg.n_train, cfg.duration)
     val = bench.references("validation", args.seed, cfg.n_validation, cfg.duration)

@@ -156,3 +156,29 @@ def test_a_controller_must_give_its_feedforward():
 
     with pytest.raises(TypeError, match="abstract method.*feedforward"):
         NoFeedforward()
+
+
+def test_a_methods_machine_settings_are_typed_and_checked():
+    """A machine's ``[benchmark.<method>]`` table becomes the method's own dataclass: the IX's
+    values, the defaults where a machine sets none, and a key the method does not take named."""
+    import dataclasses
+
+    from lcgym.baselines.pgnn import COLLECT, PGNNProtocol
+    from lcgym.baselines.rl import NUM_ENVS, PASSES, RLConfig, RLMachineSettings
+    from lcgym.systems.flexarm import FLEXARM
+    from lcgym.systems.ix import IX
+
+    assert RLMachineSettings.of(IX) == RLMachineSettings(passes=3.0, num_envs=8, agent_rate=50.0)
+    assert RLConfig(passes=0.5).on(IX) == RLMachineSettings(passes=0.5, num_envs=8, agent_rate=50.0)
+    assert RLMachineSettings.of(FLEXARM) == RLMachineSettings(passes=1.0, num_envs=4, agent_rate=0.0)
+    assert PGNNProtocol.of(IX) == PGNNProtocol(collect="physical", filter_hz=5.0)
+    assert PGNNProtocol.of(FLEXARM) == PGNNProtocol(collect="feedback")
+    bare = dataclasses.replace(FLEXARM, hints={})
+    assert RLMachineSettings.of(bare) == RLMachineSettings(PASSES, NUM_ENVS, 0.0) and PGNNProtocol.of(bare).collect == COLLECT
+    typo = dataclasses.replace(FLEXARM, hints={"benchmark": {"rl": {"pases": 2.0}, "pgnn": {"colect": "physical"}}})
+    with pytest.raises(ValueError, match=r"\[benchmark.rl\] has no setting pases"):
+        RLMachineSettings.of(typo)
+    with pytest.raises(ValueError, match=r"\[benchmark.pgnn\] has no setting colect"):
+        PGNNProtocol.of(typo)
+    with pytest.raises(ValueError, match="collect must be"):
+        PGNNProtocol(collect="twice")

@@ -201,7 +201,7 @@ def test_bench_cell_counts_env_steps(monkeypatch, tmp_path):
     steps, trials = {r["env_steps"] for r in rows}, {r["plant_trials"] for r in rows}
     bench = IX.make_bench()
     train, val = (bench.references(s, 0, 1, 2.0)[0].n_samples for s in ("train", "validation"))
-    budget = round(RLConfig().setting("passes", IX) * train)
+    budget = round(RLConfig().on(IX).passes * train)
     # the IX's agent acts at 50 Hz: each action held 10 samples, and the last of an episode's holds
     # shorter (the reference's samples are not a multiple of 10); PPO trains in whole rollouts of
     # n_steps agent steps per env, 8 envs, which run their episodes in step

@@ -1,11 +1,9 @@
 """Iterative learning control: learn the feedforward of one repeated reference by running it again.
 
-The update of trial j to j + 1, per axis, is plant-inversion ILC with a robustness filter:
-
-    f_{j+1} = Q (f_j + L e_j)
-
-computed on the whole trial in the frequency domain (FFT over the trial, zero-padded to twice its
-length so that the circular wrap of the non-causal filters falls in the padding):
+The update of trial j to j + 1, per axis, is plant-inversion ILC with a robustness filter,
+f_{j+1} = Q (f_j + L e_j), computed on the whole trial in the frequency domain (FFT over the trial,
+zero-padded to twice its length so that the circular wrap of the non-causal filters falls in the
+padding):
 
 * A machine without a nominal feedforward structure (``System.nominal`` is None: the IX, paper
   000's machine) starts from its physical model fitted on the training trials; e = reference -
@@ -22,37 +20,23 @@ length so that the circular wrap of the non-causal filters falls in the padding)
   motor torque to load acceleration (``nominal.load_response``). One iteration by default, as in
   the paper.
 
-The edges: Q filters the previous feedforward too, and the FFT's zero padding would filter it as
-if it dropped to zero before and after the trial. The arm's tau_nl holds gravity at rest (motor
-side, 0.9-5.3 N m on joint 2 and 0.7-2.5 N m on joint 3 at the rests of seed 0's first eight
-validation lines), so Q bent it by up to 1 N m in the first and last 50 ms; the settled start then
-began from that bent torque, the integrators unwound it over the first half second, and the end
-rang out. ``nominal_update`` pads tau_nl with its edge values (``frequency_update(hold_edges=True)``).
-Measured before FlexArm-v1's Coulomb friction was recalibrated, on FlexArm-v1's plant with a
-nominal structure built from its true arm and drives (where one iteration should change next to
-nothing), seed 0's first three validation lines, static-period RMS of Basic / one LCS iteration
-with zero padding / with held edges: TCP 0.074 / 0.358 / 0.059 mm, EE acceleration 0.020 / 0.039 /
-0.021 m/s^2. On FlexArm-v1 itself: TCP 0.856 / 0.826 / 0.835 mm, EE 0.037 / 0.037 / 0.031 m/s^2,
-joint e_pl 0.30 / 0.40 / 0.32 rad/s^2. The IX's tracking-error ILC keeps the zero
-padding (its fade-in covers the start; changing it would change its results).
+The edges: Q filters the previous feedforward too, and zero padding would filter it as if it
+dropped to zero before and after the trial; the arm's tau_nl holds gravity at rest, which Q would
+bend at both ends (a start-up transient, ringing after the trial). ``nominal_update`` pads tau_nl
+with its edge values (``frequency_update(hold_edges=True)``); the IX's tracking-error ILC keeps
+the zero padding (its fade-in covers the start; changing it would change its results).
 
 Q is zero phase: the magnitude |B(w)|^2 of a Butterworth low-pass of order ``q_order`` with corner
-``q_hz`` (the same filter as ``filtfilt`` would apply twice). ``q_hz`` trades the bandwidth of
-what is learned against the model error at high frequency: the IX's drivetrain modes (15-34 Hz)
-are not in its nominal model; the paper sets 20 Hz for the arm.
-
-Two details the tracking-error ILC needs on the IX, both measured (``studies/ilc_ix.py``, 12 references x 30 trials):
-the learned error passes a deadzone of half an encoder count (``deadzone``: the propeller's
-quantization, 0.019 deg RMS, is otherwise learned as error and the feedforward wanders, up to
-1.5x the best trial), and the update fades in over the first 0.25 s (the plant holds the first
+``q_hz`` (B applied twice, as ``filtfilt`` does). ``q_hz`` trades the bandwidth of what is learned
+against the model error at high frequency: the IX's drivetrain modes (15-34 Hz) are not in its
+nominal model; the paper sets 20 Hz for the arm. On the IX the learned error passes a deadzone of
+half an encoder count (``deadzone``: else the propeller's quantization is learned as error and the
+feedforward wanders), and the update fades in over the first 0.25 s (the plant holds the first
 sample's feedforward through its pre-roll; a learned change there moves the initial state, which
-L's linear model does not describe, and the roll then alternated between 0.004 and 0.022 deg from
-trial to trial). With both, each axis stays within 1.05x (propeller) and 1.21x (roll) of its best
-trial after the third.
-
-Every trial's error norm is recorded (``history_``); when it grows three trials in a row and
-stands 1.5x above the best trial, the learning diverges and ``ILCDiverged`` is raised with the
-history instead of returning garbage (as does a trial that drives the plant out of its safe range).
+L's linear model does not describe). Every trial's error norm is recorded (``history_``); when it
+grows three trials in a row and stands 1.5x above the best trial, ``ILCDiverged`` is raised with
+the history (as it is by a trial that drives the plant out of its safe range). Measurements behind
+these choices: docs/methods/ilc.md, "Design choices and what they measured".
 """
 
 from __future__ import annotations

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import replace
+from dataclasses import dataclass, fields, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -50,17 +50,36 @@ from .safeguard import Safeguard, mixed
 if TYPE_CHECKING:  # lcgym.pgnn (torch) is imported where a PGNN is trained: the bench's main process needs none
     from ..pgnn import PGNN, PGNNConfig
 
+COLLECTS = ("physical", "feedback")
 COLLECT = "feedback"
-"""What the training data are recorded with where the machine does not say
-(``System.hints["benchmark"]["pgnn"]["collect"]``): "physical", a run of the training references
-with the physical model's feedforward on; "feedback", the shared feedback-only trials. The
-machine's ``hints["benchmark"]["pgnn"]["filter_hz"]`` sets the low-pass of u [Hz] where the
-protocol sets one (else the machine's PGNN hints)."""
+"""What the training data are recorded with where the machine does not say (``PGNNProtocol``)."""
 
 
-def protocol(system: systems.System) -> dict:
-    """The benchmark protocol's settings of this method on ``system`` (``collect``, ``filter_hz``)."""
-    return dict(system.hints.get("benchmark", {}).get("pgnn", {}))
+@dataclass(frozen=True)
+class PGNNProtocol:
+    """The benchmark protocol's settings of this method on one machine, from its
+    ``[benchmark.pgnn]`` table (``System.hints["benchmark"]["pgnn"]``): ``collect``, what the
+    training data are recorded with ("physical": a run of the training references with the
+    physical model's feedforward on; "feedback": the shared feedback-only trials); ``filter_hz``,
+    the low-pass of u [Hz] (None: the machine's PGNN settings, ``PGNNConfig.for_system``)."""
+
+    collect: str = COLLECT
+    filter_hz: float | None = None
+
+    def __post_init__(self):
+        if self.collect not in COLLECTS:
+            raise ValueError(f"collect must be 'physical' or 'feedback', got {self.collect!r}")
+
+    @classmethod
+    def of(cls, system: systems.System) -> PGNNProtocol:
+        """The machine's settings; a key this method does not take is an error that names it."""
+        table = dict(system.hints.get("benchmark", {}).get("pgnn", {}))
+        unknown = sorted(set(table) - {f.name for f in fields(cls)})
+        if unknown:
+            raise ValueError(f"machine {system.name}: [benchmark.pgnn] has no setting {', '.join(unknown)} "
+                             f"(it takes {', '.join(f.name for f in fields(cls))})")
+        return cls(**table)
+
 
 MAX_ITERATIONS = 100
 """The protocol's cap on Algorithm 1's iterations (8,000 Adam steps) on ``REFERENCE_TRIALS`` training
@@ -112,8 +131,8 @@ class PGNNFeedforward(Controller):
         self.system_ = given_system(self)
         self.trials_ = list(trials)
         self.memo_ = ReferenceMemo()
-        self.collect_ = self.collect or protocol(self.system_).get("collect", COLLECT)
-        if self.collect_ not in ("physical", "feedback"):
+        self.collect_ = self.collect or PGNNProtocol.of(self.system_).collect
+        if self.collect_ not in COLLECTS:
             raise ValueError(f"collect must be 'physical' or 'feedback', got {self.collect_!r}")
         self.cost_ = Cost()
         if self.collect_ == "feedback":
@@ -193,7 +212,7 @@ class PGNNFeedforward(Controller):
             return replace(self.config, regularize=self.regularize)
         cfg = replace(PGNNConfig.for_system(self.system_), threads=1, regularize=self.regularize,
                       max_epochs=max_iterations(n_trials, self.budget))
-        filter_hz = protocol(self.system_).get("filter_hz")
+        filter_hz = PGNNProtocol.of(self.system_).filter_hz
         return cfg if filter_hz is None else replace(cfg, filter_hz=filter_hz)
 
     def _train(self, trials: Sequence) -> None:

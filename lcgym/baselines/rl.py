@@ -1,55 +1,42 @@
 """Method ``rl``: a stable-baselines3 agent that learns the feedforward on the plant.
 
-The agent acts in the system's Gymnasium env (``lcgym/IX-v0``, ``lcgym/FlexArm-v0``) over the
-cell's training references, the feedback loop inside the env: one action per control sample, or
-each action held for several samples (``RLConfig.agent_rate``, else the machine's
-``System.hints["benchmark"]["rl"]["agent_rate"]``: 50 Hz on the IX, the two-link arm and the
-EMPS, ``envs.hold``; every sample on the FlexArm, whose residual shapes 10-15 Hz resonances).
+The agent acts in the system's Gymnasium env (``lcgym/IX-v0``, ``lcgym/FlexArm-v0``, the feedback
+loop inside it) over the cell's training references, on every control sample or holding each action
+for several (``RLConfig.agent_rate``, else the machine's ``RLMachineSettings.agent_rate``: 50 Hz on the
+IX, the two-link arm and the EMPS, ``envs.hold``; every sample on the FlexArm, whose residual shapes
+10-15 Hz resonances).
 
-* **Residual** (default, ``RLConfig.residual``): the action is added to the method's base
-  feedforward (``bases``), bounded: the cell's fitted physical model (``base="physical"``, the
-  default; IX +-1 V; FlexArm +-2 N m, with the model's joint-torsion reference offset) or the
-  FlexArm's nominal structure (``base="basic"``: paper 002's Basic, tau_nl update +-2 N m, with
-  Basic's motor reference offset). ``residual=False``: from scratch, the action is the whole
-  feedforward (IX +-5 V; arm +-u_max, no offset).
-* **Budget**: ``passes`` x the training references' samples env steps (``RLConfig.passes``, else
-  the machine's ``System.hints["benchmark"]["rl"]["passes"]``, else ``PASSES``; ``total_steps``
-  overrides). The machines' settings: IX 3 passes (about 5.5e5 steps on the bench's 8
-  training references, about 1 min here), FlexArm 1 pass (about 5e4 steps, about 20 s); the
-  docs page methods/rl.md gives what they and 10x more reach (``studies/rl_baseline.py``).
-* **Observation**: the env's, with the tracking error the encoders measure (``observe_error``).
-  The policy then closes an extra loop around the plant, so its feedforward for a reference is
-  what it applies in one deterministic rollout on the plant (``learn``), counted as one plant
-  trial; the benchmark replays it (the plants are deterministic: the replay is that rollout). With
-  ``observe_error=False`` the error is zeroed in every observation: the policy is a function of the
-  reference alone (a pure feedforward), whose rollout needs no plant run and counts none.
-* **Hyperparameters**: ``HYPERPARAMETERS`` below, per algorithm (PPO default; SAC, TD3);
-  ``RLConfig.hyperparameters`` overrides entries. Torch trains on the CPU with one thread (the
-  networks are small; more threads stall on a busy machine) and float32 (``torch_settings``),
-  the caller's settings restored afterwards.
-* **Cache**: a trained model is saved in stable-baselines3's zip format under
-  ``<cache_dir>/<key>.zip`` (key: hash of the configuration, system, training references, base
-  model, plant and lcgym's source), with its training curve (``.csv``, ``.png``) and a JSON record
-  (env steps, episodes, wall time, the zip's SHA-256). ``learn`` loads a model only from that
-  place, only under its key, only when the record's hash matches. Loading a zip unpickles Python
-  objects: ``RLFeedforward.load_model(path)`` loads another file only when asked, and only files
-  from trusted sources should be given to it.
-
+* **Residual** (default, ``RLConfig.residual``): the action, bounded, is added to the method's base
+  feedforward (``bases``): the cell's fitted physical model (``base="physical"``, the default; IX
+  +-1 V; FlexArm +-2 N m, with the model's joint-torsion reference offset) or the FlexArm's Basic
+  (``base="basic"``, paper 002: tau_nl update +-2 N m, with Basic's motor reference offset).
+  ``residual=False``: the action is the whole feedforward (IX +-5 V; arm +-u_max, no offset).
+* **Budget**: ``passes`` x the training samples, in env steps (``RLConfig.passes``, else the
+  machine's ``RLMachineSettings.passes``: IX 3, FlexArm 1; else ``PASSES``); ``total_steps`` overrides.
+* **Observation**: the env's, with the tracking error the encoders measure (``observe_error``): the
+  policy closes an extra loop, so its feedforward for a reference is what it applies in one
+  deterministic rollout on the plant (``learn``; one plant trial), which the benchmark replays (the
+  plants are deterministic). ``observe_error=False`` zeroes the error in every observation: a pure
+  feedforward of the reference, whose rollout needs no plant run and counts none.
+* **Hyperparameters**: ``HYPERPARAMETERS`` per algorithm (PPO default; SAC, TD3), overridden by
+  ``RLConfig.hyperparameters``. Torch trains on the CPU with one thread (small networks; more
+  threads stall on a busy machine) in float32 (``torch_settings``), the caller's settings restored.
+* **Cache**: ``<cache_dir>/<key>.zip`` in stable-baselines3's format (key: hash of the
+  configuration, system, training references, base model, plant and lcgym's source), with the
+  training curve (``.csv``, ``.png``) and a JSON record (env steps, episodes, wall time, the zip's
+  SHA-256); ``learn`` loads only that file, under its key, when the record's hash matches. A zip
+  unpickles Python objects: ``RLFeedforward.load_model(path)`` loads another file only when asked;
+  give it files from trusted sources only.
 * **Safeguard** (``RLConfig.safeguard``, on by default): a residual policy is kept only where it
-  lowers the tracking error on each of its own training references. After training, the policy's
-  deterministic rollouts on the training references are compared with the base feedforward's
-  alone, per scored axis and per reference (RMS over the reference); where the policy is worse on
-  an axis on any reference, its action there is dropped (the base alone acts on that axis), and
-  the masked policy is rolled out again to check it; if it is still worse on any axis and
-  reference, the base acts alone on every axis. (Per reference, not over all of them: a policy
-  better on 7 training references and worse on the 8th did not generalize, measured on the IX:
-  ``docs/methods/rl.md``.) ``kept_``
-  says on which axes the residual acts, ``safeguard_`` the RMS figures, and ``note_`` (the
-  results row's ``note``) what was dropped. It costs 2-3 rollouts per training reference, counted.
+  lowers the tracking error on each of its training references (RMS per scored axis and reference,
+  its deterministic rollouts against the base alone). An axis where it is worse on any reference
+  loses its action; the masked policy is rolled out again, and if still worse anywhere, the base
+  acts alone on every axis. ``kept_``: axes the residual acts on; ``safeguard_``: RMS figures;
+  ``note_`` (the row's ``note``): what was dropped. It costs 2-3 rollouts per reference, counted.
 
-Cost (``cost_``): env steps of training (also when loaded from the cache: the model cost them)
-plus those of the rollouts that ran the plant; plant trials: training episodes begun plus those
-rollouts; ``cached_seconds``: the training wall time of a model loaded from the cache.
+Cost (``cost_``): env steps of training (also when loaded from the cache) plus those of the rollouts
+that ran the plant; plant trials: training episodes begun plus those rollouts; ``cached_seconds``:
+the training wall time of a cached model. Measurements: docs/methods/rl.md.
 """
 
 from __future__ import annotations
@@ -61,7 +48,7 @@ import math
 import os
 import time
 from contextlib import contextmanager
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -77,6 +64,29 @@ from .safeguard import dropped_note, keep_axes, scored_axes
 ALGORITHMS = ("ppo", "sac", "td3")
 PASSES = 1.0  # env steps per training sample on a machine that sets none (System.hints["benchmark"]["rl"])
 NUM_ENVS = 4  # parallel envs on a machine that sets none
+
+
+@dataclass(frozen=True)
+class RLMachineSettings:
+    """The method's settings on one machine, from its ``[benchmark.rl]`` table
+    (``System.hints["benchmark"]["rl"]``): ``passes``, env steps per training sample; ``num_envs``,
+    parallel envs; ``agent_rate`` [Hz], the agent's action rate (0: every control sample).
+    ``RLConfig`` overrides each."""
+
+    passes: float = PASSES
+    num_envs: int = NUM_ENVS
+    agent_rate: float = 0.0
+
+    @classmethod
+    def of(cls, system: systems.System) -> RLMachineSettings:
+        """The machine's settings; a key this method does not take is an error that names it."""
+        table = dict(system.hints.get("benchmark", {}).get("rl", {}))
+        unknown = sorted(set(table) - {f.name for f in fields(cls)})
+        if unknown:
+            raise ValueError(f"machine {system.name}: [benchmark.rl] has no setting {', '.join(unknown)} "
+                             f"(it takes {', '.join(f.name for f in fields(cls))})")
+        return cls(**table)
+
 
 # One documented place for the hyperparameters (stable-baselines3 keyword arguments).
 # PPO: SB3's defaults, written out (2048 agent steps per env and update, minibatches of 64, 10
@@ -143,15 +153,11 @@ class RLConfig:
         if self.agent_rate is not None and not (np.isfinite(self.agent_rate) and self.agent_rate >= 0):
             raise ValueError(f"RLConfig.agent_rate must be a rate >= 0 in Hz (0: every sample), got {self.agent_rate}")
 
-    def setting(self, name: str, system: systems.System):
-        """``passes``, ``num_envs`` or ``agent_rate`` on ``system``: this configuration's, else the
-        machine's (``System.hints["benchmark"]["rl"]``), else the module's default (``PASSES``,
-        ``NUM_ENVS``, 0: every sample)."""
-        own = getattr(self, name)
-        if own is not None:
-            return own
-        defaults = {"passes": PASSES, "num_envs": NUM_ENVS, "agent_rate": 0.0}
-        return system.hints.get("benchmark", {}).get("rl", {}).get(name, defaults[name])
+    def on(self, system: systems.System) -> RLMachineSettings:
+        """``passes``, ``num_envs`` and ``agent_rate`` on ``system``: this configuration's where it
+        sets them, else the machine's (``RLMachineSettings.of``)."""
+        own = {f.name: getattr(self, f.name) for f in fields(RLMachineSettings) if getattr(self, f.name) is not None}
+        return replace(RLMachineSettings.of(system), **own)
 
     def agent_kwargs(self, agent_steps: int | None = None, num_envs: int = 1) -> dict:
         """The algorithm's keyword arguments: the defaults updated by ``hyperparameters``. PPO's
@@ -186,7 +192,7 @@ def _vec_env(system: systems.System, references, plant, base, config: RLConfig, 
     from ..envs.hold import VecHoldAction
     from ..envs.sb3 import HideError, make_sb3_vec_env
 
-    env_id, n = system.env_id, config.setting("num_envs", system)
+    env_id, n = system.env_id, config.on(system).num_envs
     kwargs = dict(references=references, base_feedforward=base, plant=plant, episode_steps=None)
     if gym.spec(env_id).vector_entry_point is not None:
         venv = make_sb3_vec_env(env_id, num_envs=n, **kwargs)
@@ -247,7 +253,7 @@ class RLFeedforward(Controller):
         """Control samples per agent action (``RLConfig.agent_rate`` on the machine's rate)."""
         from ..envs.hold import samples_per_action
 
-        rate = self._config().setting("agent_rate", self.system_)
+        rate = self._config().on(self.system_).agent_rate
         return samples_per_action(self.system_.fs, rate) if rate and self.system_.fs else 1
 
     def budget(self) -> int:
@@ -255,7 +261,7 @@ class RLFeedforward(Controller):
         cfg = self._config()
         if cfg.total_steps is not None:
             return int(cfg.total_steps)
-        return int(round(cfg.setting("passes", self.system_) * sum(r.n_samples for r in self.training_)))
+        return int(round(cfg.on(self.system_).passes * sum(r.n_samples for r in self.training_)))
 
     # --- learn: train once, then one rollout per reference ----------------------------------
     def learn(self, plant, reference) -> RLFeedforward:

@@ -49,20 +49,13 @@ them. A candidate passes when, at its step,
 5. its torque as fitted lies mostly at frequencies the input holds (``spectra.unheld_share``): a
    gear's ripple at 12-18 Hz cannot be in torques a logger low-passed at 2 Hz.
 
-A large effect can hide a second one on the same axis until it is in: the FlexArm's payload
-hides its joints' Coulomb friction, which then removes 78-79 % of what is left, 9.7-10 % of the
-original error; on the IX a one-sided cable spring of 4.5 times the RMS of a Coulomb friction on
-the same axis hides it: once the spring is in, the friction removes 47 % of what is left but, its
-energy being 1/20 of the spring's, 1.8 % of the original error, which ``REVEALED`` lets through.
-Rule 2 keeps out what chases structure no static effect explains: on the IX after the true
-friction is in, a Stribeck curve still takes 14-16 % of what is left, 2.6-3.3 % of the original
-error (``studies/diagnose_hidden_effects.py``, the cases that a 1 % bar let through).
 A candidate that ``extends`` a simpler one (asymmetric friction contains Coulomb friction) passes
 only if what it removes beyond the simpler one passes rules 1-3 against what the simpler one
 leaves. Among candidates on the same axis within ``tie`` of the best, the one with the fewest parameters
 is taken (the simpler of two friction curves that fit equally well). Once a pick is in, every form
 that extends it is tried in its place (``_other_form``), and each try is recorded with the rule's
-numbers (``figures``) and its verdict.
+numbers (``figures``) and its verdict. The cases that set ``REVEALED`` and ``LATE_FACTOR``:
+docs/diagnosis.md, "What set the rules for hidden effects".
 """
 
 from __future__ import annotations

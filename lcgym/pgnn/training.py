@@ -5,52 +5,38 @@ by central differences evaluated ``advance`` samples ahead (as the physical mode
 input u is low-pass filtered (2nd-order Butterworth, ``filter_hz``, zero phase) per trial.
 
 Normalization of J. We minimize J_LS / N (N = number of training samples: the mean over samples
-of ||u - f||^2, both axes summed) + mu1 R1 / N + mu2 R2. Paper 000 writes J_LS (eq. 15) and R1
-(eq. 29) as sums over the N samples, with mu1 = 1e-5 and mu2 = 1; read literally (both sums
-divided by N) mu1 would stay 1e-5 here, and we measured that it then has no effect at all: the
-network's contribution f^C and the drift of the physical parameters come out the same as with
-J_LS alone (`benchmarks/pgnn_tables.py --quick --mu1 1e-5 --budget 0`). The paper's figures (f^C several times smaller with R1)
-fit the usual implementation instead: J_LS as a per-sample mean (a mean-squared-error loss) and
-R1 as the squared norm of the projection of the whole data set, so that mu1 weighs R1 / N with
-mu1 N = 1e-5 x 1e6 = 10, and R2 (a sum over nine constraints, not over samples) with mu2 = 1.
-Those are our defaults: ``mu1 = 10`` on R1 / N and ``mu2 = 1`` on R2.
+of ||u - f||^2, both axes summed) + mu1 R1 / N + mu2 R2, with ``mu1 = 10`` and ``mu2 = 1``. Paper
+000 writes J_LS (eq. 15) and R1 (eq. 29) as sums over its N = 1e6 samples with mu1 = 1e-5 and
+mu2 = 1; read literally (both divided by N), R1 has no effect. The paper's figures fit the usual
+implementation: J_LS a per-sample mean, R1 the squared norm of the whole data set's projection, so
+mu1 N = 1e-5 x 1e6 = 10 weighs R1 / N; R2 (a sum over nine constraints, not samples) keeps mu2 = 1.
 
 R1 with minibatches. R1 = sum_i ||U_i^T g_i||^2 (eq. 29) is the squared norm of the projection of
 the network output over the whole data set onto the column space of X_i(theta) (Lemma 1, at the
-fixed zeta_n^0 of the initial physical fit). With X_i = U_i S V^T (eq. 21), ||U_i^T g||^2 =
-(X_i^T g)^T (X_i^T X_i)^+ (X_i^T g). A random minibatch of B samples estimates both Gram
-factors without bias: X^T g ~ (N/B) X_b^T g_b and X^T X ~ (N/B) X_b^T X_b, so R1 / N ~
-||U_b^T g_b||^2 / B with U_b the basis of eq. (21) for the batch's own X_b. This ratio estimator
-is consistent, with a bias of order r/B relative (rank r <= 11 against B = 1e4 rows: about
-0.1 %; the test checks the estimate against the full projection to 2 %, the sampling
-spread); summed over an epoch it is the exact projection of each batch, so the network is kept
-out of what the physical model can explain on every batch it sees.
+fixed zeta_n^0 of the initial physical fit). With X_i = U_i S V^T (eq. 21),
+||U_i^T g||^2 = (X_i^T g)^T (X_i^T X_i)^+ (X_i^T g). A minibatch of B random samples estimates both
+Gram factors without bias (X^T g ~ (N/B) X_b^T g_b, X^T X ~ (N/B) X_b^T X_b), so R1 / N ~
+||U_b^T g_b||^2 / B, U_b the basis of eq. (21) of the batch's own X_b: consistent, with a relative
+bias of order r/B (rank r <= 11, B = 1e4: about 0.1 %; tested against the full projection to 2 %).
+Summed over an epoch it is each batch's exact projection: the network is kept out of what the
+physical model explains on every batch it sees.
 
-Algorithm 1: zeta starts at the best physical-model fit (least squares), phi at PyTorch's default
-initialization (seeded); random 80/10/10 split of the samples; Adam (lr 1e-3), minibatches of 1e4;
-training stops after ``patience`` iterations without improvement of J on the validation split, and
-the best iteration's parameters are kept.
+Algorithm 1: zeta starts at the least-squares physical-model fit, phi at PyTorch's default (seeded)
+initialization; random 80/10/10 split of the samples; Adam (lr 1e-3), minibatches of 1e4; training
+stops after ``patience`` iterations without a better validation J; the best iteration is kept.
 
-An iteration. The paper's iteration loops over all training minibatches (an epoch): at its N = 1e6,
-80 minibatches, so its patience of five iterations waits 400 Adam steps. Read literally on a smaller
-data set (the leaderboard's 8 training runs: 1.8e5 samples, 14 minibatches) the same patience waits
-only 70 steps and training stops early (IX-v1, seed 0: after 165 epochs, about 2,300 steps, at
-1.58x / 2.33x below the physical model, against 1.76x / 2.77x with 80-step iterations and absolute
-zeta steps; ``studies/pgnn_protocol.py`` rows A to C). So an iteration is
-``steps_per_iteration`` = 80 Adam steps (the paper's epoch at its N), which is the paper's
-schedule at N = 1e6 and keeps it at any N; ``steps_per_iteration=None`` is the literal one-epoch
-iteration. The minibatches are drawn from a new random order of the training samples at each pass
-over them (a training split that fits one minibatch, the arm's, is that batch at every step).
-``reshuffle=False``: the training split, in random order, is cut into minibatches once, and these
-are visited in a new random order at each pass, so that each batch's projection basis for R1 is
-computed once and no samples are gathered per step: a step costs about 20 % less (docs/speed.md),
-the fit follows another, equally random path.
-
-What a step costs (``benchmarks/pgnn_speed.py``, docs/speed.md). The paper's networks run forward
-and backward in compiled float32 kernels (``pgnn.fused``); R2's mass-matrix term is differentiated
-only where M is near indefinite (``network.physics_penalty``); R1's projection leaves out regressor
-columns that are zero in all the data and keeps the bases of batches it sees again (validation,
-test, fixed training batches).
+An iteration is ``steps_per_iteration`` = 80 Adam steps: the paper's iteration is an epoch, at its
+N = 1e6 80 minibatches, so its patience of five iterations waits 400 steps; a fixed step count
+keeps that schedule at any N (on fewer samples an epoch is fewer steps, and the literal reading,
+``steps_per_iteration=None``, stops early). Minibatches come from a new random order of the
+training samples at each pass (a training split that fits one minibatch, the arm's, is that batch
+at every step). ``reshuffle=False``: the split, in random order, is cut into minibatches once,
+visited in a new random order at each pass, so each batch's R1 basis is computed once and no
+samples are gathered per step: a cheaper step along another, equally random path. A step runs the
+networks in compiled float32 kernels (``pgnn.fused``), differentiates R2's mass-matrix term only
+where M is near indefinite (``network.physics_penalty``), and computes R1 without the regressor's
+all-zero columns, keeping the bases of batches it sees again (validation, test, fixed batches).
+Measurements: docs/methods/pgnn.md, "Training choices and what they measured"; docs/speed.md.
 """
 
 from __future__ import annotations
