@@ -135,21 +135,23 @@ class Prepared:
         return self
 
 
-def prepare(trials: Sequence, model: PhysicalModel, layout: Layout) -> Prepared:
+def prepare(trials: Sequence, model: PhysicalModel, layout: Layout, kinematics: tuple | None = None) -> Prepared:
     """Fit ``model`` (unfitted) on the samples of ``trials`` that ``layout`` uses and reduce
-    everything the search needs."""
-    model.fit(trials, mask=layout.used)
-    kin, lengths = model.kinematics(trials)
+    everything the search needs. ``kinematics``: ``model.kinematics(trials)`` where the caller has
+    it (every model of one diagnosis has the same kinematics: computed once)."""
+    kinematics = model.kinematics(trials) if kinematics is None else kinematics
+    model.fit(trials, mask=layout.used, kinematics=kinematics)
+    kin, lengths = kinematics
     free, fixed, theta = model.free_design(kin)
     rigid_torque = free @ theta + fixed
     nonlinear = None
     torque = model.torque(*kin) - fixed  # the held part (e.g. CAD inertia) is moved to the input side
     rows = model.reduced_rows(lengths)
     used = layout.used[rows]
-    if getattr(model, "reduced_", None) is not None:  # a linear fit's own reduced design: the same columns
+    if model.reduced_ is not None:  # a linear fit's own reduced design: the same columns
         design, u = model.reduced_
     else:
-        effect_cols = model._effect_columns(kin, model.load_torques(kin))
+        effect_cols = model.effect_design(kin, model.load_torques(kin))
         nonlinear = model.nonlinear_design(kin)  # zeta_n refitted to first order with each candidate
         parts = [free] + ([] if nonlinear is None else [nonlinear]) + [effect_cols]
         design = model.masked_reduce(np.concatenate(parts, axis=2), lengths, layout.used)
@@ -495,7 +497,8 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
     alone, selected, named, steps, model = [], [], [], [], prep.model
     inputs = np.concatenate([np.asarray(tr.u, dtype=float) for tr in trials])
     stop = f"{max_steps} effects selected (the most allowed)"
-    context = _Context(trials, candidates, axes, own, min_explained, min_rms, n_rows, layout, scales, position_blind)
+    context = _Context(trials, candidates, axes, own, min_explained, min_rms, n_rows, layout, scales, position_blind,
+                       (prep.kin, prep.lengths))
     for step in range(max_steps):
         current = scorer.test_sse
         if progress is not None:
@@ -547,7 +550,7 @@ def rank(prep: Prepared, trials: Sequence, candidates: Sequence[Candidate], axes
         pick = min(near or [top], key=lambda x: (x[0].candidate.n_params, -x[1]))[:2]
         params = refine(scorer, pick[0], cache)
         new_model = model.with_effect(pick[0].candidate.build(axes[pick[0].axis], **params))
-        new_prep = prepare(trials, new_model, layout)
+        new_prep = prepare(trials, new_model, layout, (prep.kin, prep.lengths))
         new_scorer = Scorer.of(new_prep)
         if new_scorer.test_sse[pick[0].axis] >= current[pick[0].axis]:
             stop = (f"{pick[0].candidate.name}@{axes[pick[0].axis]} passed, but refitted with it the model does no "
@@ -609,6 +612,7 @@ class _Context:
     layout: Layout
     scales: Sequence[dict]
     position_blind: Sequence[int] = ()
+    kinematics: tuple | None = None  # ((q, qd, qdd), lengths) of the trials: every model's
 
 
 def _without(model: PhysicalModel, key: str) -> PhysicalModel:
@@ -639,7 +643,7 @@ def _other_form(s: Score, model: PhysicalModel, scorer: Scorer, ctx: _Context, s
               and not (a in ctx.position_blind and c.family in OVER_POSITION)]
     if not others:
         return None
-    without = prepare(ctx.trials, _without(model, f"{s.candidate.name}@{axes[a]}"), ctx.layout)
+    without = prepare(ctx.trials, _without(model, f"{s.candidate.name}@{axes[a]}"), ctx.layout, ctx.kinematics)
     base, cache = Scorer.of(without), ColumnCache(without, axes, shared)
     best = None
     for other in others:
@@ -671,7 +675,7 @@ def _other_form(s: Score, model: PhysicalModel, scorer: Scorer, ctx: _Context, s
         return None
     params = refine(base, best, cache)
     swapped = without.model.with_effect(best.candidate.build(axes[a], **params))
-    return best, swapped, prepare(ctx.trials, swapped, ctx.layout)
+    return best, swapped, prepare(ctx.trials, swapped, ctx.layout, ctx.kinematics)
 
 
 def refine(scorer: Scorer, score: Score, cache: ColumnCache, iterations: int = 60) -> dict:

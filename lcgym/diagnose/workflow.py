@@ -164,13 +164,13 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
     with system.caching() if system.caching is not None else nullcontext(), reduction_memo():
         bar = tqdm(total=2, desc="diagnose", disable=not progress, leave=False)
         bar.set_postfix_str("fit nominal model")
-        prep = prepare(trials, model, lay)
+        prep = prepare(trials, model, lay, (kin, lengths))
         fs_rows = fs / max(1, prep.model.decimate)
         time = (prep.rows - np.concatenate([[0], np.cumsum(lengths)[:-1]])[prep.trial]) / fs
         trim = edge_outliers(prep.residual, prep.used, prep.trial, time, [n / fs for n in lengths], fs, lay.settle)
         if trim is not None:  # the residual is dominated by trial edges: leave them out, fit again
             lay = layout(trials, kin, lengths, fs, *corners, block_seconds, trim, spread, moving, repeats)
-            prep = prepare(trials, model, lay)
+            prep = prepare(trials, model, lay, (kin, lengths))
         bar.update()
         residual = prep.residual
         q, qd, qdd = (k[prep.rows] for k in prep.kin)
@@ -240,7 +240,7 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequenc
             after_model = prep.model
             for e in effects:
                 after_model = after_model.with_effect(e)
-            after = prepare(trials, after_model, lay)
+            after = prepare(trials, after_model, lay, (kin, lengths))
             report.after = {"added": [e.key for e in effects], "residual": norms(after.residual, axes, units, after.used),
                             "effects": [_effect_params(e) for e in after.model.fitted_effects],
                             "parameters": dict(zip(system.param_names,

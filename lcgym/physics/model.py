@@ -244,7 +244,7 @@ class PhysicalModel:
             start += len(e.linear)
         return out
 
-    def _effect_columns(self, kin, loads: Loads | None):
+    def effect_design(self, kin, loads: Loads | None) -> np.ndarray:
         """Regressor columns (T, A, n_effect_coefficients) of the effects (independent of zeta_n);
         ``loads``: the model torques they read (``loads``)."""
         q, qd, qdd = kin
@@ -328,15 +328,18 @@ class PhysicalModel:
         starts = np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(int)
         return np.concatenate([s + np.arange(0, n, max(1, self.decimate)) for s, n in zip(starts, lengths, strict=True)])
 
-    def fit(self, trials: Sequence, mask: np.ndarray | None = None) -> PhysicalModel:
+    def fit(self, trials: Sequence, mask: np.ndarray | None = None, kinematics: tuple | None = None) -> PhysicalModel:
         """Least-squares fit on measured trials (each with ``ref`` (or None), ``pos``, ``u`` and sample
         rate ``fs``): the free linear parameters, the effects' coefficients and, where the machine
         has them and ``fit_nonlinear``, its nonlinear parameters zeta_n (module docstring).
         ``mask`` (samples of all trials, n_axes), bool: the samples of each axis the fit uses (default
         all), e.g. the diagnosis's without standstill: the others are set to zero in u and in every
         regressor column of that axis before the low-pass (the equation u = X theta holds there as
-        0 = 0, so nothing of them spreads into the samples used), and their rows are left out after it."""
-        kin, lengths = self.kinematics(trials)
+        0 = 0, so nothing of them spreads into the samples used), and their rows are left out after it.
+        ``kinematics``: ``self.kinematics(trials)`` where the caller has it (a diagnosis refits models
+        of the same kinematic settings on the same trials many times)."""
+        kin, lengths = self.kinematics(trials) if kinematics is None else _same_trials(kinematics, trials)
+        self.reduced_ = None
         u = self.inputs(trials)
         if mask is not None:
             mask = np.asarray(mask, dtype=bool)
@@ -390,7 +393,7 @@ class PhysicalModel:
         free, fixed, theta_free = self.free_design(kin, self.params)  # a fit starts from the given values
         loads = self.load_torques(kin, self.params.to_vector(), rigid=free @ theta_free + fixed)
         X = np.concatenate([self.kept_reduce(free, lengths, mask),  # a diagnosis's refits share this one
-                            self.masked_reduce(self._effect_columns(kin, loads), lengths, mask)], axis=2)
+                            self.masked_reduce(self.effect_design(kin, loads), lengths, mask)], axis=2)
         y = self.kept_reduce(u - fixed, lengths, mask).reshape(-1)
         theta0 = np.concatenate([theta_free, *[e.coefficients() for e in self.effects]])
         theta, resid = solve_min_norm(X, y, theta0, rcond=self.rcond, penalties=self.penalties(free.shape[2]))
@@ -429,7 +432,7 @@ class PhysicalModel:
             rigid = evaluate(lambda zn, columns=None: before(self.system.regressor(zn, *kin, **(
                 {} if columns is None else {"columns": columns}))), zeta_n.size, lambda A: self.reduce(A, lengths),
                 columns=self.system.nonlinear_columns)
-            fixed = self.masked_reduce(self._effect_columns(kin, loads), lengths, mask)
+            fixed = self.masked_reduce(self.effect_design(kin, loads), lengths, mask)
             design = lambda zn, r=rigid, f=fixed: np.concatenate([after(r(zn)), f], axis=2)  # noqa: E731
             if self.fit_nonlinear:
                 sol = least_squares(
@@ -449,6 +452,14 @@ _MEMO = ArrayMemo(size=16, by_identity=True)
 """A diagnosis refits one model with one effect more or less tens of times on the same data, and
 filtering its rigid regressor (tens of columns per axis, every sample) is most of a fit: kept here
 while a ``reduction_memo`` block runs."""
+
+
+def _same_trials(kinematics: tuple, trials: Sequence) -> tuple:
+    """``kinematics`` ((q, qd, qdd), lengths) after checking that it is of ``trials``."""
+    kin, lengths = kinematics
+    if list(lengths) != [tr.n_samples for tr in trials] or kin[0].shape[0] != sum(lengths):
+        raise ValueError("PhysicalModel.fit: the kinematics given are not of these trials (their lengths differ)")
+    return kin, list(lengths)
 
 
 def reduction_memo():
