@@ -265,7 +265,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def cmd_diagnose(args) -> int:
     from .data import MeasurementFileError, read_trials
-    from .diagnose import diagnose
+    from .diagnose import DiagnoseOptions, diagnose
     from .diagnose.layout import DataTooShort
     from .diagnose.machines import check_log_axes
     from .diagnose.workflow import bridged_gap
@@ -286,9 +286,9 @@ def cmd_diagnose(args) -> int:
     other = None if args.validate is None else read_trials(args.validate, axes=system, min_samples=100,
                                                            resample=rate, max_gap=bridged_gap())
     try:
-        report = diagnose(trials, system=system, add=args.add, replay=args.replay, kinematics=args.kinematics,
-                          min_explained=args.min_explained, progress=sys.stderr.isatty(), spec=args.system,
-                          validate=other)
+        options = DiagnoseOptions(add=args.add, replay=args.replay, kinematics=args.kinematics,
+                                  min_explained=args.min_explained)
+        report = diagnose(trials, system, options, progress=sys.stderr.isatty(), spec=args.system, validate=other)
     except DataTooShort as exc:
         raise MeasurementFileError(f"{args.data}: column 't': {exc}") from None
     print(report.text())

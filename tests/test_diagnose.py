@@ -316,3 +316,18 @@ def test_cli_refuses_too_short_data_and_an_unusable_plot_folder(tmp_path, capsys
     assert "is not a folder" in capsys.readouterr().err and out.read_text() == "{}"
     assert main(["diagnose", str(full), "--system", "ix", "--add", "viscous_friction@roll"]) == 1
     assert "already has viscous_friction" in capsys.readouterr().err
+
+
+def test_the_options_are_one_checked_object():
+    """``DiagnoseOptions`` holds how the diagnosis searches and refuses a bad value where it is made;
+    ``diagnose`` takes it or its fields as keywords, not both."""
+    from lcgym.diagnose import DiagnoseOptions
+
+    options = DiagnoseOptions(min_explained=0.2, add=["coulomb_friction@roll"])
+    assert options.add == ("coulomb_friction@roll",) and options.kinematics == "reference"
+    with pytest.raises(ValueError, match="min_explained must be in"):
+        DiagnoseOptions(min_explained=1.5)
+    with pytest.raises(ValueError, match="kinematics must be"):
+        DiagnoseOptions(kinematics="guessed")
+    with pytest.raises(TypeError, match="not both"):
+        diagnose([], "ix", options, min_rms=0.1)

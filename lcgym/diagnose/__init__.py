@@ -3,6 +3,7 @@ learn which physical effect is missing, add it, and watch the error fall (`lcgym
 
     from lcgym.diagnose import diagnose
     report = diagnose(trials, system="ix", add=["coulomb_friction@roll"])   # or a System: a URDF, your own
+    report = diagnose(trials, "ix", DiagnoseOptions(min_explained=0.2))      # the options as one object
     print(report.text())
 
 Steps in ``workflow.py``; the candidate search in ``search.py``; candidates and the registry of
@@ -11,6 +12,7 @@ user effects in ``candidates.py``; regions in ``regions.py``; the report in ``re
 
 from .candidates import CANDIDATES, Candidate, register_effect
 from .report import NOTHING_FOUND, Diagnosis
-from .workflow import diagnose, replay_tracking
+from .workflow import DiagnoseOptions, diagnose, replay_tracking
 
-__all__ = ["CANDIDATES", "NOTHING_FOUND", "Candidate", "Diagnosis", "diagnose", "register_effect", "replay_tracking"]
+__all__ = ["CANDIDATES", "NOTHING_FOUND", "Candidate", "DiagnoseOptions", "Diagnosis", "diagnose", "register_effect",
+           "replay_tracking"]

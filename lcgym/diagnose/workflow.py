@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from contextlib import nullcontext
+from dataclasses import dataclass
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -93,39 +94,63 @@ def bridged_gap(filter_hz: float = PhysicalModel.filter_hz) -> float:
     return GAP_PERIODS / (2.0 * filter_hz)
 
 
-def diagnose(trials: Sequence, system: str | systems.System = "ix", add: Sequence[str | Effect] = (),
-             replay: bool = False, candidates: Sequence[Candidate] | None = None, model: PhysicalModel | None = None,
-             min_explained: float = 0.1, min_rms: float | None = None, block_seconds: float | None = None,
-             max_steps: int | None = None, kinematics: str = "reference", progress: bool = False,
-             spec: str | None = None, validate: Sequence | None = None) -> Diagnosis:
-    """Run the workflow of this module on measured ``trials`` of ``system`` (a ``systems.System`` or
-    what ``systems.get`` accepts).
+@dataclass(frozen=True)
+class DiagnoseOptions:
+    """How ``diagnose`` searches, checked where it is made.
 
-    model: the physical model to diagnose (unfitted; default the machine's nominal one).
-    candidates: effects to try (default ``candidates.candidates_for(system)``).
-    min_explained, min_rms [input unit]: the significance rule (``search.py``); min_rms
+    min_explained, min_rms [input unit]: the significance rule (``search.py``); ``min_rms``
     defaults to the machine's ``noise_rms``, else to ``NOISE_SHARE`` of each axis's low-passed
     input RMS (an effect that changes the input by less is no matter for a feedforward).
-    add: effects (``name@axis`` or Effect objects) to add after the search. replay: re-run the
-    plant recorded in the trials' metadata. kinematics: "reference" (the reference
-    corrected by the measured error; a trial without a reference uses its measured position) or
-    "measured" (the measured position, low-passed and differentiated). Candidates are tried on the
-    axes that move (reference range above the axis's ``min_travel``: a joint that stands still shows
-    neither friction nor inertia); max_steps: most effects selected (default two per moving axis).
-    block_seconds: the held-out blocks' length [s] (default from the data, ``layout.py``).
-    spec: the machine as the user named it (a URDF path, ``module:attr``) for the report's hints
-    (default ``system`` when it is a name). validate: trials of another experiment of the same
-    machine, not fitted: the residuals there of the model fitted here, before and after its effects
-    (those of ``add``, else the selected ones), computed the same way (``Diagnosis.validation``).
-    Trials whose time stamps are not uniform are put on uniform grids first (``data.regularize``).
+    kinematics: "reference" (the reference corrected by the measured error; a trial without a
+    reference uses its measured position) or "measured" (the measured position, low-passed and
+    differentiated). max_steps: most effects selected (default two per moving axis).
+    block_seconds: the held-out blocks' length [s] (default from the data, ``layout.py``). add:
+    effects (``name@axis`` or ``Effect`` objects) to add after the search. replay: re-run the
+    plant recorded in the trials' metadata.
     """
+
+    min_explained: float = 0.1
+    min_rms: float | None = None
+    kinematics: str = "reference"
+    max_steps: int | None = None
+    block_seconds: float | None = None
+    add: tuple = ()
+    replay: bool = False
+
+    def __post_init__(self):
+        object.__setattr__(self, "add", tuple(self.add))
+        if not 0.0 < self.min_explained < 1.0:
+            raise ValueError(f"min_explained must be in (0, 1), got {self.min_explained}")
+        if self.kinematics not in KINEMATICS:
+            raise ValueError(f"kinematics must be 'reference' or 'measured', got {self.kinematics!r}")
+
+
+def diagnose(trials: Sequence, system: str | systems.System = "ix", options: DiagnoseOptions | None = None, *,
+             candidates: Sequence[Candidate] | None = None, model: PhysicalModel | None = None,
+             validate: Sequence | None = None, spec: str | None = None, progress: bool = False,
+             **settings) -> Diagnosis:
+    """Run the workflow of this module on measured ``trials`` of ``system`` (a ``systems.System`` or
+    what ``systems.get`` accepts), searching as ``options`` say (``DiagnoseOptions``; or give its
+    fields as keywords, ``min_explained=0.2``).
+
+    model: the physical model to diagnose (unfitted; default the machine's nominal one).
+    candidates: effects to try (default ``candidates.candidates_for(system)``), on the axes that
+    move (reference range above the axis's ``min_travel``: a joint that stands still shows neither
+    friction nor inertia). spec: the machine as the user named it (a URDF path, ``module:attr``)
+    for the report's hints (default ``system`` when it is a name). validate: trials of another
+    experiment of the same machine, not fitted: the residuals there of the model fitted here,
+    before and after its effects (those of ``add``, else the selected ones), computed the same way
+    (``Diagnosis.validation``). Trials whose time stamps are not uniform are put on uniform grids
+    first (``data.regularize``).
+    """
+    if options is not None and settings:
+        raise TypeError(f"diagnose: give options or its fields as keywords, not both ({', '.join(settings)})")
+    options = options or DiagnoseOptions(**settings)
+    add, replay, min_explained, min_rms = options.add, options.replay, options.min_explained, options.min_rms
+    block_seconds, max_steps, kinematics = options.block_seconds, options.max_steps, options.kinematics
     spec = spec or (system if isinstance(system, str) else None)
     system = systems.get(system)
     trials = _check_trials(trials, system)
-    if not 0.0 < min_explained < 1.0:
-        raise ValueError(f"min_explained must be in (0, 1), got {min_explained}")
-    if kinematics not in KINEMATICS:
-        raise ValueError(f"kinematics must be 'reference' or 'measured', got {kinematics!r}")
     axes, units = system.axis_names, system.input_units
     fs = trials[0].fs
     if model is None:
