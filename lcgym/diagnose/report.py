@@ -24,7 +24,7 @@ PLOT_FILES = {
 """The figures ``Diagnosis.plot`` writes (``lcgym diagnose --plots``), by file name: what each shows."""
 
 
-@dataclass
+@dataclass(frozen=True)
 class Diagnosis:
     """What ``diagnose`` found. ``residual`` {axis: {MA, RMS, Inf, unit}}; ``regions`` worst
     first; ``candidates`` passing candidates, best first (greedy selection order, then the rest

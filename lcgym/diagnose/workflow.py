@@ -236,13 +236,39 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", options: Dia
 
         steps = [_step_row(k, st, axes, ranking.n_rows) for k, st in enumerate(ranking.steps, 1)]
         info = prep.model.fit_info_
+        found = {f"{s.candidate.name}@{axes[s.axis]}": s.candidate.build(axes[s.axis], **s.params)
+                 for s in ranking.alone}
+        picked = {f"{s.candidate.name}@{axes[s.axis]}" for s, _, _ in ranking.selected}
+        found.update({e.key: e for e in ranking.model.effects if e.key in picked})  # as selected and refined
+        after = after_record = None
+        if added:
+            effects = [found.get(e.key, e) if isinstance(a, str) else e for a, e in zip(add, added, strict=True)]
+            after_model = prep.model
+            for e in effects:
+                after_model = after_model.with_effect(e)
+            after = prepare(trials, after_model, lay, (kin, lengths))
+            after_record = {"added": [e.key for e in effects], "residual": norms(after.residual, axes, units, after.used),
+                            "effects": [_effect_params(e) for e in after.model.fitted_effects],
+                            "parameters": dict(zip(system.param_names,
+                                                   map(float, after.model.fitted_params.to_vector()), strict=True))}
+        families = {c.name: c.family for c in cands}
+        families.update({c["effect"]: c["family"] for c in rows if c.get("named_as")})
+        shown = after.model if after is not None else ranking.model  # the model with the effects found or added
+        ranges = fitted_ranges(shown, prep, families)
+        validated = None if validate is None else validation(validate, prep.model, shown, ranges, axes, units)
+        replayed = None
+        if replay:
+            replayed = replay_tracking(trials, prep.model, shown, system, plant)
+            replayed["after_with"] = [e.key for e in shown.effects if e.key not in {f.key for f in prep.model.effects}]
+        extra_series = {**({} if after is None else {"residual_after": after.residual}),
+                        "effects": effect_curves(shown, prep, families)}
         report = Diagnosis(system=system.name, axes=axes, unit=system.input_unit, n_samples=sum(prep.lengths), fs=fs,
                            model_effects=[*prep.model.parts(), *(e.key for e in prep.model.effects)],
                            residual=norms(residual, axes, units, prep.used), regions=regions, candidates=rows,
                            min_explained=min_explained, min_rms=dict(zip(axes, map(float, floor), strict=True)),
                            model=prep.model, suggested_model=ranking.model,
                            series={"t": prep.rows / fs, "residual": residual, "q": q, "qd": qd, "used": prep.used,
-                                   "ref_velocity": _velocity(trials, fs)[prep.rows]},
+                                   "ref_velocity": _velocity(trials, fs)[prep.rows], **extra_series},
                            kinematics=_kinematics_note(trials, prep.model), identified=(info["rank"], info["n_free"]),
                            displays={a.name: a.display for a in system.axes},
                            resampled=_resampled_note(trials), spec=spec, steps=steps, stop=ranking.stop,
@@ -255,35 +281,9 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", options: Dia
                                                      for g in groups],
                                     "repeated": repeats, "strict": strict},
                            blocks=_blocks_note(lay),
-                           machine_file=_machine_file(system))
-        report.found = {f"{s.candidate.name}@{axes[s.axis]}": s.candidate.build(axes[s.axis], **s.params)
-                        for s in ranking.alone}
-        picked = {f"{s.candidate.name}@{axes[s.axis]}" for s, _, _ in ranking.selected}
-        report.found.update({e.key: e for e in ranking.model.effects if e.key in picked})  # as selected and refined
-        if added:
-            effects = [report.found.get(e.key, e) if isinstance(a, str) else e for a, e in zip(add, added, strict=True)]
-            after_model = prep.model
-            for e in effects:
-                after_model = after_model.with_effect(e)
-            after = prepare(trials, after_model, lay, (kin, lengths))
-            report.after = {"added": [e.key for e in effects], "residual": norms(after.residual, axes, units, after.used),
-                            "effects": [_effect_params(e) for e in after.model.fitted_effects],
-                            "parameters": dict(zip(system.param_names,
-                                                   map(float, after.model.fitted_params.to_vector()), strict=True))}
-            report.after_model = after.model
-            report.series["residual_after"] = after.residual
-        families = {c.name: c.family for c in cands}
-        families.update({c["effect"]: c["family"] for c in rows if c.get("named_as")})
-        shown = report.after_model if report.after_model is not None else ranking.model
-        report.series["effects"] = effect_curves(shown, prep, families)
-        report.ranges = fitted_ranges(shown, prep, families)
-        if validate is not None:
-            report.validation = validation(validate, report, axes, units)
-        if replay:
-            after_model = report.after_model if report.after_model is not None else report.suggested_model
-            report.replay = replay_tracking(trials, report.model, after_model, system, plant)
-            report.replay["after_with"] = [e.key for e in after_model.effects
-                                           if e.key not in {f.key for f in report.model.effects}]
+                           machine_file=_machine_file(system), found=found, after=after_record,
+                           after_model=None if after is None else after.model, ranges=ranges, validation=validated,
+                           replay=replayed)
     return report
 
 
@@ -500,20 +500,18 @@ def _candidate_row(ranking, s, axes, units, selected: bool, step: float | None) 
             "explained_at_selection": step, "parameters": {k: float(v) for k, v in s.params.items()}}
 
 
-def validation(trials: Sequence, report: Diagnosis, axes, units) -> dict:
-    """Residual norms on ``trials`` (not fitted) of the report's fitted model before and after its
-    effects (``after_model`` with ``add``, else the model refitted with the selected effects), and
-    where those trials leave the effects' fitted ranges (``outside_ranges``)."""
-    after_model = report.after_model if report.after_model is not None else report.suggested_model
-    added = [e.key for e in after_model.effects if e.key not in {f.key for f in report.model.effects}]
-    model = report.model
+def validation(trials: Sequence, model: PhysicalModel, after_model: PhysicalModel, ranges: dict, axes, units) -> dict:
+    """Residual norms on ``trials`` (not fitted) of the fitted nominal ``model`` and of ``after_model``
+    (the model with the effects added, else refitted with the selected ones), and where those
+    trials leave the effects' fitted ranges (``ranges``, ``outside_ranges``)."""
+    added = [e.key for e in after_model.effects if e.key not in {f.key for f in model.effects}]
     kin, lengths = model.kinematics(trials)
     spread = 1.0 / model.kinematics_filter_hz if any(model.uses_position(tr) for tr in trials) else 0.0
     mask = used_samples(trials, kin, lengths, model.fs, model.filter_hz, _velocity_filter_hz(model, trials),
                         spread=spread)[0]  # standstill and trial edges left out, as in the data fitted
     rows = model.reduced_rows(lengths)
     used = mask[rows]
-    ranges = {k: r for k, r in report.ranges.items() if k in added}
+    ranges = {k: r for k, r in ranges.items() if k in added}
     return {"trials": len(trials), "n_samples": int(sum(tr.n_samples for tr in trials)), "added": added,
             "residual": norms(model.residual(trials, mask), axes, units, used),
             "residual_after": norms(after_model.residual(trials, mask), axes, units, used),
