@@ -2,7 +2,7 @@
 2-core machines), and where the time goes.
 
 Two logs, simulated with ``URDFPlant`` and shaped like the real ones the diagnosis was tried on
-(``lcgym.systems.logs``), Coulomb friction hidden on every joint:
+(``lcgym.logs``), Coulomb friction hidden on every joint:
 
 - ``cobot``: lcgym's six-joint arm logged at 100 Hz with jittered stamps (each up to 4 ms off its
   grid) and no reference, 17,000 samples (about 170 s in 8 runs);
@@ -36,12 +36,11 @@ from pathlib import Path
 
 import numpy as np
 
-from lcgym import systems
+from lcgym import logs, systems
 from lcgym.cli import main as cli
 from lcgym.data import read_trials, write_trials
 from lcgym.diagnose.workflow import bridged_gap
 from lcgym.physics import effects as fx
-from lcgym.systems import logs
 from lcgym.systems.examples import COBOT6_FRICTION
 from lcgym.systems.urdf_plant import URDFPlant, random_references
 

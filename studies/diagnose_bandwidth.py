@@ -18,12 +18,11 @@ import math
 
 import numpy as np
 
-from lcgym import systems
+from lcgym import logs, systems
 from lcgym.diagnose import diagnose
 from lcgym.diagnose.spectra import bandwidths
 from lcgym.physics import effects as fx
 from lcgym.physics.kinematics import lowpass_zero_phase
-from lcgym.systems import logs
 from lcgym.systems.examples import COBOT6_FRICTION
 from lcgym.systems.ix import IX
 from lcgym.systems.ix.plant import IXPlant

@@ -12,7 +12,7 @@ selected effects; writes the table as Markdown to ``--out`` (the table of docs/d
 
 Part "logs" (``LOG_CASES``). URDF arms simulated with pinocchio (``URDFPlant``: the Franka Panda
 of ``tests/data/panda``, lcgym's ``cobot6`` and ``two_link``) under PD feedback, their runs
-made to look like real controllers' logs (``lcgym.systems.logs``): logging dropouts, three runs of
+made to look like real controllers' logs (``lcgym.logs``): logging dropouts, three runs of
 5-6 s, standstill held at both ends, 100 Hz logs with jittered stamps and no reference, an
 unsettled start with moves cut off; hidden effects outside the library's formulas (a friction
 growing with the square root of speed, a one-sided spring growing quadratically), a Coulomb level
@@ -45,12 +45,11 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from lcgym import systems
+from lcgym import logs, systems
 from lcgym.data import Trial, atomic_write
 from lcgym.diagnose import diagnose
 from lcgym.diagnose.workflow import moving_axes
 from lcgym.physics import effects as fx
-from lcgym.systems import logs
 from lcgym.systems.examples import COBOT6_FRICTION
 from lcgym.systems.ix import IX
 from lcgym.systems.ix.plant import IXPlant

@@ -235,7 +235,7 @@ def test_runs_of_different_motions_are_the_folds_and_repeats_share_one():
 
 
 def test_a_loggers_lowpass_is_causal_and_starts_at_rest():
-    from lcgym.systems import logs
+    from lcgym import logs
 
     t = np.arange(0, 4, 0.001)
     step = (t >= 1.0).astype(float)[:, None] + 2.0

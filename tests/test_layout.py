@@ -33,7 +33,7 @@ LAYERS = [
     {"baselines", "pgnn", "rbf_expert"},
     {"systems", "systems.*"},  # systems.*: a machine's folder (systems/ix/, systems/two_link/, ...)
     {"envs"},
-    {"physics", "references", "datasets"},
+    {"physics", "references", "datasets", "logs"},
     {"data", "figures", "metrics", "provenance"},
 ]
 SAME_LAYER = {  # imports allowed within one layer (unit -> units)

@@ -23,7 +23,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..data import Trial
+from .data import Trial
 
 
 def _rows(trial: Trial, keep: np.ndarray, t: np.ndarray | None = None) -> Trial:
