@@ -87,7 +87,7 @@ def test_machine_file_makes_a_benchmark_machine(machine_file):
     assert m.name == "yaw_pitch" and m.axis_names == ("yaw", "pitch") and m.fs == 1000.0
     assert m.env_id == "lcgym/Machine-v0" and m.bench is not None
     assert systems.resolve(str(machine_file)).name == str(machine_file)
-    assert systems.resolve(str(machine_file)).family == str(machine_file)
+    assert systems.resolve(str(machine_file)).machine == str(machine_file)
     bench = systems.resolve(str(machine_file)).bench()
     assert [e.key for e in bench.plant.bound_effects] == ["coulomb_friction@yaw", "cable_spring@pitch"]
     assert np.allclose(bench.plant.encoder_resolution, 1e-4)

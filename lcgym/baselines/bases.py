@@ -23,7 +23,7 @@ from .protocol import BASES
 
 
 def runs_on(method_systems: tuple[str, ...] | None, base: str | None) -> tuple[str, ...] | None:
-    """The machines (families) a method that runs on ``method_systems`` (None: all) runs on when
+    """The machines ("flexarm") a method that runs on ``method_systems`` (None: all) runs on when
     built on ``base``: "basic" exists on the FlexArm only."""
     if base != "basic":
         return method_systems

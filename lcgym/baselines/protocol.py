@@ -84,7 +84,7 @@ class Controller(ABC):
     name: ClassVar[str] = "controller"
     """The method's id in ``CONTROLLERS`` (a user's class: its ``module:Class`` names it in the results)."""
     systems: ClassVar[tuple[str, ...] | None] = None
-    """The machines (families: "flexarm") it runs on; None: every machine."""
+    """The machines ("flexarm", not a version) it runs on; None: every machine."""
     base: ClassVar[str] = ""
     """A fixed base it builds on (``bases``; "" none) for a class without a ``base`` keyword."""
     uses_plant: ClassVar[bool] = False

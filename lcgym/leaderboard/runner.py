@@ -82,13 +82,13 @@ class BenchConfig:
     def __post_init__(self):
         # versioned names: "ix" is the newest version ("ix-v1"); an unknown name fails with the list
         object.__setattr__(self, "systems", tuple(dict.fromkeys(systems.resolve(s).name for s in self.systems)))
-        families = {systems.resolve(s).family for s in self.systems}
+        machines = {systems.resolve(s).machine for s in self.systems}
         every = tuple(self.methods) == tuple(CONTROLLERS)  # the default: each method where it runs (cells)
         # "ilc@physical" is "ilc" (the default base): one name per cell, so that --resume finds it
         object.__setattr__(self, "methods", tuple(dict.fromkeys(display_name(*split_spec(m)) for m in self.methods)))
         for m in self.methods:
             where = _runs_on(m)  # fails early with a clear message
-            if where is not None and not set(where) & families and not every:
+            if where is not None and not set(where) & machines and not every:
                 raise ValueError(f"method {m!r} runs on {', '.join(where)} only, not on {', '.join(self.systems)}")
         if any(s < 0 for s in self.seeds):
             raise ValueError(f"seeds must be >= 0, got {list(self.seeds)}")
@@ -121,11 +121,11 @@ class BenchConfig:
         """(system, method, seed) of every cell; a method with ``systems`` only on those."""
         runs_on = {m: _runs_on(m) for m in self.methods}
         return [(s, m, k) for s in self.systems for m in self.methods for k in self.seeds
-                if runs_on[m] is None or systems.resolve(s).family in runs_on[m]]
+                if runs_on[m] is None or systems.resolve(s).machine in runs_on[m]]
 
 
 def _runs_on(method: str) -> tuple[str, ...] | None:
-    """The machines (families) a method id, with its base, runs on (None: all)."""
+    """The machines ("flexarm") a method id, with its base, runs on (None: all)."""
     return runs_on(load_method(method, CONTROLLERS).systems, split_spec(method)[1])
 
 

@@ -97,19 +97,19 @@ def is_file_machine(spec) -> bool:
 @dataclass(frozen=True)
 class BenchMachine:
     """A benchmark machine as ``resolve`` found it: ``name`` as the results store it ("ix-v1"; a
-    machine file, URDF or ``module:attr`` as given), ``family`` the machine it belongs to ("ix"; a
+    machine file, URDF or ``module:attr`` as given), ``machine`` the machine it belongs to ("ix"; a
     file as given: what a method's ``systems`` names) and the plant ``version``. A built-in machine
     is imported when its ``system`` is first asked for (a benchmark's list of machines is checked
     without loading them); any other is loaded by ``resolve``."""
 
     name: str
-    family: str
+    machine: str
     version: str
     loaded: System | None = None
 
     @property
     def system(self) -> System:
-        return self.loaded if self.loaded is not None else get(self.family)
+        return self.loaded if self.loaded is not None else get(self.machine)
 
     def bench(self) -> Bench:
         """A fresh bench of this machine and version (``System.make_bench``). Not shared: a plant
@@ -135,9 +135,9 @@ def resolve(spec: str | System) -> BenchMachine:
 
 @lru_cache(maxsize=64)
 def _resolve(spec: str, file: tuple[str, str] | None) -> BenchMachine:
-    family, sep, version = spec.rpartition("-")
-    if sep and family in VERSIONS and version in VERSIONS[family]:
-        return BenchMachine(spec, family, version)
+    machine, sep, version = spec.rpartition("-")
+    if sep and machine in VERSIONS and version in VERSIONS[machine]:
+        return BenchMachine(spec, machine, version)
     if spec in VERSIONS:
         return BenchMachine(f"{spec}-{VERSIONS[spec][-1]}", spec, VERSIONS[spec][-1])
     if is_file_machine(spec) or spec in URDF_EXAMPLES:
@@ -183,9 +183,9 @@ def get(spec: str | System, joints: Sequence[str] | None = None, **options) -> S
     if isinstance(spec, System):
         return spec
     spec = str(spec)
-    family, _, version = spec.rpartition("-")
-    if spec not in BUILT_IN and version in VERSIONS.get(family, ()):  # "ix-v0": the machine of that plant
-        spec = family
+    machine, _, version = spec.rpartition("-")
+    if spec not in BUILT_IN and version in VERSIONS.get(machine, ()):  # "ix-v0": the machine of that plant
+        spec = machine
     if spec in BUILT_IN:
         machine = getattr(importlib.import_module(BUILT_IN[spec].module), BUILT_IN[spec].attr)
         if (joints is not None and tuple(joints) != machine.axis_names) or options:

@@ -23,7 +23,7 @@ The mass matrix comes from the composite-rigid-body algorithm (tested against RN
 no gravity, qdd = e_j), forward dynamics from qdd = M^-1 (tau - C qd - G) by a written-out Cholesky
 solve. The functions here are ``register_jitable``: plain numpy on one
 sample from Python, compiled inside numba kernels; ``*_batch`` versions loop over samples.
-Verified in tests/test_physics_arm.py against an independent Euler-Lagrange derivation (torch
+Verified in tests/test_physics_flexarm.py against an independent Euler-Lagrange derivation (torch
 autograd of the kinetic and potential energy from the DH chain), M symmetric positive definite,
 and energy conservation of the unforced arm.
 """

@@ -18,7 +18,7 @@ pulled toward the motor-side acceleration (qdd_m / N) only where the acceleromet
 On the TCP lines the moving joints 2, 3, 5 turn in one plane: the sensor point's acceleration has
 two independent components there for three joints, so one combination (a turn about the sensor
 point, mostly joint 5) comes from the motors; a gyroscope would resolve it. Measured on a
-validation line (tests/test_arm_sensors.py): RMS error 3.5 %, 4 % and 25 % of the RMS load
+validation line (tests/test_flexarm_sensors.py): RMS error 3.5 %, 4 % and 25 % of the RMS load
 acceleration for joints 2, 3, 5 (motor side alone: 6 %, 5 %, 26 %).
 
 Before that, the accelerometer's constant bias is removed: the mean reading over the first
