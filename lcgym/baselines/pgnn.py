@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -44,7 +44,7 @@ from .. import systems
 from ..references import references_of
 from .bases import ReferenceMemo
 from .physical import PhysicalFeedforward
-from .protocol import Controller, Cost, given_system
+from .protocol import Controller, Cost, given_system, machine_settings
 from .safeguard import Safeguard, mixed
 
 if TYPE_CHECKING:  # lcgym.pgnn (torch) is imported where a PGNN is trained: the bench's main process needs none
@@ -73,12 +73,7 @@ class PGNNProtocol:
     @classmethod
     def of(cls, system: systems.System) -> PGNNProtocol:
         """The machine's settings; a key this method does not take is an error that names it."""
-        table = dict(system.hints.get("benchmark", {}).get("pgnn", {}))
-        unknown = sorted(set(table) - {f.name for f in fields(cls)})
-        if unknown:
-            raise ValueError(f"machine {system.name}: [benchmark.pgnn] has no setting {', '.join(unknown)} "
-                             f"(it takes {', '.join(f.name for f in fields(cls))})")
-        return cls(**table)
+        return machine_settings(cls, system, "pgnn")
 
 
 MAX_ITERATIONS = 100

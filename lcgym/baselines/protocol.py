@@ -19,6 +19,7 @@ sets (fit, apply, run, tables), the same way for the benchmark and ``simulate``.
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import inspect
 import os
@@ -271,6 +272,19 @@ def method_base(spec: str, registry: dict[str, type]) -> str:
     if not takes_keyword(cls, "base"):  # a fixed base, declared as a class attribute (the paper variants, the PGNN)
         return cls.base if isinstance(cls.base, str) else ""
     return base or inspect.signature(cls).parameters["base"].default
+
+
+def machine_settings(cls: type, system: systems.System, method: str):
+    """A method's settings on ``system``: its ``[benchmark.<method>]`` table
+    (``System.hints["benchmark"][method]``) read into the method's dataclass ``cls``; a key ``cls``
+    does not take is an error that names it."""
+    table = dict(system.hints.get("benchmark", {}).get(method, {}))
+    known = [f.name for f in dataclasses.fields(cls)]
+    unknown = sorted(set(table) - set(known))
+    if unknown:
+        raise ValueError(f"machine {system.name}: [benchmark.{method}] has no setting {', '.join(unknown)} "
+                         f"(it takes {', '.join(known)})")
+    return cls(**table)
 
 
 def build_method(spec: str, system: systems.System, registry: dict[str, type], budget: float = 1.0) -> Controller:

@@ -58,7 +58,7 @@ from tqdm.auto import tqdm
 from .. import systems
 from ..provenance import source_hash
 from .bases import base_controller
-from .protocol import DEFAULT_BASE, Controller, Cost, given_system
+from .protocol import DEFAULT_BASE, Controller, Cost, given_system, machine_settings
 from .safeguard import dropped_note, keep_axes, scored_axes
 
 ALGORITHMS = ("ppo", "sac", "td3")
@@ -80,12 +80,7 @@ class RLMachineSettings:
     @classmethod
     def of(cls, system: systems.System) -> RLMachineSettings:
         """The machine's settings; a key this method does not take is an error that names it."""
-        table = dict(system.hints.get("benchmark", {}).get("rl", {}))
-        unknown = sorted(set(table) - {f.name for f in fields(cls)})
-        if unknown:
-            raise ValueError(f"machine {system.name}: [benchmark.rl] has no setting {', '.join(unknown)} "
-                             f"(it takes {', '.join(f.name for f in fields(cls))})")
-        return cls(**table)
+        return machine_settings(cls, system, "rl")
 
 
 # One documented place for the hyperparameters (stable-baselines3 keyword arguments).
