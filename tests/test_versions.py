@@ -105,3 +105,32 @@ def test_every_machine_resets_with_its_reference_and_renders_its_episode(env_id,
     np.testing.assert_array_equal(obs, same)
     env.close()
     twin.close()
+
+
+def test_every_benchmark_machine_makes_a_bench_of_the_contract():
+    """``System.make_bench`` gives a ``Bench`` (the abstract base class: a bench lacking one of its
+    methods cannot be made) of the version asked for, and refuses a version the machine lacks."""
+    from lcgym.systems.bench import Bench
+
+    for name in systems.newest_benchmarks():
+        machine = systems.resolve(name)
+        bench = machine.bench()
+        assert isinstance(bench, Bench) and bench.name == name and bench.version == machine.version
+        assert bench.system is machine.system and tuple(bench.axes) == tuple(bench.plant.axes)
+        with pytest.raises(ValueError, match="plant versions"):
+            machine.system.make_bench("v9")
+
+    class NoTables(Bench):
+        versions = ("v0",)
+
+        def references(self, set_name, seed, n, duration):
+            return []
+
+        def run(self, references, feedforward=None, offsets=None):
+            return []
+
+        def trace(self, trial):
+            return None
+
+    with pytest.raises(TypeError, match="tables"):
+        NoTables()
