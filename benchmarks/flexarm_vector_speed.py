@@ -5,7 +5,7 @@ the same run:
   at N = 1, 16, 256, against the single ``FlexArmEnv`` (random actions in both);
 * PPO (stable-baselines3, default settings) learning on the vector env through
   ``envs.sb3.make_sb3_vec_env`` against the same PPO on ``DummyVecEnv`` copies of the single env
-  (each wrapped in ``Monitor``, what ``baselines/rl.py`` does for an env without a vector entry
+  (each wrapped in ``Monitor``, what ``methods/rl.py`` does for an env without a vector entry
   point): env steps per second of ``learn`` (collection and updates together), same N; and the same
   PPO on a batched env with the FlexArm's spaces and no physics (``free_vec_env``: a step costs
   nothing), PPO's own ceiling on this machine whatever the env does.

@@ -1,4 +1,4 @@
-"""What makes a PGNN training step cheaper (``lcgym.pgnn``), each as a ratio to the plain
+"""What makes a PGNN training step cheaper (``lcgym.methods.pgnn``), each as a ratio to the plain
 implementation measured in the same run, one torch thread (as the benchmark's cells):
 
 * the IX's two networks (paper 000's: 16 inputs, two tanh layers of 30) forward and backward on a
@@ -28,9 +28,9 @@ import numpy as np
 import torch
 
 from lcgym import systems
-from lcgym.pgnn.fused import fused_networks, tanh_array
-from lcgym.pgnn.network import PGNNModule, mlp, physical_constraints, physics_penalty
-from lcgym.pgnn.objective import (
+from lcgym.methods.pgnn.fused import fused_networks, tanh_array
+from lcgym.methods.pgnn.network import PGNNModule, mlp, physical_constraints, physics_penalty
+from lcgym.methods.pgnn.objective import (
     Adam,
     Batch,
     FlatParameters,
@@ -40,7 +40,7 @@ from lcgym.pgnn.objective import (
     nonzero_columns,
     projection_basis,
 )
-from lcgym.pgnn.training import PGNNConfig, TrainingData, network_inputs, train
+from lcgym.methods.pgnn.training import PGNNConfig, TrainingData, network_inputs, train
 from lcgym.systems.flexarm import motor
 from lcgym.systems.ix import IX
 

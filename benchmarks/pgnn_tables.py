@@ -50,9 +50,9 @@ import time
 
 import numpy as np
 
+from lcgym.methods.pgnn import PGNN, PGNNConfig
+from lcgym.methods.pgnn.objective import projected_norm2
 from lcgym.metrics import norms
-from lcgym.pgnn import PGNN, PGNNConfig
-from lcgym.pgnn.objective import projected_norm2
 from lcgym.physics.kinematics import lowpass_zero_phase, reference_kinematics
 from lcgym.physics.model import PhysicalModel
 from lcgym.systems.ix import IX
@@ -129,7 +129,7 @@ def main() -> None:
                         help="controller on while the training data are recorded: the physical-model feedforward "
                              "(fitted on a feedback-only run of the same references) or feedback only")
     parser.add_argument("--max-epochs", type=int, default=300)
-    parser.add_argument("--mu1", type=float, default=PGNNConfig.mu1, help="weight of R1 / N (see lcgym.pgnn.training)")
+    parser.add_argument("--mu1", type=float, default=PGNNConfig.mu1, help="weight of R1 / N (see lcgym.methods.pgnn.training)")
     parser.add_argument("--filter-hz", type=float, default=5.0, help="low-pass of u [Hz] (the leaderboard's 5; the paper's 1)")
     parser.add_argument("--version", default="v1", help="the IX's version (IXPlant.of_version)")
     parser.add_argument("--budget", type=float, default=60.0,

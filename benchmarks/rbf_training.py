@@ -22,8 +22,8 @@ import time
 
 import numpy as np
 
-from lcgym.rbf_expert.influence import task_influence
-from lcgym.rbf_expert.predictor import RBFExpertConfig, RBFExpertPredictor
+from lcgym.methods.rbf_expert.influence import task_influence
+from lcgym.methods.rbf_expert.predictor import RBFExpertConfig, RBFExpertPredictor
 from lcgym.systems.flexarm import FLEXARM
 from lcgym.systems.flexarm.nominal import BasicFeedforward
 from lcgym.systems.flexarm.plant import FlexArmPlant

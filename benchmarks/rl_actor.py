@@ -1,6 +1,6 @@
 """Speed of the ``rl`` method's rollout actor against stable-baselines3's ``predict``, in one run.
 
-``lcgym.baselines.rl.deterministic_actor`` copies a policy's layers to numpy for the rollouts on
+``lcgym.methods.rl.deterministic_actor`` copies a policy's layers to numpy for the rollouts on
 the plant. Prints the time per call of the numpy actor and of ``model.predict(obs,
 deterministic=True)`` for an untrained PPO MlpPolicy (64 x 64) on 2,000 observations of the IX
 env, the ratio, and the largest difference between their actions. Best of five rounds each.
@@ -16,7 +16,7 @@ import numpy as np
 import torch
 from stable_baselines3 import PPO
 
-from lcgym.baselines.rl import deterministic_actor
+from lcgym.methods.rl import deterministic_actor
 from lcgym.systems.ix.env import IXEnv
 
 

@@ -3,7 +3,7 @@
 Subpackages: ``systems`` (the machines: one ``System`` object each, the built-in IX and FlexArm with
 their plants and Gymnasium envs, registered here: ``gym.make("lcgym/IX-v1")``, and a user's
 machine from a URDF or Python), ``physics`` (the effect library, the least-squares model, filters),
-``envs`` (Gymnasium glue), ``baselines``, ``pgnn``, ``rbf_expert`` (the methods), ``leaderboard``
+``envs`` (Gymnasium glue), ``methods`` (one module or folder per method), ``leaderboard``
 (runner, store, report), ``diagnose`` (which effect a model misses), ``data`` (trials and files).
 """
 

@@ -1,7 +1,7 @@
 """Where results come from: lcgym's version, a hash of its own source and the git commit of the
 checkout.
 
-They go into the results (``leaderboard.store``) and into the keys of caches (``baselines.rl``), so
+They go into the results (``leaderboard.store``) and into the keys of caches (``methods.rl``), so
 that numbers computed by other code are never mixed with these.
 """
 

@@ -24,9 +24,9 @@ import pandas as pd
 from tqdm.auto import tqdm
 
 from . import systems
-from .baselines import CONTROLLERS
-from .baselines.protocol import build_method, evaluate
 from .data import Trial
+from .methods import CONTROLLERS
+from .methods.protocol import build_method, evaluate
 from .systems.bench import Bench
 
 # fitted on the training trials (the PGNN also records its training data once on the plant:

@@ -39,7 +39,7 @@ import dataclasses
 import numpy as np
 from tqdm import tqdm
 
-from lcgym.baselines import PhysicalFeedforward
+from lcgym.methods import PhysicalFeedforward
 from lcgym.systems import SimulationDiverged
 from lcgym.systems.ix import IX
 from lcgym.systems.ix.plant import V1_GAINS, V1_SIZES, FeedbackGains, HiddenEffectSizes, IXPlant

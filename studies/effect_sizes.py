@@ -15,7 +15,7 @@ import argparse
 import numpy as np
 from tqdm import tqdm
 
-from lcgym.baselines import PhysicalFeedforward
+from lcgym.methods import PhysicalFeedforward
 from lcgym.systems.ix.plant import IXPlant, default_hidden_effects
 from lcgym.systems.ix.references import reference_set
 

@@ -6,7 +6,7 @@ the static ones, for Basic and for Basic plus one learning iteration, on validat
 e_pl is shown from the simulation's true load acceleration (the accelerometer estimate is what the
 learning uses). The paper's footnote 6 reports that one iteration can overcorrect where the
 reference rests; here the static periods improve too since Q holds tau_nl's edges and e_pl starts
-from the held first sample (``baselines/ilc.py``, ``systems/flexarm/nominal.py``).
+from the held first sample (``methods/ilc/method.py``, ``systems/flexarm/nominal.py``).
 
 Run:  .venv/bin/python studies/ilc_arm.py [--seeds 0,1,2] [--lines 4] [--version v1|v0]
 """
@@ -18,7 +18,7 @@ import argparse
 import numpy as np
 from tqdm import tqdm
 
-from lcgym.baselines.ilc import PaperLCS
+from lcgym.methods.ilc.method import PaperLCS
 from lcgym.metrics import PERIODS
 from lcgym.systems.flexarm.errors import paper_errors, period_mask
 from lcgym.systems.flexarm.nominal import BasicFeedforward

@@ -2,7 +2,7 @@
 the physical-model feedforward it starts from, and the convergence curve as a plot.
 
 For each seed and validation reference (40 s of moves, as ``lcgym bench``): the physical model is
-fitted on the seed's 8 feedback-only training runs; ILC (``lcgym.baselines.ilc``, default Q and
+fitted on the seed's 8 feedback-only training runs; ILC (``lcgym.methods.ilc.method``, default Q and
 gain) runs ``--trials`` trials on the reference. Printed per axis: the RMS tracking error [deg] as
 the encoders measure it (trial 0 = physical model) after 10 trials and after all, and the true
 error of the load angle, which the encoder quantization (propeller: 0.0669 deg counts) does not
@@ -22,7 +22,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
-from lcgym.baselines.ilc import ILCConfig, IterativeLearningControl  # noqa: E402
+from lcgym.methods.ilc.method import ILCConfig, IterativeLearningControl  # noqa: E402
 from lcgym.systems.ix.plant import IXPlant  # noqa: E402
 from lcgym.systems.ix.references import reference_set  # noqa: E402
 

@@ -1,4 +1,4 @@
-"""The PGNN's benchmark protocol, step by step: what each choice of ``baselines/pgnn.py`` buys on
+"""The PGNN's benchmark protocol, step by step: what each choice of ``methods/pgnn/method.py`` buys on
 the leaderboard's data (8 training references of 40 s, seed 0), against the plant's own static
 feedforward (``IXPlant.static_model``: the best a static function of the PGNN's inputs can do).
 
@@ -21,8 +21,8 @@ import time
 import numpy as np
 import torch
 
-from lcgym.baselines import PhysicalFeedforward
-from lcgym.pgnn import PGNN, PGNNConfig
+from lcgym.methods import PhysicalFeedforward
+from lcgym.methods.pgnn import PGNN, PGNNConfig
 from lcgym.systems.ix import IX
 from lcgym.systems.ix.plant import IXPlant
 from lcgym.systems.ix.references import reference_set

@@ -2,7 +2,7 @@
 both from Basic, on FlexArm validation lines: Table 6 and Fig. 7.
 
 Training (the paper's factory stage): Basic runs of ``--train-lines`` training lines (seed 0) give
-the model-following error e_pl from the accelerometer; the predictor (``lcgym.rbf_expert``) learns
+the model-following error e_pl from the accelerometer; the predictor (``lcgym.methods.rbf_expert``) learns
 it from the references. Then, per validation line (seeds ``--seeds``, lines the predictor never
 saw): Basic; LCS = eq. (16) once with e_pl measured on that line; NNP = eq. (17) with e_pl predicted
 from the reference alone. Printed per period (dynamic: the reference moves; static; overall):
@@ -35,11 +35,11 @@ import time
 import numpy as np
 from tqdm import tqdm
 
-from lcgym.baselines.ilc import ILCConfig, nominal_update
-from lcgym.rbf_expert.expert import ExpertConfig
-from lcgym.rbf_expert.influence import task_influence
-from lcgym.rbf_expert.predictor import RBFExpertConfig, RBFExpertPredictor
-from lcgym.rbf_expert.preprocess import PreprocessConfig
+from lcgym.methods.ilc.method import ILCConfig, nominal_update
+from lcgym.methods.rbf_expert.expert import ExpertConfig
+from lcgym.methods.rbf_expert.influence import task_influence
+from lcgym.methods.rbf_expert.predictor import RBFExpertConfig, RBFExpertPredictor
+from lcgym.methods.rbf_expert.preprocess import PreprocessConfig
 from lcgym.systems.flexarm import FLEXARM
 from lcgym.systems.flexarm.errors import paper_errors, period_mask
 from lcgym.systems.flexarm.nominal import BasicFeedforward

@@ -1,6 +1,6 @@
 """The ``rl`` method per env-step budget, on the benchmark's references of one seed.
 
-Trains ``RLFeedforward`` (``lcgym.baselines.rl``) on the bench's 8 training references (IX: 40 s
+Trains ``RLFeedforward`` (``lcgym.methods.rl``) on the bench's 8 training references (IX: 40 s
 of moves each; FlexArm: TCP lines) for each budget, rolls it out on the 4 validation references
 and prints their RMS tracking error per axis [deg] beside the starting feedforward alone
 (IX: the fitted physical model; FlexArm: Basic), with the env steps, plant trials and training
@@ -21,9 +21,9 @@ import numpy as np
 import torch
 
 from lcgym import systems
-from lcgym.baselines import BasicArmFeedforward, PhysicalFeedforward
-from lcgym.baselines.rl import RLConfig, RLFeedforward
 from lcgym.leaderboard.runner import BenchConfig
+from lcgym.methods import BasicArmFeedforward, PhysicalFeedforward
+from lcgym.methods.rl import RLConfig, RLFeedforward
 
 
 def validation_rms(bench, references, controller, plant) -> np.ndarray:

@@ -1,6 +1,6 @@
 """The ``rl`` cells' training curves of a benchmark run, one panel per machine.
 
-Each trained model in the RL cache (``$LCGYM_CACHE/rl``, ``baselines.rl``) has its training curve
+Each trained model in the RL cache (``$LCGYM_CACHE/rl``, ``methods.rl``) has its training curve
 beside it (``<key>.csv``: per training episode, run with the exploring policy, the RMS tracking
 error per scored axis). This draws them all, one shade per cell, the machine told by its axes.
 

@@ -1,6 +1,6 @@
 """Bad user controllers, on purpose: each fails its own cell with the reason, the others run.
 
-A benchmark method from user code (``module:Class``, see ``lcgym.baselines.protocol``) may raise,
+A benchmark method from user code (``module:Class``, see ``lcgym.methods.protocol``) may raise,
 return the wrong shape, dtype or NaN, take too long (the per-cell time limit), or drive the plant
 unstable. Each case must end as one ``failed`` row whose ``error`` names the fault, while the
 ``feedback`` cell beside it gives ``ok`` rows with finite numbers; no trace of the failed cell is

@@ -1,4 +1,4 @@
-"""A learning method's base (``baselines.bases``): ``METHOD@BASE``, the ``base`` column, the gain over
+"""A learning method's base (``methods.bases``): ``METHOD@BASE``, the ``base`` column, the gain over
 the base, and the rules that keep a learner from ending worse than its base (ILC's best trial, the
 training-reference safeguard of the RBF expert, ILC transfer and the PGNN)."""
 
@@ -10,13 +10,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lcgym.baselines import CONTROLLERS
-from lcgym.baselines.ilc import best_trial
-from lcgym.baselines.protocol import build_method, display_name, load_method, method_base, split_spec
-from lcgym.baselines.safeguard import keep_axes, mixed
 from lcgym.leaderboard.report import ranking
 from lcgym.leaderboard.runner import BenchConfig, run_benchmark
 from lcgym.leaderboard.store import read_results
+from lcgym.methods import CONTROLLERS
+from lcgym.methods.ilc.method import best_trial
+from lcgym.methods.protocol import build_method, display_name, load_method, method_base, split_spec
+from lcgym.methods.safeguard import keep_axes, mixed
 
 RAIL_ARM = Path(__file__).parent / "data" / "rail_arm" / "rail_arm.toml"
 

@@ -205,7 +205,7 @@ def test_effects_lists_a_urdf_machine(example, capsys):
 
 
 def test_pgnn_fits_a_urdf_machine_and_predicts_a_new_reference(example):
-    from lcgym.pgnn import PGNN, PGNNConfig
+    from lcgym.methods.pgnn import PGNN, PGNNConfig
 
     arm = systems.get(URDF, joints=JOINTS)
     trials = read_trials(example, axes=arm)

@@ -115,7 +115,7 @@ def test_sim_to_real_study_on_files_of_the_benchmark_layout(plant, tmp_path):
 def test_rl_reports_a_prismatic_axis_in_mm(tmp_path):
     """The rl method's training curve and safeguard figures carry the axis's display unit: mm on the
     EMPS's carriage (the RMS in metres times 1000, not read as radians)."""
-    from lcgym.baselines.rl import RLConfig, RLFeedforward
+    from lcgym.methods.rl import RLConfig, RLFeedforward
 
     machine = systems.get("emps_sim")
     bench = systems.resolve("emps_sim").bench()

@@ -127,7 +127,7 @@ def test_vector_env_is_n_single_envs_bit_for_bit(num_envs, mode, base, steps):
 
 def test_physical_base_observes_the_fitted_model_and_runs_it_as_the_benchmark_does():
     """``base_feedforward="physical"``: the physical model fitted on feedback-only runs of the
-    training references (``baselines.PhysicalFeedforward``'s fit on the benchmark's training
+    training references (``methods.PhysicalFeedforward``'s fit on the benchmark's training
     trials); the first observation's base-feedforward entries are its torque / FF_SCALE, and an
     all-zero action episode is ``FlexArmBench.run`` with the model's feedforward and offset."""
     from lcgym.systems.flexarm import FLEXARM

@@ -1,11 +1,11 @@
-"""Iterative learning control (lcgym/baselines/ilc.py): the design model against an independent
+"""Iterative learning control (lcgym/methods/ilc/method.py): the design model against an independent
 simulation, learning on the IX, robustness over 30 trials, divergence caught, LCS on the arm."""
 
 import numpy as np
 import pytest
 from scipy import signal
 
-from lcgym.baselines.ilc import (
+from lcgym.methods.ilc.method import (
     ILCConfig,
     ILCDiverged,
     ILCTransfer,

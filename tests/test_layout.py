@@ -7,7 +7,7 @@ functions, relative ones resolved). Each module belongs to a *unit*: its folder
 The graph of units must have no cycle, nor the graph of modules (two modules of one folder that
 import each other), and every import must go down the layers
 
-    cli -> leaderboard, diagnose, simulate -> baselines, pgnn, rbf_expert -> systems -> envs
+    cli -> leaderboard, diagnose, simulate -> methods -> systems -> envs
         -> physics, references, datasets -> data, metrics, provenance
 
 (a unit may import its own layer's units where that is listed below, and any lower layer). The
@@ -30,7 +30,7 @@ ROOT = Path(__file__).resolve().parents[1] / "lcgym"
 LAYERS = [
     {"cli"},
     {"leaderboard", "diagnose", "simulate"},
-    {"baselines", "pgnn", "rbf_expert"},
+    {"methods"},  # one module or folder per method, and what they share
     {"systems", "systems.*"},  # systems.*: a machine's folder (systems/ix/, systems/two_link/, ...)
     {"envs"},
     {"physics", "references", "datasets", "logs"},
@@ -38,11 +38,10 @@ LAYERS = [
 ]
 SAME_LAYER = {  # imports allowed within one layer (unit -> units)
     "simulate": {"leaderboard"},
-    "baselines": {"pgnn", "rbf_expert"},
     "systems.*": {"systems"},  # a machine's folder uses what systems/ has for every machine
     "references": {"physics"},  # references_of differentiates the trials' references
 }
-METHOD_UNITS = ("baselines", "pgnn", "rbf_expert", "diagnose", "leaderboard", "simulate")
+METHOD_UNITS = ("methods", "diagnose", "leaderboard", "simulate")
 MACHINE_NAMES = tuple(systems.BUILT_IN)
 
 
@@ -190,8 +189,8 @@ def test_imports_run_down_the_layers():
 def test_the_graph_sees_a_known_edge():
     """Control: the parser finds the edges it must find (else the tests above could not fail)."""
     edges = _edges()
-    assert ("leaderboard", "baselines") in edges and ("systems.ix", "physics") in edges
-    assert ("diagnose", "systems") in edges and ("baselines", "systems") in edges
+    assert ("leaderboard", "methods") in edges and ("systems.ix", "physics") in edges
+    assert ("diagnose", "systems") in edges and ("methods", "systems") in edges
 
 
 def _name_branches(path: Path, root: Path = ROOT.parent) -> list[str]:
@@ -306,8 +305,8 @@ def test_the_machine_finder_finds_a_machine():
     assert "lcgym.systems.ix" in _machines_loaded(("lcgym.leaderboard.page", "lcgym.systems.ix"))
 
 
-METHOD_DRIVERS = ("leaderboard/*.py", "simulate.py", "cli.py", "baselines/protocol.py", "baselines/bases.py",
-                  "baselines/safeguard.py")
+METHOD_DRIVERS = ("leaderboard/*.py", "simulate.py", "cli.py", "methods/protocol.py", "methods/bases.py",
+                  "methods/safeguard.py")
 """The modules that build and run methods: they read the contract (``protocol.Controller``), never
 ask a method what it has."""
 WRAPPER = {"UserMethod", "_wrapped", "_load_class"}

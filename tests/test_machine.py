@@ -282,12 +282,13 @@ def test_two_link_is_a_built_in_machine_from_one_folder():
         systems.get("two_link", joints=("finger", "shoulder", "elbow"))
 
 
-def test_machine_file_docstring_example_is_a_valid_machine_file(tmp_path):
-    """The module docstring's machine file, as written there, loads (with the test's URDF)."""
-    from lcgym.systems import machine
-
-    doc = machine.__doc__
-    block = textwrap.dedent(doc[doc.index("    # my_arm.toml"): doc.index("In Python,")])
+def test_the_documented_machine_file_is_a_valid_machine_file(tmp_path):
+    """The machine file of every key (docs/own-machine-bench.md, "Every key of a machine file"), as
+    written there, loads (with the test's URDF)."""
+    page = (Path(__file__).resolve().parents[1] / "docs" / "own-machine-bench.md").read_text()
+    section = page[page.index("## Every key of a machine file"):]
+    block = section[section.index("```text\n") + len("```text\n"):section.index("\n```", section.index("```text"))]
+    assert block.startswith("# my_arm.toml") and "[[model]]" in block and "[benchmark.rl]" in block
     text = block.replace('"my_arm.urdf"', '"yaw_pitch.urdf"').replace('["shoulder", "elbow"]', '["yaw", "pitch"]')
     text = text.replace('axis = "elbow"', 'axis = "pitch"')
     m = load_machine(write_machine(tmp_path, text))
@@ -301,11 +302,11 @@ def test_every_method_on_a_machine_the_test_writes(tmp_path, monkeypatch):
     tracks better than feedback alone, and ILC (learning each validation reference) better than
     the physical model. (The note's figures: the same at the default budgets,
     ``lcgym bench --systems yaw_pitch.toml``.)"""
-    from lcgym.baselines import CONTROLLERS
     from lcgym.leaderboard.page import write_html
     from lcgym.leaderboard.report import select
     from lcgym.leaderboard.runner import BenchConfig, run_benchmark
     from lcgym.leaderboard.store import read_results
+    from lcgym.methods import CONTROLLERS
 
     monkeypatch.setenv("LCGYM_CACHE", str(tmp_path / "cache"))
     spec = str(write_machine(tmp_path))

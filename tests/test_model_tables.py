@@ -194,7 +194,7 @@ def test_a_periodic_effect_in_the_model_finds_its_period(folder, tmp_path):
 def test_the_pgnn_holds_the_models_effects_in_its_physical_part(folder, runs, tmp_path):
     """The PGNN's physical part f^M is the rigid body (trained) plus the model's effects as the
     least-squares fit found them, held fixed; saved and loaded with it."""
-    from lcgym.pgnn import PGNN, PGNNConfig
+    from lcgym.methods.pgnn import PGNN, PGNNConfig
 
     _, train, validation = runs
     pgnn = PGNN(PGNNConfig(max_epochs=1, threads=1), fs=1000.0, system=str(folder / "arm_model.toml")).fit(train)

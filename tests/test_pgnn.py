@@ -5,12 +5,12 @@ import pytest
 import torch
 
 from lcgym import systems
-from lcgym.baselines.pgnn import PGNNFeedforward
 from lcgym.data import Trial
-from lcgym.pgnn import PGNN, PGNNConfig
-from lcgym.pgnn.network import PGNNModule, min_eigenvalue, physical_constraints, physics_penalty
-from lcgym.pgnn.objective import batch_projection, nonzero_columns, projected_norm2, projection_basis
-from lcgym.pgnn.training import network_inputs
+from lcgym.methods.pgnn import PGNN, PGNNConfig
+from lcgym.methods.pgnn.method import PGNNFeedforward
+from lcgym.methods.pgnn.network import PGNNModule, min_eigenvalue, physical_constraints, physics_penalty
+from lcgym.methods.pgnn.objective import batch_projection, nonzero_columns, projected_norm2, projection_basis
+from lcgym.methods.pgnn.training import network_inputs
 from lcgym.physics.model import PhysicalModel
 from lcgym.systems.flexarm import motor
 from lcgym.systems.ix import IX
@@ -179,8 +179,8 @@ class FastPGNNLS(FastPGNN):
 
 
 def test_leaderboard_methods_report_the_network_contribution():
-    from lcgym.baselines import CONTROLLERS
     from lcgym.leaderboard.runner import BenchConfig, run_cell
+    from lcgym.methods import CONTROLLERS
 
     assert {"pgnn", "pgnn-ls"} <= set(CONTROLLERS) and CONTROLLERS["pgnn"] is PGNNFeedforward
     config = BenchConfig(methods=("test_pgnn:FastPGNN",), seeds=(0,), n_train=1, n_validation=1, duration=4.0)
@@ -195,7 +195,7 @@ def test_leaderboard_methods_report_the_network_contribution():
 def test_sample_rate_mismatch_and_ls_variant_config():
     with pytest.raises(ValueError, match="physical model samples at 1000"):
         PGNN(PGNNConfig(max_epochs=1, threads=1), fs=500.0, physical=PhysicalModel(IX, fs=1000.0)).fit(_trials(n=1))
-    from lcgym.baselines.pgnn import PGNNLSFeedforward
+    from lcgym.methods.pgnn.method import PGNNLSFeedforward
 
     ls = PGNNLSFeedforward(PGNNConfig(max_epochs=1, batch_size=2000, threads=1), collect="feedback",
                            system=IX).fit(_trials(n=1, duration=3.0))
@@ -241,8 +241,8 @@ def test_zeta_steps_absolute_or_relative():
 def test_pgnn_method_records_its_training_data_with_the_physical_feedforward():
     """On the IX the leaderboard's PGNN trains on a run of the training references with the physical
     model's feedforward on (one plant trial per reference, counted), not on the feedback-only runs."""
-    from lcgym.baselines.pgnn import PGNNFeedforward
-    from lcgym.baselines.physical import PhysicalFeedforward
+    from lcgym.methods.pgnn.method import PGNNFeedforward
+    from lcgym.methods.physical import PhysicalFeedforward
     from lcgym.references import references_of
     from lcgym.systems.ix.plant import IXPlant
     from lcgym.systems.ix.references import reference_set
@@ -267,7 +267,7 @@ def test_pgnn_method_records_its_training_data_with_the_physical_feedforward():
 def test_iteration_cap_in_proportion_to_the_training_runs():
     """The protocol's cap: 100 iterations on the benchmark's 8 training runs (unchanged), a quarter on
     --quick's 2, never none."""
-    from lcgym.baselines.pgnn import MAX_ITERATIONS, REFERENCE_TRIALS, PGNNFeedforward, max_iterations
+    from lcgym.methods.pgnn.method import MAX_ITERATIONS, REFERENCE_TRIALS, PGNNFeedforward, max_iterations
 
     assert max_iterations(REFERENCE_TRIALS) == MAX_ITERATIONS == 100
     assert [max_iterations(n) for n in (1, 2, 3, 16)] == [13, 25, 38, 200]
@@ -279,7 +279,7 @@ def test_iteration_cap_in_proportion_to_the_training_runs():
 def test_a_training_whose_validation_cost_is_never_finite_says_so():
     """NaN in the targets: no iteration improves, and ``train`` names the divergence instead of
     restoring parameters it never kept."""
-    from lcgym.pgnn.training import TrainingData, train
+    from lcgym.methods.pgnn.training import TrainingData, train
 
     rng = np.random.default_rng(0)
     q, qd, qdd = rng.uniform(-1, 1, (3, 3000, 2))

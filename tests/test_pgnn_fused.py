@@ -1,11 +1,11 @@
-"""The PGNN's compiled networks (``lcgym.pgnn.fused``) against torch's autograd on the same weights."""
+"""The PGNN's compiled networks (``lcgym.methods.pgnn.fused``) against torch's autograd on the same weights."""
 
 import numpy as np
 import pytest
 import torch
 
-from lcgym.pgnn import fused
-from lcgym.pgnn.network import PGNNModule, mlp
+from lcgym.methods.pgnn import fused
+from lcgym.methods.pgnn.network import PGNNModule, mlp
 from lcgym.systems.ix import IX
 
 

@@ -8,8 +8,8 @@ import pytest
 import torch
 
 from lcgym import systems
-from lcgym.pgnn.network import PGNNModule, physical_constraints
-from lcgym.pgnn.objective import Adam, Batch, FlatParameters, Objective, PhysicsFeatures, nonzero_columns
+from lcgym.methods.pgnn.network import PGNNModule, physical_constraints
+from lcgym.methods.pgnn.objective import Adam, Batch, FlatParameters, Objective, PhysicsFeatures, nonzero_columns
 
 
 def torch_cost(module, b: Batch, mu1, mu2, columns):

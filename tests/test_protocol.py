@@ -1,4 +1,4 @@
-"""The machine handed to the method (``baselines/protocol.py``): every method takes ``system``; without
+"""The machine handed to the method (``methods/protocol.py``): every method takes ``system``; without
 one it fails with a message that says how to give it; the benchmark's cell builds each method with
 its machine, and a user's class whose constructor takes no ``system`` as before."""
 
@@ -9,11 +9,11 @@ import textwrap
 import numpy as np
 import pytest
 
-from lcgym.baselines import CONTROLLERS, FeedbackOnly, PhysicalFeedforward
-from lcgym.baselines.protocol import Controller, Cost, apply, build_method, given_system, load_method, takes_system
 from lcgym.data import Trial
 from lcgym.leaderboard.runner import BenchConfig, run_cell
-from lcgym.pgnn import PGNN, PGNNConfig
+from lcgym.methods import CONTROLLERS, FeedbackOnly, PhysicalFeedforward
+from lcgym.methods.pgnn import PGNN, PGNNConfig
+from lcgym.methods.protocol import Controller, Cost, apply, build_method, given_system, load_method, takes_system
 from lcgym.systems.flexarm import FLEXARM
 from lcgym.systems.ix import IX
 from lcgym.systems.ix import dynamics as ix
@@ -113,7 +113,7 @@ def test_a_users_class_is_wrapped_once_and_keeps_what_it_declares(tmp_path, monk
     name, constructor signature and class attributes; the built method forwards the contract to it."""
     (tmp_path / "duck_methods.py").write_text(textwrap.dedent("""
         import numpy as np
-        from lcgym.baselines import Cost
+        from lcgym.methods import Cost
 
         class Duck:
             systems = ("ix",)
@@ -163,8 +163,8 @@ def test_a_methods_machine_settings_are_typed_and_checked():
     values, the defaults where a machine sets none, and a key the method does not take named."""
     import dataclasses
 
-    from lcgym.baselines.pgnn import COLLECT, PGNNProtocol
-    from lcgym.baselines.rl import NUM_ENVS, PASSES, RLConfig, RLMachineSettings
+    from lcgym.methods.pgnn.method import COLLECT, PGNNProtocol
+    from lcgym.methods.rl import NUM_ENVS, PASSES, RLConfig, RLMachineSettings
     from lcgym.systems.flexarm import FLEXARM
     from lcgym.systems.ix import IX
 

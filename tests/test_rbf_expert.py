@@ -1,4 +1,4 @@
-"""Paper 002's NN predictor (lcgym/rbf_expert): motion influence, preprocessing, expert logic,
+"""Paper 002's NN predictor (lcgym/methods/rbf_expert): motion influence, preprocessing, expert logic,
 the predictor on a known error, and the ``rbf-expert`` method on both systems."""
 
 import math
@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from lcgym.rbf_expert.expert import fill_short_gaps, keep_long_runs, network_types
-from lcgym.rbf_expert.influence import PAPER_PHI, influence_matrix, motion_influence, task_influence
-from lcgym.rbf_expert.predictor import RBFExpertConfig, RBFExpertPredictor
-from lcgym.rbf_expert.preprocess import Preprocessor, arctan_ratio
+from lcgym.methods.rbf_expert.expert import fill_short_gaps, keep_long_runs, network_types
+from lcgym.methods.rbf_expert.influence import PAPER_PHI, influence_matrix, motion_influence, task_influence
+from lcgym.methods.rbf_expert.predictor import RBFExpertConfig, RBFExpertPredictor
+from lcgym.methods.rbf_expert.preprocess import Preprocessor, arctan_ratio
 from lcgym.references import AxisProfile, sample
 from lcgym.systems.flexarm import FLEXARM
 from lcgym.systems.flexarm import dynamics as arm
@@ -142,8 +142,8 @@ def _rms(x):
 def test_rbf_expert_method_on_the_ix_predicts_its_training_error_away():
     """On the IX, trained on three references with the physical model's feedforward, then used on one
     of them (inside the training data): the predicted correction lowers the tracking error."""
-    from lcgym.baselines.physical import PhysicalFeedforward
-    from lcgym.baselines.rbf_expert import RBFExpertFeedforward
+    from lcgym.methods.physical import PhysicalFeedforward
+    from lcgym.methods.rbf_expert.method import RBFExpertFeedforward
     from lcgym.systems.ix.plant import IXPlant
     from lcgym.systems.ix.references import reference_set
 
@@ -171,7 +171,7 @@ def test_rbf_expert_method_on_the_arm_lowers_the_model_following_error():
     """On the FlexArm (eq. 17 from Basic: paper 002's protocol, ``paper002-nnp``), trained on two
     lines, used on one of them: the joints' model-following error (true load acceleration) falls in
     the moving periods."""
-    from lcgym.baselines.rbf_expert import PaperNNP
+    from lcgym.methods.rbf_expert.method import PaperNNP
     from lcgym.systems.flexarm.nominal import BasicFeedforward
     from lcgym.systems.flexarm.plant import FlexArmPlant
 

@@ -1,10 +1,10 @@
-"""The RBF network of paper 002 (lcgym/rbf_expert/network.py): features, least squares, and the
+"""The RBF network of paper 002 (lcgym/methods/rbf_expert/network.py): features, least squares, and the
 paper's momentum gradient method reaching the same cost."""
 
 import numpy as np
 import pytest
 
-from lcgym.rbf_expert.network import RBFNetwork, grid_centres
+from lcgym.methods.rbf_expert.network import RBFNetwork, grid_centres
 
 RANGES, COUNTS = [(-1.0, 1.0), (0.0, 1.0)], [10, 11]
 

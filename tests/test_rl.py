@@ -9,9 +9,9 @@ import pytest
 import torch
 from stable_baselines3 import PPO, SAC, TD3
 
-from lcgym.baselines.rl import HYPERPARAMETERS, RLConfig, RLFeedforward, deterministic_actor, ppo_rollout
 from lcgym.envs.sb3 import HideError, make_sb3_vec_env
 from lcgym.leaderboard.runner import BenchConfig, run_cell
+from lcgym.methods.rl import HYPERPARAMETERS, RLConfig, RLFeedforward, deterministic_actor, ppo_rollout
 from lcgym.physics.model import PhysicalModel
 from lcgym.systems.ix import IX
 from lcgym.systems.ix.env import IXEnv

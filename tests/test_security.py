@@ -13,7 +13,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "lcgym"
 
 # (module path, function) pairs allowed to load a stable-baselines3 zip (pickled objects):
 # RLFeedforward.load_model, called by learn only on its own cache after the SHA-256 check.
-SB3_LOADERS = {("baselines/rl.py", "load_model")}
+SB3_LOADERS = {("methods/rl.py", "load_model")}
 
 
 def _calls(tree: ast.AST):
@@ -77,8 +77,8 @@ def test_no_unpickling_or_evaluation_outside_the_allowed_places():
 def test_the_scan_would_catch_them(tmp_path, monkeypatch):
     """The scan is not vacuous: planted unsafe calls are found."""
     planted = tmp_path / "lcgym"
-    (planted / "baselines").mkdir(parents=True)
-    (planted / "baselines" / "bad.py").write_text(
+    (planted / "methods").mkdir(parents=True)
+    (planted / "methods" / "bad.py").write_text(
         "import pickle, torch, numpy as np, subprocess\n"
         "def f(p):\n"
         "    pickle.load(open(p, 'rb'))\n"

@@ -189,11 +189,11 @@ def _sections(table: pd.DataFrame):
 
 def learned_on_scored(methods: Iterable[str]) -> list[str]:
     """The methods among ``methods`` (as the results name them) that learn on each reference they are
-    scored on (their class's ``learns_on_scored_references``, ``baselines.protocol.Controller``: ILC
+    scored on (their class's ``learns_on_scored_references``, ``methods.protocol.Controller``: ILC
     iterates on every validation reference before it is scored): their rows show what learning on
     the task itself reaches, not a prediction for references never seen. Only the built-in methods'
     classes are asked; a user's ``module:Class`` is not imported to read a results file."""
-    from ..baselines import CONTROLLERS  # light: the methods import their heavy dependencies when used
+    from ..methods import CONTROLLERS  # light: the methods import their heavy dependencies when used
 
     scored = {name for name, cls in CONTROLLERS.items() if cls.learns_on_scored_references}
     return [m for m in dict.fromkeys(map(str, methods)) if (m.rpartition("@")[0] or m) in scored]

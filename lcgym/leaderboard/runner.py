@@ -44,10 +44,10 @@ import pandas as pd
 from tqdm.auto import tqdm
 
 from .. import systems
-from ..baselines import CONTROLLERS, load_method, protocol
-from ..baselines.bases import runs_on
-from ..baselines.protocol import build_method, display_name, evaluate, method_base, split_spec
 from ..data import atomic_write
+from ..methods import CONTROLLERS, load_method, protocol
+from ..methods.bases import runs_on
+from ..methods.protocol import build_method, display_name, evaluate, method_base, split_spec
 from ..provenance import __version__, git_commit, source_hash
 from ..systems.runs import remembered_runs
 from .store import append_rows, completed_cells

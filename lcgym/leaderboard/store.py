@@ -2,7 +2,7 @@
 
 Columns (``COLUMNS``): identification (``run_id``, ``system``: the machine and its version,
 ``ix-v1``, or a user's machine as it was named, ``method``, ``base``: the feedforward a learning
-method builds on, ``physical`` or ``basic`` (``baselines.bases``; empty for a method with none),
+method builds on, ``physical`` or ``basic`` (``methods.bases``; empty for a method with none),
 ``seed``, ``reference_set``, ``axis``, ``signal`` and ``signal_label``: what the machine's bench
 scores, by name and as the leaderboard shows it (``metrics.Signal``), ``period``: the samples the
 norms are taken over, ``all``, ``dynamic`` while the reference moves or ``static``), the norms

@@ -108,7 +108,7 @@ def rigid_axis(J: float, D: float, fs: float, z: np.ndarray, delay: int = 0) -> 
     """(numerator, denominator) at the points z of the sampled rigid axis P(s) = 1 / (J s^2 + D s)
     [rad per input unit; J in input unit s^2/rad, D in input unit s/rad] behind a zero-order hold at
     ``fs`` [Hz], with ``delay`` samples of computation delay (z^-delay): P(z) = num / den. What
-    plant-inversion ILC inverts on a machine seen as independent rigid axes (``baselines.ilc``)."""
+    plant-inversion ILC inverts on a machine seen as independent rigid axes (``methods.ilc.method``)."""
     from scipy import signal
 
     num, den, _ = signal.cont2discrete(([1.0], [J, D, 0.0]), 1.0 / fs, method="zoh")

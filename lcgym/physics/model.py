@@ -3,56 +3,35 @@
     f(k) = M(theta_d) thetadd_d + H(theta_d, thetad_d) + D thetad_d + sum_e tau_e(theta_d, ...)
 
 evaluated on the reference at t_k + advance / fs (paper 000, Definition 2, eq. 9), for any
-``systems.System``: the IX of paper 000, the FlexArm (``systems.flexarm.model.ArmModel``), a URDF or
-a user's machine. The model is linear in the rigid parameters zeta_l (Lemma 1) and in every
-effect's coefficients, and may be nonlinear in zeta_n (the IX's centres of mass) and in the
-effects' shape parameters.
+``systems.System`` (the IX, the FlexArm through ``systems.flexarm.model.ArmModel``, a URDF or a
+user's machine). It is linear in the rigid parameters zeta_l (Lemma 1) and in every effect's
+coefficients, and may be nonlinear in zeta_n (the IX's centres of mass) and in the effects' shapes.
 
 Fit (``fit(trials)``):
 
-1. Kinematics of the reference (central differences, ``advance`` samples ahead).
-2. The measured input u and every regressor column go through the same zero-phase Butterworth
-   low-pass (``filter_hz``, order 2) per trial and are then decimated (``decimate``). Filtering
-   both sides with one linear filter keeps the least-squares problem consistent while it removes
-   the encoder-quantization noise that the feedback's derivative action puts into u.
-3. zeta_n (the IX: its 5 centre-of-mass coordinates), if the machine has any, by variable
-   projection: for each candidate zeta_n
-   the linear parameters are eliminated by least squares and the remaining residual is
-   minimized over zeta_n with ``scipy.optimize.least_squares``, starting at the given values.
-4. The linear parameters are solved as a correction to the given (nominal) values of minimum
-   norm in column-scaled units: combinations the data cannot identify keep their nominal values
-   (e.g. the split between J2yy and J3yy + J3zz: their columns obey X_J2yy = X_J3yy + X_J3zz; on
-   a URDF robot, the standard inertial parameters beyond its base parameters). ``fit_info_``
-   states how many combinations the data identified (``rank``) of how many (``n_free``).
+1. Kinematics, ``advance`` samples ahead (``positions``):
+   - ``"reference"`` (default): central differences of the reference;
+   - ``"measured"`` (the diagnosis): the motion the machine made, q = ref - e with the tracking
+     error e low-passed at ``error_filter_hz`` before it is differentiated. With feedback only the
+     axis lags the reference and u pays for the actual motion; a reference-only fit would leave
+     that lag in the residual, where it looks like low-speed friction;
+   - ``"position"`` (and a log without a reference): the measured position low-passed at
+     ``position_filter_hz`` (default twice ``filter_hz``), then differentiated. u passes the same
+     low-pass first (``inputs``), so that u and the columns linear in the kinematics see one filter.
+2. u and every regressor column pass one zero-phase Butterworth low-pass (``filter_hz``, order 2)
+   per trial and are decimated (``decimate``). One linear filter on both sides keeps the least
+   squares consistent and removes the quantization noise that the feedback's derivative puts in u.
+3. zeta_n, if the machine has any, by variable projection: the linear parameters eliminated by
+   least squares, the residual minimized over zeta_n (``scipy.optimize.least_squares``).
+4. The linear parameters, as the minimum-norm correction to the given (nominal) values in
+   column-scaled units: combinations the data cannot identify keep their nominal values
+   (``fit_info_``: ``rank`` of ``n_free``).
 
-``positions="measured"`` (what the diagnosis uses) fits the motion the machine made rather than
-the one it was asked for: the reference's kinematics corrected by the measured tracking error
-e = ref - pos, low-passed at ``error_filter_hz`` (zero phase) before it is differentiated:
-q = ref - e, qd = qd_ref - de/dt, qdd = qdd_ref - d2e/dt2 (all ``advance`` samples ahead; q is
-the encoder reading smoothed). With
-feedback only, the reference leads the axis by tenths of a degree and the input u pays for the
-actual motion: a reference-only fit leaves that lag in the residual, where it looks like
-low-speed friction. Differentiating the quantized encoder reading itself would bias the inertia
-fit; the low-passed error carries far less quantization noise (tested). A trial without a
-reference (a log of positions only), or ``positions="position"``, takes the kinematics of the
-measured position itself, low-passed at ``position_filter_hz`` (zero phase; default twice the
-fit's own low-pass ``filter_hz``: 10 Hz) and then differentiated; its input u then passes the same
-low-pass first (``inputs``), so that u and every regressor column linear in the kinematics see
-one filter: without it the filtered accelerations lack the high frequencies of the raw u's, and
-a 5 Hz filter biased the EMPS carriage's fitted mass by +9 % (103.9 against 94.4 kg; the
-benchmark's published IDIM-LS value is 95.1 kg). The corner sits above the fit's band (the
-identification rule of the EMPS benchmark's description, sec. 3.1: the kinematics' filter well
-above the parallel filter of the columns) because a friction's sign switches where the velocity
-crosses zero: at 5 Hz, the low-passed u carries that switch as a ramp that the sign of the
-low-passed velocity lacks, and on a simulated carriage with the EMPS's parameters the fit then
-missed Fv by -8 % and Fc by +7 %; at 10-40 Hz by 1 % or less (``tests/test_diagnose_emps.py``).
-
-Effects' nonlinear parameters stay at the values the effect was built with (``diagnose``
-searches them), except those of the effects named in ``search_shapes`` (a machine's
-``model_effects``, a machine file's ``[[model]]`` tables, declared without values): ``fit`` finds
-their shapes first, on the grids the diagnosis uses (``physics.shapes``), then fits as above.
-Ripple columns need the model's own torque: they are built from the rigid-body torque of the given
-parameters, then of the first pass's fit (two passes).
+Effects' nonlinear parameters stay as built (``diagnose`` searches them), except those named in
+``search_shapes`` (a machine file's ``[[model]]`` tables without values): ``fit`` finds those
+shapes first, on the diagnosis' grids (``physics.shapes``). Ripple columns need the model's own
+torque: they are built from the rigid-body torque of the given parameters, then of the first
+pass's fit. What the filters' corners do to a fit, measured on the EMPS: docs/emps.md.
 """
 
 from __future__ import annotations

@@ -2,62 +2,17 @@
 
 The rigid body comes from the URDF (``urdf.from_urdf``, pinocchio); the plant (``URDFPlant``) adds
 the hidden effects you declare (what the nominal model lacks: your machine's friction, a cable, a
-gear), a feedback loop, encoders and input limits. Written as a machine file (TOML; every key but
-``urdf`` is optional):
-
-    # my_arm.toml
-    urdf = "my_arm.urdf"              # relative to this file
-    joints = ["shoulder", "elbow"]    # the axes (default: every movable joint; the others are locked)
-    name = "my_arm"                   # default: the URDF's robot name
-    fs = 1000.0                       # the controller's sample rate [Hz]
-    description = "..."
-
-    [feedback]                        # a bandwidth to derive PD(+I) gains from (urdf_plant.tuned_gains) ...
-    bandwidth = 10.0                  # Hz
-    damping = 0.7
-    integral_time = 0.5               # s; none by default
-    # ... or the gains themselves, one value per axis: kp, kd, ki and f_lp [Hz]
-    derivative = "error"              # or "measurement" (-kd dy/dt), "measurement_fir2" (the EMPS's)
-
-    [sensors]
-    encoder_resolution = 1e-4         # rad or m per count, one value or one per axis (0: exact)
-    noise_rms = 0.0                   # rad or m
-
-    [limits]
-    u_max = [150.0, 80.0]             # N m or N (default: the URDF's effort limits)
-    max_error = 0.5                   # rad or m: beyond, a run stops as diverged
-
-    [references]                      # random point-to-point moves within the URDF's joint limits
-    speed = 0.5                       # a move's top speed: 0.4-1 x this x the URDF velocity limit
-    accel_time = 0.2                  # s to that speed
-    jerk_time = 0.05                  # s to that acceleration
-    margin = 0.1                      # kept clear of each end of the joint range (fraction)
-
-    [[hidden]]                        # one table per hidden effect (physics.effects; lcgym effects)
-    effect = "coulomb_friction"
-    axis = "elbow"
-    Fc = 3.0
-    eps = 0.02
-
-    [[model]]                         # one table per effect the physical model knows: no values,
-    effect = "coulomb_friction"       # the fit finds them (System.model_effects; physics.shapes)
-    axis = "elbow"
-
-    [benchmark.rl]                    # a method's settings on this machine (System.hints["benchmark"])
-    passes = 1.0
+gear), a feedback loop, encoders and input limits. They are written in a machine file (TOML; every
+key but ``urdf`` is optional; each key, with its unit and default: docs/own-machine-bench.md,
+"Every key of a machine file"), read by ``load_machine``. Its ``[[model]]`` tables name the
+effects the physical model carries beyond its rigid body and viscous friction, with no values: the
+model's fit finds them, and every method that starts from the physical model has them.
 
 In Python, ``benchmark_machine(system_or_urdf, hidden=[...], ...)`` takes the same settings as
 arguments (the model's effects are the machine's: ``dataclasses.replace(system, model_effects=(...))``).
 Either gives a ``System`` with a bench (``URDFBench``: references, plant runs, the scored tables) and
 a Gymnasium env (``lcgym/Machine-v0``, ``systems.machine_env``): ``lcgym bench --systems my_arm.toml``
 and ``gym.make("lcgym/Machine-v0", machine="my_arm.toml")``.
-
-The ``[[model]]`` tables name effects the machine's physical model carries beyond its rigid body
-and viscous friction, with the names and axes of ``[[hidden]]`` (those ``lcgym diagnose --add``
-takes; ``lcgym diagnose LOG --system my_arm.toml`` prints the tables of what it selects) but no
-values: the model's fit finds them (the coefficients by least squares with the rigid body, a
-friction's smoothing and a spring's onset on the diagnosis's grids), and every method that starts
-from the physical model has them.
 """
 
 from __future__ import annotations

@@ -147,7 +147,7 @@ class System:
     ``hints["benchmark"][method]``: the benchmark protocol's settings of a leaderboard method on it,
     e.g. ``{"rl": {"passes": 3.0, "num_envs": 8}}``, a machine file's ``[benchmark.rl]``). Each
     method reads its table into its own typed settings, which check the keys
-    (``baselines.rl.RLMachineSettings``, ``baselines.pgnn.PGNNProtocol``, ``pgnn.PGNNConfig``).
+    (``methods.rl.RLMachineSettings``, ``methods.pgnn.method.PGNNProtocol``, ``pgnn.PGNNConfig``).
     quadratic_in_nonlinear: the regressor's entries are polynomials of degree <= 2 in zeta_n
     (the IX: a faster exact variable projection). nonlinear_columns: the linear parameters whose
     regressor columns depend on zeta_n at all (the IX: the two masses, which multiply the centres

@@ -407,7 +407,7 @@ class URDFPlant:
 
     def process_sensitivity(self, n: int, positions: np.ndarray) -> np.ndarray:
         """P S (e^{i w Ts}) (n_freq, n_axes) [rad or m per input unit] of the nominal closed loop per
-        axis on the rfft grid of n samples (what plant-inversion ILC inverts, ``baselines.ilc``):
+        axis on the rfft grid of n samples (what plant-inversion ILC inverts, ``methods.ilc.method``):
         each axis a rigid inertia J, the diagonal of the nominal (URDF) mass matrix at the mean pose of
         ``positions`` (T, n_axes), behind a zero-order hold without computation delay
         (``physics.lti.rigid_axis``), and this plant's PID with its low-passed derivative, or its

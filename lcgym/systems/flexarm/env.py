@@ -16,7 +16,7 @@ Action (float32, shape (6,)): motor torque per joint, added to the feedforward o
     ``base_feedforward="physical"``: residual learning on the machine's physical model
     (``model.ArmModel``: the motor-side rigid-joint model fitted by least squares on feedback-only
     runs of the training references of ``reference_seed`` on the env's plant, once per process, as
-    ``baselines.PhysicalFeedforward`` fits it on the benchmark's training trials): the plant runs
+    ``methods.PhysicalFeedforward`` fits it on the benchmark's training trials): the plant runs
     the model's motor torque as feedforward and its joint-torsion ``reference_offset`` [rad, load
     side] as motor offset N * offset (as ``FlexArmBench.run`` applies a method's offset), and the
     action is added to that feedforward, scale ``ACTION_BOUND`` as for Basic (the fitted model
@@ -127,7 +127,7 @@ _MODEL_CACHE: dict[tuple, object] = {}
 
 def physical_model(plant: F.FlexArmPlant, seed: int = 0):
     """The FlexArm's physical model (``ArmModel``) fitted on feedback-only runs of the training
-    references of ``seed`` on ``plant`` (cached per process), as ``baselines.PhysicalFeedforward``
+    references of ``seed`` on ``plant`` (cached per process), as ``methods.PhysicalFeedforward``
     fits it on the benchmark's training trials."""
     key = (repr(plant), seed)
     if key not in _MODEL_CACHE:

@@ -25,25 +25,8 @@ paper measured them (section 5.3, Table 6): Basic leaves a model-following error
 after stops, and one LCS iteration lowers the joint, end-effector acceleration and TCP errors in
 moving and static periods alike. Its payload is a 12 kg tool 40 cm long, centre of mass 20 cm
 beyond the flange, the stiffness of the main axes (joints 1-3) is 3 % below nominal, the wrist's
-15 %, and the Coulomb friction of motors and loads 15 % below nominal (a warm drive; the nominal
-values overestimate it); damping and motor inertia as v0. Why the payload and stiffness: on v0's
-effects the TCP error (1.5 mm) is the load's quasi-static deflection under the stiffness error of
-the heavy main axes (15 % of the torsion gravity causes) and the payload's weight, which no
-feedforward torque moves inside a motor position loop with integral action (eq. 16 or 17 only
-change torque): one LCS iteration changed it by 1.1 % (seeds 1 and 2's validation lines). A
-main-axis stiffness identified to 3 %, and a tool whose inertia weighs more against its weight (a
-longer lever), leave an error LCS lowers by 9 % there. Why the friction: where a joint stops short
-of its reference, Coulomb friction holds it while the PID integrator ramps the torque (the
-integral of the held error); the nominal linear model P_lu (viscous friction only) answers a
-torque ramp with a steady load acceleration that the arm, held by friction, does not make (joint 5
-in the 1.4 s dwell of seed 1's fourth validation line, Basic, with v0's +30 % friction: e_pl
-down to -1.6 rad/s^2). That part of e_pl lies in the static periods, where paper 002's predictor
-is off by design (section 3.5), yet LCS's correction of it carries into the next move: with v0's
-friction a perfect predictor of the paper's architecture reached 81 % of LCS on the joint error
-in the moving periods of seed 1's four validation lines, 99 % with the measured e_pl added in the
-dwells between the moves. The effects were chosen with ``studies/rbf_expert_arm.py``'s Table 6
-shares on validation lines the report does not use (seed 0's; for the friction, seed 0's first
-eight and seeds 3 and 4's first four); the report uses seeds 1 and 2.
+15 %, and the Coulomb friction of motors and loads 15 % below nominal; damping and motor inertia
+as v0. Why these values, and what they were chosen on: docs/machines/flexarm.md, "Versions".
 
 Sensors recorded per sample: the quantized motor angles, an accelerometer fixed to the flange
 (``dynamics.specific_force`` at ``accel_offset``, plus a constant bias and white noise), the
@@ -53,9 +36,8 @@ joint torsion that gravity causes (what r_q of eq. 11 compensates, when given as
 PID integrators carrying the gravity torque; it holds that for ``preroll`` s before recording.
 With ``settled_start`` the integrators carry only the part of it that the feedforward's first
 sample does not: a feedforward with gravity in it (Basic's) then starts settled instead of adding
-its gravity to the integrators' (Basic's largest motor error at t = 0 on seed 0's first validation
-line: 121 mrad of the motor without it, 1.5 mrad with it). That start is meant for FlexArm-v1; the
-default, False, is the present machine's.
+its gravity to the integrators'. That start is meant for FlexArm-v1; the default, False, is the
+present machine's.
 """
 
 from __future__ import annotations

@@ -299,7 +299,7 @@ class IXPlant:
 
     def process_sensitivity(self, n: int, positions: np.ndarray, params: ix.IXParameters | None = None) -> np.ndarray:
         """P S (e^{i w Ts}) (n_freq, 2) [rad/V] of the nominal closed loop per axis on the rfft grid of
-        n samples (what plant-inversion ILC inverts, ``baselines.ilc``): the rigid axis P(s) = 1 / (J s^2
+        n samples (what plant-inversion ILC inverts, ``methods.ilc.method``): the rigid axis P(s) = 1 / (J s^2
         + D s) with J the diagonal of the nominal mass matrix at the mean pose of ``positions`` (T, 2)
         [rad] and D the nominal viscous coefficient, discretized with a zero-order hold and the plant's
         one-sample computation delay, and this plant's PD + low-pass feedback C(z)."""

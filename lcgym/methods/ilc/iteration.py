@@ -1,5 +1,5 @@
 """What every ILC law here shares (``ilc``: the IX's, a URDF machine's and paper 002's LCS;
-``ilc_arm``: the FlexArm on its physical model): the zero-phase Q filter, the error RMS per axis,
+``flexarm``: the FlexArm on its physical model): the zero-phase Q filter, the error RMS per axis,
 divergence detection and the choice of the trial to keep."""
 
 from __future__ import annotations

@@ -32,8 +32,8 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from ..physics.model import QuadraticDesign
-from ..systems import System
+from ...physics.model import QuadraticDesign
+from ...systems import System
 from .fused import TILE, _scratch, backward_kernel, forward_kernel, fusable, to_tiles
 from .network import PGNNModule, physics_penalty
 

@@ -1,5 +1,5 @@
 """Leaderboard methods ``pgnn`` (J = J_LS + mu1 R1 + mu2 R2) and ``pgnn-ls`` (J_LS only): the
-PGNN of paper 000 (``lcgym.pgnn``) in the benchmark's protocol.
+PGNN of paper 000 (``lcgym.methods.pgnn``) in the benchmark's protocol.
 
 The protocol, and where it departs from the paper's literal settings (the evidence: docs/methods/pgnn.md,
 measured with ``studies/pgnn_protocol.py`` on IX-v1's leaderboard data):
@@ -40,15 +40,16 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .. import systems
-from ..references import references_of
-from .bases import ReferenceMemo
-from .physical import PhysicalFeedforward
-from .protocol import Controller, Cost, given_system, machine_settings
-from .safeguard import Safeguard, mixed
+from ... import systems
+from ...references import references_of
+from ..bases import ReferenceMemo
+from ..physical import PhysicalFeedforward
+from ..protocol import Controller, Cost, given_system, machine_settings
+from ..safeguard import Safeguard, mixed
 
-if TYPE_CHECKING:  # lcgym.pgnn (torch) is imported where a PGNN is trained: the bench's main process needs none
-    from ..pgnn import PGNN, PGNNConfig
+if TYPE_CHECKING:  # lcgym.methods.pgnn (torch) is imported where a PGNN is trained: the bench's main process needs none
+    from .estimator import PGNN
+    from .training import PGNNConfig
 
 COLLECTS = ("physical", "feedback")
 COLLECT = "feedback"
@@ -201,7 +202,7 @@ class PGNNFeedforward(Controller):
         """The configuration it trains with on ``n_trials`` runs: the one given (with this method's
         ``regularize``), else the machine's defaults with the protocol's filter (``protocol``),
         iteration cap (``max_iterations(n_trials)``) and one torch thread."""
-        from ..pgnn import PGNNConfig
+        from .training import PGNNConfig
 
         if self.config is not None:
             return replace(self.config, regularize=self.regularize)
@@ -211,7 +212,7 @@ class PGNNFeedforward(Controller):
         return cfg if filter_hz is None else replace(cfg, filter_hz=filter_hz)
 
     def _train(self, trials: Sequence) -> None:
-        from ..pgnn import PGNN
+        from .estimator import PGNN
 
         self.data_ = list(trials)
         self.pgnn_ = PGNN(self.training_config(len(trials)), fs=trials[0].fs, system=self.system_).fit(trials)

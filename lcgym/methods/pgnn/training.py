@@ -47,8 +47,8 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 import torch
 
-from ..physics.kinematics import lowpass_zero_phase, reference_kinematics, relay
-from ..systems import System
+from ...physics.kinematics import lowpass_zero_phase, reference_kinematics, relay
+from ...systems import System
 from .network import PGNNModule
 from .objective import Adam, Batch, FlatParameters, Objective, PhysicsFeatures, nonzero_columns, projection_basis
 

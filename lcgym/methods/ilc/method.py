@@ -46,12 +46,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .. import systems
-from ..systems import SimulationDiverged
-from .bases import ReferenceMemo, base_controller
+from ... import systems
+from ...systems import SimulationDiverged
+from ..bases import ReferenceMemo, base_controller
+from ..protocol import DEFAULT_BASE, Controller, Cost, given_system
+from ..safeguard import Safeguard, dropped_note, mixed, scored_axes
 from .iteration import ILCDiverged, best_trial, check_divergence, held_edges, q_filter, rms
-from .protocol import DEFAULT_BASE, Controller, Cost, given_system
-from .safeguard import Safeguard, dropped_note, mixed, scored_axes
 
 
 @dataclass(frozen=True)
@@ -249,8 +249,8 @@ class IterativeLearningControl(Controller):
                 true_history, cfg.arm_trials + 1)
 
     def _learn_arm(self, plant, reference):
-        """The FlexArm on its physical model (``ilc_arm``)."""
-        from .ilc_arm import learn_on_base, load_inertia
+        """The FlexArm on its physical model (``ilc.flexarm``)."""
+        from .flexarm import learn_on_base, load_inertia
 
         f0, o0 = self._start(reference)
         # each joint's loop model carries the load inertia of the fitted arm (payload included) at the
@@ -321,7 +321,7 @@ class ILCTransfer(IterativeLearningControl):
 
     def fit(self, trials) -> ILCTransfer:
         super().fit(trials)
-        from ..references import references_of
+        from ...references import references_of
 
         self.training_ = references_of(trials)
         self.source_ = self.training_[0]

@@ -1,4 +1,4 @@
-"""``PGNN``: fit on measured trials, predict feedforward (leaderboard methods in ``baselines/pgnn.py``).
+"""``PGNN``: fit on measured trials, predict feedforward (leaderboard methods in ``methods/pgnn/method.py``).
 
 ``PGNN.fit(trials)`` fits the physical model by least squares (``physics.model.PhysicalModel``,
 the best physical-model fit that initializes zeta), then trains physical parameters and networks
@@ -28,12 +28,12 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from .. import systems
-from ..data import atomic_write
-from ..physics.effects import effect_from_record, effect_record
-from ..physics.kinematics import reference_kinematics, reference_positions
-from ..physics.model import PhysicalModel
-from ..provenance import __version__
+from ... import systems
+from ...data import atomic_write
+from ...physics.effects import effect_from_record, effect_record
+from ...physics.kinematics import reference_kinematics, reference_positions
+from ...physics.model import PhysicalModel
+from ...provenance import __version__
 from .network import PGNNModule
 from .training import PGNNConfig, network_inputs, train, training_data
 

@@ -24,7 +24,7 @@ import numba
 import numpy as np
 import torch
 
-from ..physics.compiled import FASTMATH, cache_dir
+from ...physics.compiled import FASTMATH, cache_dir
 
 TILE = 256
 """Samples per tile: 30 rows of 256 float32 fit the 32 KiB L1 cache."""

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..physics.kinematics import lowpass_zero_phase
+from ...physics.kinematics import lowpass_zero_phase
 from .expert import NETWORK_TYPES, TABLE5_RANGES, ExpertConfig, network_types
 from .influence import motion_influence
 from .network import MomentumRules, RBFNetwork

@@ -226,7 +226,7 @@ def _load_class(spec: str, registry: dict[str, type]) -> type:
         raise ValueError(f"method {spec!r}: module {module_name!r} has no {class_name!r}")
     missing = [m for m in ("fit", "feedforward") if not callable(getattr(cls, m, None))]
     if missing:
-        raise ValueError(f"method {spec!r}: {class_name} lacks {', '.join(missing)} (see lcgym.baselines.protocol)")
+        raise ValueError(f"method {spec!r}: {class_name} lacks {', '.join(missing)} (see lcgym.methods.protocol)")
     return cls
 
 

@@ -28,7 +28,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from ..systems import System
+from ...systems import System
 from .fused import fusable, fused_networks
 
 ACTIVATIONS = {"tanh": nn.Tanh, "relu": nn.ReLU, "sigmoid": nn.Sigmoid}

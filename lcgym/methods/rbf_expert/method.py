@@ -17,7 +17,7 @@ plant-inversion update,
 
 Base (``bases``): the machine's fitted physical model by default; the FlexArm's Basic
 (``rbf-expert@basic``) for eq. (17) as the paper writes it. On the FlexArm's physical model the
-prediction enters the same update as ILC's there (``ilc_arm``). A training-reference safeguard
+prediction enters the same update as ILC's there (``ilc.flexarm``). A training-reference safeguard
 (``safeguard``, as RL's) keeps the predicted correction only on the axes where it lowers the
 tracking error on every training reference; ``note_`` says what it dropped. ``paper002-nnp`` is the
 paper's protocol: on Basic, no safeguard.
@@ -36,13 +36,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import systems
-from ..rbf_expert.influence import task_influence
-from ..rbf_expert.predictor import RBFExpertConfig, RBFExpertPredictor
-from .bases import ReferenceMemo, base_controller, closed_loop
-from .ilc import ILCConfig, frequency_update, learning_filters, nominal_update
-from .protocol import DEFAULT_BASE, Controller, Cost, given_system
-from .safeguard import Safeguard, dropped_note, mixed
+from ... import systems
+from ..bases import ReferenceMemo, base_controller, closed_loop
+from ..ilc.method import ILCConfig, frequency_update, learning_filters, nominal_update
+from ..protocol import DEFAULT_BASE, Controller, Cost, given_system
+from ..safeguard import Safeguard, dropped_note, mixed
+from .influence import task_influence
+from .predictor import RBFExpertConfig, RBFExpertPredictor
 
 MOVING_TOL = 1e-6  # rad/s: a joint whose reference velocity never exceeds this gets no networks
 
@@ -68,7 +68,7 @@ class RBFExpertFeedforward(Controller):
         self.base = base
 
     def fit(self, trials) -> RBFExpertFeedforward:
-        from ..references import references_of
+        from ...references import references_of
 
         self.system_ = given_system(self)
         self.nominal_ = self.system_.nominal
@@ -108,7 +108,7 @@ class RBFExpertFeedforward(Controller):
                 tr = self.nominal_.run(plant, r)
                 errors.append(np.column_stack([tr.extra[f"e_pl_{a}"] for a in tr.axes]))
         elif self.nominal_ is not None:
-            from .ilc_arm import model_following_error
+            from ..ilc.flexarm import model_following_error
 
             errors = [model_following_error(plant, closed_loop(plant, r, *self._start(r)), r, self.nominal_,
                                             *self._start(r)) for r in refs]
@@ -138,7 +138,7 @@ class RBFExpertFeedforward(Controller):
             return basic["tau_ff"] - basic["tau_nl"] + nominal_update(self.nominal_, basic["tau_nl"], e_hat, reference.fs,
                                                                       learning), o0
         if self.nominal_ is not None:
-            from .ilc_arm import predicted_update
+            from ..ilc.flexarm import predicted_update
 
             return predicted_update(self.nominal_, f0, o0, e_hat, reference.fs, self.plant_.gains)
         inverse, q, fade = learning_filters(self.plant_, reference, learning)

@@ -57,12 +57,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal
 
-from ..physics.kinematics import lowpass_zero_phase, reference_kinematics
-from ..systems import SimulationDiverged
-from ..systems.flexarm import dynamics as arm
-from ..systems.flexarm.plant import PIDGains
-from ..systems.flexarm.references import MOVING
-from ..systems.flexarm.sensors import estimate_load_acceleration, specific_forces, true_load_acceleration
+from ...physics.kinematics import lowpass_zero_phase, reference_kinematics
+from ...systems import SimulationDiverged
+from ...systems.flexarm import dynamics as arm
+from ...systems.flexarm.plant import PIDGains
+from ...systems.flexarm.references import MOVING
+from ...systems.flexarm.sensors import estimate_load_acceleration, specific_forces, true_load_acceleration
 from .iteration import ILCDiverged, check_divergence, held_edges, q_filter, rms
 
 ACC_CUTOFF = 50.0  # Hz: the accelerometer estimate's zero-phase low-pass (sensors.py); the reference's too
