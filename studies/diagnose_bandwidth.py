@@ -36,7 +36,7 @@ def ripple_rows() -> None:
     for hz in (None, 2.0, 1.0):
         trials = runs if hz is None else [dataclasses.replace(r, u=lowpass_zero_phase(r.u, r.fs, hz)) for r in runs]
         rep = diagnose(trials, IX)
-        first = [c for c in rep.steps[0]["candidates"] if c["effect"] == "gear_harmonic" and c["axis"] == "propeller"]
+        first = [c for c in rep.steps[0].candidates if c.effect == "gear_harmonic" and c.axis == "propeller"]
         band = rep.samples["bandwidth"]["input"]
         print(f"IX input {'as logged' if hz is None else f'low-passed at {hz:g} Hz'}: bandwidth "
               + ", ".join(f"{a} {f:.3g} Hz" for a, f in band.items())

@@ -57,12 +57,12 @@ def main() -> None:
             dt = time.perf_counter() - t0
             first = rep.candidates[0] if rep.candidates else None
             if truth:
-                ok = first is not None and f"{first['effect']}@{first['axis']}" == truth
+                ok = first is not None and f"{first.effect}@{first.axis}" == truth
                 ax = truth.split("@")[1]
                 b, a = rep.residual[ax]["RMS"], rep.after["residual"][ax]["RMS"]
                 nums = f"{b:10.4f} {a:8.4f} {100 * (1 - a / b):4.0f}%"
             elif family:
-                ok = first is not None and (first["family"], first["axis"]) == family
+                ok = first is not None and (first.family, first.axis) == family
                 nums = f"{'':10s} {'':8s} {'':5s}"
             else:
                 keys = {f"{e.name}@{e.axis}" for e in effects}

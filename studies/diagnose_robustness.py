@@ -438,9 +438,9 @@ def markdown(cases: dict, row: Callable, seeds, header: tuple[str, ...]) -> list
 
 def named(report, truth) -> tuple[bool, list[str]]:
     """Whether ``report`` named every (family, axis) of ``truth`` and nothing else; its selections."""
-    picks = [(c["family"], c["axis"]) for c in report.candidates if c["selected"]]
-    return set(truth) == set(picks) and len(picks) == len(set(picks)), [f"{c['effect']}@{c['axis']}" for c in
-                                                                       report.candidates if c["selected"]]
+    picks = [(c.family, c.axis) for c in report.candidates if c.selected]
+    return set(truth) == set(picks) and len(picks) == len(set(picks)), [c.key for c in
+                                                                       report.candidates if c.selected]
 
 
 def truth_cut(case, seed: int, machine, trials, rep) -> tuple[list[float], list[float]]:
@@ -523,7 +523,7 @@ def ix_part(seeds) -> str:
                 axes = {k.split("@")[1] for k in truth}
             else:
                 first = rep.candidates[0] if rep.candidates else None
-                hits += first is not None and (first["family"], first["axis"]) == truth
+                hits += first is not None and (first.family, first.axis) == truth
                 axes = {truth[1]}
             if rep.missing:
                 after = diagnose(runs, IX, add=rep.missing).after["residual"]

@@ -67,8 +67,8 @@ def main() -> None:
     for name, fs, report, seconds in rows:
         print(f"\n{name}, {fs:g} Hz log: selected {', '.join(report.missing) or 'nothing'} ({seconds:.1f} s)")
         for c in report.candidates[:4]:
-            params = ", ".join(f"{k}={v:.3g}" for k, v in c["parameters"].items())
-            print(f"    {c['effect']}@{c['axis']}: {100 * c['explained']:.0f}% alone, selected {c['selected']}"
+            params = ", ".join(f"{k}={v:.3g}" for k, v in c.parameters.items())
+            print(f"    {c.effect}@{c.axis}: {100 * c.explained:.0f}% alone, selected {c.selected}"
                   + (f"; {params}" if params else ""))
 
 

@@ -12,7 +12,7 @@ import pytest
 from lcgym.cli import main
 from lcgym.data import Trial, read_trials, write_trials
 from lcgym.diagnose import NOTHING_FOUND, diagnose, register_effect
-from lcgym.diagnose.candidates import CANDIDATES, candidates_for
+from lcgym.diagnose.candidates import candidates_for
 from lcgym.diagnose.search import Scorer, period_peaks
 from lcgym.physics import effects as fx
 from lcgym.physics.model import PhysicalModel
@@ -66,7 +66,7 @@ def _report(effects: tuple, add: tuple = ()):
 def test_single_hidden_effect_is_named_first_and_adding_it_halves_the_residual(key):
     rep = _report((SINGLE[key],), (key,))
     assert rep.candidates, rep.text()
-    assert f"{rep.candidates[0]['effect']}@{rep.candidates[0]['axis']}" == key, rep.text()
+    assert rep.candidates[0].key == key, rep.text()
     axis = key.split("@")[1]
     before, after = rep.residual[axis]["RMS"], rep.after["residual"][axis]["RMS"]
     assert after <= 0.5 * before, rep.text()
@@ -75,7 +75,7 @@ def test_single_hidden_effect_is_named_first_and_adding_it_halves_the_residual(k
 def test_two_hidden_effects_are_both_in_the_top_three_and_the_replay_error_falls():
     effects = (SINGLE["coulomb_friction@roll"], SINGLE["cable_spring@roll"])
     rep = _report(effects)
-    top = [f"{c['effect']}@{c['axis']}" for c in rep.candidates[:3]]
+    top = [c.key for c in rep.candidates[:3]]
     assert {"coulomb_friction@roll", "cable_spring@roll"} <= set(top), rep.text()
 
     effects = (SINGLE["coulomb_friction@roll"], SINGLE["gear_harmonic@propeller"])
@@ -106,30 +106,33 @@ def test_hidden_effect_of_another_form_is_named_by_family(name):
     rep = _report((effect,))
     assert rep.candidates, rep.text()
     first = rep.candidates[0]
-    assert (first["family"], first["axis"]) == (family, axis), rep.text()
+    assert (first.family, first.axis) == (family, axis), rep.text()
 
 
 def test_user_registered_effect_is_ranked_with_the_rest():
-    """A quadratic drag v|v| that no built-in candidate has: registered as a function, it wins."""
+    """A quadratic drag v|v| that no built-in candidate has: registered as a function, it wins; the
+    machine registered on is a new one, and nothing global changed."""
     drag = fx.TabulatedForce.from_function("roll", "velocity", lambda v: 1.5 * v * np.abs(v), -0.5, 0.5, 1001)
-    try:
-        register_effect(lambda q, qd, qdd: qd * np.abs(qd), name="quadratic_drag", family="friction")
-        rep = diagnose(_trials((drag,)), add=["quadratic_drag@roll"])
-        assert rep.missing[0] == "quadratic_drag@roll", rep.text()
-        assert rep.after["residual"]["roll"]["RMS"] < 0.5 * rep.residual["roll"]["RMS"]
-    finally:
-        CANDIDATES.pop("quadratic_drag", None)
-        fx.EFFECTS.pop("quadratic_drag", None)
+    ix = IX
+    before = (dict(fx.EFFECTS), [c.name for c in candidates_for(ix)])
+    mine = register_effect(ix, lambda q, qd, qdd: qd * np.abs(qd), name="quadratic_drag", family="friction")
+    assert (dict(fx.EFFECTS), [c.name for c in candidates_for(ix)]) == before
+    assert [c.name for c in candidates_for(mine)] == [*before[1], "quadratic_drag"]
+    rep = diagnose(_trials((drag,)), mine, add=["quadratic_drag@roll"])
+    assert rep.missing[0] == "quadratic_drag@roll", rep.text()
+    assert rep.after["residual"]["roll"]["RMS"] < 0.5 * rep.residual["roll"]["RMS"]
+    with pytest.raises(ValueError, match="'quadratic_drag' is not an effect diagnose can add on ix"):
+        diagnose(_trials((drag,)), ix, add=["quadratic_drag@roll"])
 
 
 @pytest.mark.bad_input
 def test_register_effect_rejects_bad_input():
     with pytest.raises(TypeError, match="name"):
-        register_effect(lambda q, qd, qdd: qd)
+        register_effect("ix", lambda q, qd, qdd: qd)
     with pytest.raises(ValueError, match="plant-only"):
-        register_effect(fx.Stiction)
+        register_effect("ix", fx.Stiction)
     with pytest.raises(ValueError, match="not nonlinear parameters"):
-        register_effect(fx.CoulombFriction, grid={"Fc": (1.0,)})
+        register_effect("ix", fx.CoulombFriction, grid={"Fc": (1.0,)})
 
 
 def test_scorer_matches_an_independent_least_squares_fit():

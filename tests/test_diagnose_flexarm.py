@@ -26,7 +26,7 @@ def with_payload():
 
 
 def _selected(report) -> set[str]:
-    return {f"{c['effect']}@{c['axis']}" for c in report.candidates if c["selected"]}
+    return {c.key for c in report.candidates if c.selected}
 
 
 def test_finds_the_payload_and_the_coulomb_friction(with_payload):
@@ -34,12 +34,12 @@ def test_finds_the_payload_and_the_coulomb_friction(with_payload):
     # the payload loads the wrist too: once the frictions are in, payload@j5 removes 99 % of what j5 has left
     assert _selected(report) == {"payload@j2", "payload@j3", "coulomb_friction@j2", "coulomb_friction@j3",
                                  "coulomb_friction@j5", "payload@j5"}
-    assert report.candidates[0]["effect"] == "payload"  # the largest effect first
+    assert report.candidates[0].effect == "payload"  # the largest effect first
     assert report.model_effects[0] == "rigid_body (inertial parameters as given)"
     for joint in ("j2", "j3"):  # the payload alone removes most of the residual of the joints that carry it
         assert report.after["residual"][joint]["RMS"] < 0.5 * report.residual[joint]["RMS"]
     assert set(report.residual) == set(arm.AXES)  # standing joints are reported, not searched
-    assert not any(c["axis"] in ("j1", "j4", "j6") for c in report.candidates)
+    assert not any(c.axis in ("j1", "j4", "j6") for c in report.candidates)
 
 
 def test_no_payload_is_claimed_without_one():

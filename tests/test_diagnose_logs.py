@@ -26,7 +26,6 @@ import pytest
 from lcgym import systems
 from lcgym.data import Trial, log_rate, regularize
 from lcgym.diagnose import diagnose, register_effect
-from lcgym.diagnose.candidates import CANDIDATES
 from lcgym.diagnose.layout import DataTooShort, block_lengths, edge_outliers, fold_coverage, rests
 from lcgym.physics import effects as fx
 from lcgym.physics.model import solve_min_norm
@@ -100,7 +99,7 @@ def test_runs_that_repeat_one_trajectory_are_found_and_the_selection_is_stricter
     assert "held-out scoring: held-out blocks" in report.text()  # one trajectory: blocks, in step across its repeats
     _, faster = run_case_report("validation run twice as fast (cobot, friction growing with sqrt(speed) on the elbow)")
     assert "held-out scoring: whole runs as the two folds" in faster.text()
-    assert not {c["effect"] for st in report.steps for c in st["candidates"]} & {"friction_curve", "position_map"}
+    assert not {c.effect for st in report.steps for c in st.candidates} & {"friction_curve", "position_map"}
 
 
 def test_axes_moving_in_proportion_are_named_and_get_no_effect_over_the_position():
@@ -111,7 +110,7 @@ def test_axes_moving_in_proportion_are_named_and_get_no_effect_over_the_position
     (group,) = report.samples["proportional"]
     assert group["axes"] == ["shoulder", "elbow"] and group["alike"] > 0.99
     assert "moving in proportion: shoulder, elbow" in report.text()
-    tried = {c["effect"] for st in report.steps for c in st["candidates"]}
+    tried = {c.effect for st in report.steps for c in st.candidates}
     assert not tried & {"cable_spring", "position_map", "cable_drape", "gear_harmonic", "torque_ripple"}
     assert tried & {"coulomb_friction", "offset"}  # the others are tried there
 
@@ -119,7 +118,7 @@ def test_axes_moving_in_proportion_are_named_and_get_no_effect_over_the_position
 def test_the_quadratic_spring_is_named_a_spring_and_adding_it_cuts_the_residual():
     name = "one-sided spring growing quadratically (two-link shoulder)"
     machine, trials, report = case_report(name)
-    assert report.candidates[0]["family"] == "spring" and report.candidates[0]["axis"] == "shoulder"
+    assert report.candidates[0].family == "spring" and report.candidates[0].axis == "shoulder"
     after = diagnose(trials, machine, add=report.missing).after["residual"]["shoulder"]["RMS"]
     assert after <= 0.1 * report.residual["shoulder"]["RMS"]  # 0.04x measured (the truth allows 0.01x)
 
@@ -130,9 +129,9 @@ def test_a_better_shape_replaces_the_pick_and_every_other_form_tried_names_its_r
     replaces it; the other forms are refused, each with the rule's numbers and the rule it fails."""
     _, _, report = case_report("friction growing with sqrt(speed) (elbow)")
     step = report.steps[0]
-    assert step["picked"] == "coulomb_friction@elbow_joint"
-    assert step["revised"] == ["coulomb_friction@elbow_joint -> friction_curve@elbow_joint"]
-    tried = {line.split(" in place of ")[0]: line for line in step["replacements"]}
+    assert step.picked == "coulomb_friction@elbow_joint"
+    assert step.revised == ["coulomb_friction@elbow_joint -> friction_curve@elbow_joint"]
+    tried = {line.split(" in place of ")[0]: line for line in step.replacements}
     assert set(tried) == {f"{n}@elbow_joint" for n in ("stribeck_friction", "asymmetric_friction", "load_friction",
                                                          "friction_curve")}
     assert tried["friction_curve@elbow_joint"].endswith("better by the significance rule")
@@ -349,15 +348,12 @@ def test_a_user_effect_reads_the_whole_state_and_the_rigid_body_gravity():
     def grip(state, eps):  # a user's load-dependent friction: reads the gravity torque of its axis
         return np.abs(state.gravity[:, state.axis]) * np.tanh(state.qd[:, state.axis] / eps)
 
-    try:
-        register_effect(grip, name="grip_friction", family="friction", grid={"eps": (0.01, 0.05)}, whole_state=True)
-        report = diagnose(runs, cobot, add=["grip_friction@shoulder_lift_joint"])
-        rows = {f"{c['effect']}@{c['axis']}": c for c in report.candidates}
-        assert rows["grip_friction@shoulder_lift_joint"]["explained"] > 0.5, report.text()
-        assert report.after["residual"]["shoulder_lift_joint"]["RMS"] < 0.6 * report.residual["shoulder_lift_joint"]["RMS"]
-    finally:
-        CANDIDATES.pop("grip_friction", None)
-        fx.EFFECTS.pop("grip_friction", None)
+    cobot = register_effect(cobot, grip, name="grip_friction", family="friction", grid={"eps": (0.01, 0.05)},
+                            whole_state=True)
+    report = diagnose(runs, cobot, add=["grip_friction@shoulder_lift_joint"])
+    rows = {c.key: c for c in report.candidates}
+    assert rows["grip_friction@shoulder_lift_joint"].explained > 0.5, report.text()
+    assert report.after["residual"]["shoulder_lift_joint"]["RMS"] < 0.6 * report.residual["shoulder_lift_joint"]["RMS"]
 
 
 # ------------------------------------------------------------------ the report
@@ -369,6 +365,6 @@ def test_the_report_columns_stay_aligned_with_long_joint_names_and_refusals_are_
     assert len({len(line) for line in block}) == 1  # every row as long as the header: columns line up
     assert any(line.startswith("  shoulder_lift_joint ") for line in block)  # the floor per named axis
     refused = report.refused()
-    assert all(c["verdict"] != "passes" and c["share_of_left"] >= report.min_explained for c in refused)
+    assert all(c.verdict != "passes" and c.share_of_left >= report.min_explained for c in refused)
     if refused:
         assert "refused (removed at least 10%" in text

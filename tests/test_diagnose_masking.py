@@ -58,8 +58,8 @@ def _report(effects: tuple, block_seconds: float | None = None):
     return diagnose(IXPlant(effects=effects).run(_refs()), IX, block_seconds=block_seconds)
 
 
-def _step(rep, k: int, key: str) -> dict:
-    (row,) = [c for c in rep.steps[k]["candidates"] if f"{c['effect']}@{c['axis']}" == key]
+def _step(rep, k: int, key: str):
+    (row,) = [c for c in rep.steps[k].candidates if c.key == key]
     return row
 
 
@@ -72,9 +72,9 @@ def test_a_friction_behind_a_five_times_larger_spring_on_its_axis_is_found_once_
     rep = _report((FRICTION, spring), 4.0)
     assert rep.missing == ["cable_spring@roll", "coulomb_friction@roll"], rep.text()
     first, second = _step(rep, 0, "coulomb_friction@roll"), _step(rep, 1, "coulomb_friction@roll")
-    assert first["verdict"] != "passes" and first["share_of_left"] < 0.1  # hidden: 6 % of the residual alone
-    assert second["verdict"] == "passes" and second["share_of_left"] > 0.4  # 47 % of what the spring leaves
-    assert rep.steps[0]["picked"] == "cable_spring@roll" and rep.steps[-1]["picked"] is None
+    assert first.verdict != "passes" and first.share_of_left < 0.1  # hidden: 6 % of the residual alone
+    assert second.verdict == "passes" and second.share_of_left > 0.4  # 47 % of what the spring leaves
+    assert rep.steps[0].picked == "cable_spring@roll" and rep.steps[-1].picked is None
     assert rep.stop == "no candidate passes the significance rule"
 
 

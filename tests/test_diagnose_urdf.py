@@ -79,7 +79,7 @@ def test_friction_and_a_one_sided_spring_on_another_joint_are_both_selected(tmp_
     runs = URDFPlant(arm, effects=hidden, encoder_resolution=2 * math.pi / 2**16).run(
         random_references(arm, n=3, duration=20.0, seed=0))
     report = diagnose(runs, arm)
-    picked = {(c["axis"], c["family"]) for c in report.candidates if c["selected"]}
+    picked = {(c.axis, c.family) for c in report.candidates if c.selected}
     assert {("shoulder", "spring"), ("elbow", "friction")} <= picked, report.text()
     assert report.missing[0] == "cable_spring@shoulder"
 

@@ -8,7 +8,7 @@ import pytest
 import torch
 
 from lcgym.physics import effects as fx
-from lcgym.physics.candidates import LIBRARY
+from lcgym.physics.candidates import library
 from lcgym.references import AxisProfile, sample
 from lcgym.systems.ix import dynamics as ix
 from lcgym.systems.ix.effects import PositionDependentFriction
@@ -150,7 +150,7 @@ position-dependent inertia's 1/2 J'(q) qd^2 (Euler-Lagrange), like the rigid bod
 terms, quadratic in the speed (and zero away from its onset)."""
 
 
-@pytest.mark.parametrize("cand", LIBRARY, ids=lambda c: c.name)
+@pytest.mark.parametrize("cand", library(), ids=lambda c: c.name)
 def test_every_library_effect_grows_at_most_linearly_beyond_its_data(cand):
     """Issue 49: outside the data a fitted effect is extrapolated, so each of the diagnosis's
     candidates, with any coefficients and its data-set shape, stays bounded or grows at most

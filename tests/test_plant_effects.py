@@ -53,11 +53,15 @@ def plant_torque(effect, q, qd, load):
 
 
 def test_every_effect_of_the_library_is_a_plant_kind_or_says_why_not():
-    """A class of ``physics.effects`` is a plant kind, an effect of structure some plants carry, or
-    a shape of the diagnosis; one test effect of every kind is below."""
+    """A class of ``physics.effects`` is a plant kind (a code of its own), or says why not (an
+    effect of structure some plants carry, or a shape of the diagnosis); one test effect of every
+    kind is below."""
+    kinds = [cls.plant_kind for cls in fx.EFFECTS.values() if cls.plant_kind]
+    assert len(kinds) == len(set(kinds)) and all(k > 0 for k in kinds), kinds
     for cls in fx.EFFECTS.values():
-        assert (cls in pe.KINDS) + (cls in pe.STRUCTURAL) + (cls in pe.MODEL_ONLY) == 1, cls.name
-    assert {type(e) for e in ONE_OF_EACH} == set(pe.KINDS)
+        assert bool(cls.plant_kind) + bool(cls.no_plant_kind) == 1, cls.name
+        assert pe.has_plant_kind(cls) == bool(cls.plant_kind), cls.name
+    assert {type(e) for e in ONE_OF_EACH} == set(pe.PLANT_KINDS.values())
 
 
 def test_a_new_effect_without_a_plant_kind_is_refused_by_name():
@@ -72,7 +76,7 @@ def test_a_new_effect_without_a_plant_kind_is_refused_by_name():
         def _columns(self, q, qd, qdd, loads):
             return (self._q(q) ** 3,)
 
-    with pytest.raises(ValueError, match=r"cubic_spring@b: cubic_spring has no plant kind \(physics.plant_effects.KINDS\)"):
+    with pytest.raises(ValueError, match=r"cubic_spring@b: cubic_spring has no plant kind \(Effect.plant_kind\)"):
         pe.pack([Cubic("b", k3=1.0).bound(AXES)], 2)
     with pytest.raises(ValueError, match="stiction@b: stiction has internal state"):
         pe.pack([fx.Stiction("b").bound(AXES)], 2)

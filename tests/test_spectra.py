@@ -73,7 +73,7 @@ def test_a_ripple_filtered_out_of_the_input_is_refused_where_held_out_scores_wou
     assert raw.missing == ["gear_harmonic@propeller"]
     filtered = diagnose([dataclasses.replace(r, u=lowpass_zero_phase(r.u, r.fs, 1.0)) for r in runs], IX)
     assert "gear_harmonic@propeller" not in filtered.missing
-    verdicts = [c["verdict"] for c in filtered.steps[0]["candidates"]
-                if c["effect"] == "gear_harmonic" and c["axis"] == "propeller"]
+    verdicts = [c.verdict for c in filtered.steps[0].candidates
+                if c.effect == "gear_harmonic" and c.axis == "propeller"]
     assert verdicts and verdicts[0].startswith("not in the input's spectrum"), verdicts
     assert filtered.samples["bandwidth"]["input"]["propeller"] < 2.0 < raw.samples["bandwidth"]["input"]["propeller"]

@@ -6,13 +6,13 @@ learn which physical effect is missing, add it, and watch the error fall (`lcgym
     report = diagnose(trials, "ix", DiagnoseOptions(min_explained=0.2))      # the options as one object
     print(report.text())
 
-Steps in ``workflow.py``; the candidate search in ``search.py``; candidates and the registry of
-user effects in ``candidates.py``; regions in ``regions.py``; the report in ``report.py``.
+Steps in ``workflow.py``; the candidate search in ``search.py``; candidates, and a user's
+effect added to a machine (``register_effect``), in ``candidates.py``; regions in ``regions.py``; the report in ``report.py``.
 """
 
-from .candidates import CANDIDATES, Candidate, register_effect
+from .candidates import Candidate, register_effect
 from .report import NOTHING_FOUND, Diagnosis
 from .workflow import DiagnoseOptions, diagnose, replay_tracking
 
-__all__ = ["CANDIDATES", "NOTHING_FOUND", "Candidate", "DiagnoseOptions", "Diagnosis", "diagnose", "register_effect",
+__all__ = ["NOTHING_FOUND", "Candidate", "DiagnoseOptions", "Diagnosis", "diagnose", "register_effect",
            "replay_tracking"]

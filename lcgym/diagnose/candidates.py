@@ -1,10 +1,11 @@
-"""Candidate effects of a diagnosis on a machine, and the registry users add their own effects to.
+"""Candidate effects of a diagnosis on a machine, and how users add their own.
 
-A candidate (``physics.candidates.Candidate``) is an ``Effect`` class plus the grids of its
-nonlinear parameters. A machine's candidates are the library's (``physics.candidates.LIBRARY``),
-its own (``System.candidates``: the IX's guidance friction, the FlexArm's payload) and the ones
-users register here (``register_effect``), limited to ``System.candidate_names`` where the machine
-sets them and to the effects whose formula applies to the axis kind (``Effect.applies_to``).
+A candidate (``physics.candidates.Candidate``) is an ``Effect`` class with the grids of its
+nonlinear parameters (the effect's ``search``). A machine's candidates are the library's
+(``physics.candidates.library``) and its own (``System.candidates``: the IX's guidance friction,
+the FlexArm's payload, a user's effect added by ``register_effect``), limited to
+``System.candidate_names`` where the machine sets them and to the effects whose formula applies to
+the axis kind (``Effect.applies_to``).
 """
 
 from __future__ import annotations
@@ -16,10 +17,8 @@ import numpy as np
 
 from .. import systems
 from ..physics import effects as fx
-from ..physics.candidates import REGISTERED, Candidate, candidates_of
-
-CANDIDATES: dict[str, Candidate] = REGISTERED
-"""The effects users registered (``register_effect``), by name (``physics.candidates.REGISTERED``)."""
+from ..physics.candidates import Candidate, candidates_of
+from ..physics.grids import Search
 
 
 def candidates_for(system) -> list[Candidate]:
@@ -43,9 +42,11 @@ class State:
     gravity: np.ndarray
 
 
-def register_effect(effect, family: str = "user", grid: dict | None = None, period: str | None = None,
-                    name: str | None = None, n_coefficients: int = 1, whole_state: bool = False) -> Candidate:
-    """Add a candidate effect to the diagnosis (it is ranked with the built-in ones).
+def register_effect(system, effect, family: str = "user", grid: dict | None = None, period: str | None = None,
+                    name: str | None = None, n_coefficients: int = 1, whole_state: bool = False) -> systems.System:
+    """``system`` (a ``systems.System`` or what ``systems.get`` accepts) with one more candidate
+    effect, ranked with the built-in ones; nothing else changes (no global registry: the machine
+    returned is the registry).
 
     ``effect`` is an ``Effect`` subclass (see ``physics.effects``: ``linear`` names its
     coefficients, ``nonlinear`` the parameters ``grid`` searches, ``_columns`` its regressor), or
@@ -55,9 +56,10 @@ def register_effect(effect, family: str = "user", grid: dict | None = None, peri
     ``f(state, **nonlinear)`` of a ``State``: every axis's kinematics and the rigid-body model's
     torque and gravity torque (a friction growing with the joint's load, a coupling between
     axes). ``grid`` gives values to try for nonlinear parameters; ``period`` names one that is a
-    period over the axis position. It is also registered in the effect vocabulary, so that
-    ``--add NAME@AXIS`` and ``PhysicalModel.with_effect`` accept it on every machine.
+    period over the axis position. The returned machine knows the effect by name too, so that
+    ``diagnose(..., add=["NAME@AXIS"])`` and its ``physical_model().with_effect`` accept it.
     """
+    system = systems.get(system)
     grid = dict(grid or {})
     if not isinstance(effect, type):
         if not callable(effect) or not name:
@@ -70,10 +72,12 @@ def register_effect(effect, family: str = "user", grid: dict | None = None, peri
     missing = [p for p in (*grid, *([period] if period else [])) if p not in effect.nonlinear]
     if missing:
         raise ValueError(f"{effect.name}: grid names {missing}, which are not nonlinear parameters {effect.nonlinear}")
-    fx.EFFECTS[effect.name] = effect
-    cand = Candidate(effect, family, grid, period)
-    CANDIDATES[effect.name] = cand
-    return cand
+    candidate = Candidate.of(effect, Search(family, grid, period))
+    names = system.candidate_names
+    return dataclasses.replace(
+        system, effects=(*[e for e in system.effects if e.name != effect.name], effect),
+        candidates=(*[c for c in system.candidates if c.name != effect.name], candidate),
+        candidate_names=None if names is None else (*names, effect.name))
 
 
 def _function_effect(function, name: str, n_coefficients: int, nonlinear: tuple[str, ...],

@@ -23,6 +23,8 @@ import math
 
 import numpy as np
 
+from .rows import RegionRow
+
 
 def region_masks(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, trial: np.ndarray, fs_rows: float,
                  axes: tuple, window: float = 0.3) -> dict[str, list[tuple[str, np.ndarray]]]:
@@ -69,8 +71,8 @@ def region_masks(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, trial: np.ndarr
 
 
 def region_table(residual: np.ndarray, masks: dict, axes: tuple[str, ...], used: np.ndarray | None = None,
-                 min_share: float = 0.02) -> list[dict]:
-    """Rows {axis, where, RMS, ratio, samples, energy} for every region of every axis, worst ratio
+                 min_share: float = 0.02) -> list[RegionRow]:
+    """A row (``RegionRow``: axis, where, RMS, ratio, samples, energy) for every region of every axis, worst ratio
     first, over each axis's ``used`` rows (R, A) (default all)."""
     rows = []
     for i, ax in enumerate(axes):
@@ -86,6 +88,6 @@ def region_table(residual: np.ndarray, masks: dict, axes: tuple[str, ...], used:
             if share < min_share:
                 continue
             rms = float(np.sqrt(np.mean(r[m] ** 2)))
-            rows.append({"axis": ax, "where": where, "RMS": rms, "ratio": rms / overall, "samples": share,
-                         "energy": float((r[m] ** 2).sum() / total)})
-    return sorted(rows, key=lambda x: -x["ratio"])
+            rows.append(RegionRow(axis=ax, where=where, RMS=rms, ratio=rms / overall, samples=share,
+                                  energy=float((r[m] ** 2).sum() / total)))
+    return sorted(rows, key=lambda x: -x.ratio)

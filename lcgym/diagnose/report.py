@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from dataclasses import dataclass, field
@@ -11,6 +12,7 @@ import numpy as np
 
 from ..data import atomic_write
 from ..figures import wrapped_title
+from .rows import CandidateRow, RegionRow, StepRow, StepScore
 
 DEG = math.pi / 180.0
 NOTHING_FOUND = "no missing effect found"
@@ -27,8 +29,9 @@ PLOT_FILES = {
 @dataclass(frozen=True)
 class Diagnosis:
     """What ``diagnose`` found. ``residual`` {axis: {MA, RMS, Inf, unit}}; ``regions`` worst
-    first; ``candidates`` passing candidates, best first (greedy selection order, then the rest
-    by their share alone); ``after`` / ``replay`` with ``add`` / ``replay``. ``model`` is the
+    first (``rows.RegionRow``); ``candidates`` passing candidates, best first (greedy selection
+    order, then the rest by their share alone; ``rows.CandidateRow``); ``after`` / ``replay``
+    with ``add`` / ``replay``. ``model`` is the
     fitted nominal model, ``suggested_model`` the model refitted with the selected effects,
     ``found`` every candidate effect (``name@axis``) with the nonlinear parameters the search
     chose (a selected one's as the selection refined them), ready for ``model.with_effect``.
@@ -39,7 +42,7 @@ class Diagnosis:
     of positions in reports (deg, mm); ``resampled``: how the log was put on a uniform grid, or None.
     ``validation``: residual norms on another experiment, not fitted, before and after the effects
     (``workflow.validation``), or None. ``steps``: the greedy selection step by step (what each
-    axis had left, what every candidate removed of it and its verdict; ``workflow._step_row``),
+    axis had left, what every candidate removed of it and its verdict; ``rows.StepRow``),
     ``stop`` why it ended. ``ranges`` {effect key: {variable, lo, hi}}: the range of the variable each
     effect beyond the nominal model acts on, over the data fitted (``workflow.fitted_ranges``); outside
     it the effect is extrapolated. ``machine_file``: the machine file of a machine given by one (its
@@ -53,8 +56,8 @@ class Diagnosis:
     fs: float
     model_effects: list[str]
     residual: dict
-    regions: list[dict]
-    candidates: list[dict]
+    regions: list[RegionRow]
+    candidates: list[CandidateRow]
     min_explained: float
     min_rms: dict
     kinematics: str = ""
@@ -62,7 +65,7 @@ class Diagnosis:
     displays: dict = field(default_factory=dict)
     resampled: str | None = None
     spec: str | None = None  # the machine as the user named it (a URDF path, module:attr), for the hints
-    steps: list = field(default_factory=list)
+    steps: list[StepRow] = field(default_factory=list)
     stop: str = ""
     options: str = ""  # command-line options the hints repeat (--kinematics measured)
     samples: dict = field(default_factory=dict)  # what was fitted and what left out (``workflow._samples_record``)
@@ -81,15 +84,16 @@ class Diagnosis:
     @property
     def missing(self) -> list[str]:
         """``name@axis`` of the selected candidates, best first (empty: nothing found)."""
-        return [f"{c['effect']}@{c['axis']}" for c in self.candidates if c["selected"]]
+        return [c.key for c in self.candidates if c.selected]
 
     def to_dict(self) -> dict:
         out = {"system": self.system, "model_effects": self.model_effects, "n_samples": self.n_samples, "fs": self.fs,
                "kinematics": self.kinematics, "resampled": self.resampled,
                "identified": None if self.identified is None else {"rank": self.identified[0],
                                                                     "parameters": self.identified[1]},
-               "residual": self.residual, "regions": self.regions, "candidates": self.candidates,
-               "selection": {"steps": self.steps, "stop": self.stop},
+               "residual": self.residual, "regions": [r.to_dict() for r in self.regions],
+               "candidates": [c.to_dict() for c in self.candidates],
+               "selection": {"steps": [st.to_dict() for st in self.steps], "stop": self.stop},
                "significance": {"min_explained": self.min_explained, "min_rms": self.min_rms,
                                 "unit": {ax: r["unit"] for ax, r in self.residual.items()},
                              "order": "greedy forward selection (selected: true), then the other passing "
@@ -165,28 +169,28 @@ class Diagnosis:
                          + ("" if one_unit else f" {r['unit']}"))
         lines += ["", "where the model fails worst (residual RMS there / overall):"]
         for ax in self.axes:
-            for reg in [r for r in self.regions if r["axis"] == ax][:n_regions]:
-                lines.append(f"  {ax:{w}s} {reg['where']:44s} RMS {reg['RMS']:.4g} {unit[ax]} ({reg['ratio']:.2f}x, "
-                             f"{100 * reg['samples']:.0f}% of samples)")
+            for reg in [r for r in self.regions if r.axis == ax][:n_regions]:
+                lines.append(f"  {ax:{w}s} {reg.where:44s} RMS {reg.RMS:.4g} {unit[ax]} ({reg.ratio:.2f}x, "
+                             f"{100 * reg.samples:.0f}% of samples)")
         lines += ["", "candidate missing effects (share of the axis's residual energy each removes alone on held-out"
                   " data; selected ones in the order of greedy forward selection):"]
         if not self.candidates:
             lines.append(f"  {NOTHING_FOUND} (none removes {100 * self.min_explained:.0f}% of its axis's residual with at "
                          "least the axis's floor)")
         for k, c in enumerate(self.candidates, 1):
-            how = (f"selected at step {c['step']}: {100 * c['explained_at_selection']:.0f}% of what was left, "
-                   f"{c['RMS_before_at_selection']:.4g} -> {c['RMS_after_at_selection']:.4g} {c['unit']}"
-                   if c["selected"] else "not needed once the selected ones are in")
-            if c.get("named_as"):
-                how += f"; named {c['named_as']}@{c['axis']}, then its shape refined by this curve of no set shape"
-            display = self.displays.get(c["axis"], (180 / math.pi, "deg"))
-            params = ", ".join(f"{n}={_fmt(n, v, display)}" for n, v in c["parameters"].items())
-            if c.get("refined_from"):
+            how = (f"selected at step {c.step}: {100 * c.explained_at_selection:.0f}% of what was left, "
+                   f"{c.RMS_before_at_selection:.4g} -> {c.RMS_after_at_selection:.4g} {c.unit}"
+                   if c.selected else "not needed once the selected ones are in")
+            if c.named_as:
+                how += f"; named {c.named_as}@{c.axis}, then its shape refined by this curve of no set shape"
+            display = self.displays.get(c.axis, (180 / math.pi, "deg"))
+            params = ", ".join(f"{n}={_fmt(n, v, display)}" for n, v in c.parameters.items())
+            if c.refined_from:
                 params += " (refined from " + ", ".join(f"{n}={_fmt(n, v, display)}"
-                                                        for n, v in c["refined_from"].items()) + ")"
-            fitted = self.range_text(f"{c['effect']}@{c['axis']}") if c["selected"] else ""
-            lines.append(f"  {k}. {c['effect']}@{c['axis']} [{c['family']}]: {100 * c['explained']:.0f}%, "
-                         f"held-out RMS {c['RMS_before']:.4g} -> {c['RMS_after']:.4g} {c['unit']} "
+                                                        for n, v in c.refined_from.items()) + ")"
+            fitted = self.range_text(c.key) if c.selected else ""
+            lines.append(f"  {k}. {c.key} [{c.family}]: {100 * c.explained:.0f}%, "
+                         f"held-out RMS {c.RMS_before:.4g} -> {c.RMS_after:.4g} {c.unit} "
                          f"({how}{'; ' + params if params else ''}{'; fitted over ' + fitted if fitted else ''})")
         if self.candidates:
             lines.append(f"  add the selected ones: lcgym diagnose DATA --system {self.spec or self.system} "
@@ -195,25 +199,25 @@ class Diagnosis:
         if refused:
             lines += ["", f"refused (removed at least {100 * self.min_explained:.0f}% of what its axis had left at some "
                       "step, but failed another rule of the significance test):"]
-            wr = max(len(f"{c['effect']}@{c['axis']}") for c in refused)
+            wr = max(len(c.key) for c in refused)
             for c in refused:
-                lines.append(f"  {c['effect'] + '@' + c['axis']:{wr}s}  step {c['step']}: {100 * c['share_of_left']:3.0f}% "
-                             f"of what was left, {100 * c['share_of_original']:3.0f}% of the original: {c['verdict']}")
+                lines.append(f"  {c.key:{wr}s}  step {c.step}: {100 * c.share_of_left:3.0f}% "
+                             f"of what was left, {100 * c.share_of_original:3.0f}% of the original: {c.verdict}")
         if self.steps:
             lines += ["", "selection step by step (held-out RMS each axis had left; the candidates that removed most of it, "
                       "share of what was left / of the original error; all of them in the JSON):"]
             for st in self.steps:
-                left = ", ".join(f"{ax} {v:.4g}" + ("" if one_unit else f" {unit[ax]}") for ax, v in st["left_RMS"].items())
-                revised = "".join(f"; then {r}" for r in st.get("revised", []))
-                lines.append(f"  step {st['step']}: left {left}{head}" + (f" -> add {st['picked']}" if st["picked"] else "")
+                left = ", ".join(f"{ax} {v:.4g}" + ("" if one_unit else f" {unit[ax]}") for ax, v in st.left_RMS.items())
+                revised = "".join(f"; then {r}" for r in st.revised)
+                lines.append(f"  step {st.step}: left {left}{head}" + (f" -> add {st.picked}" if st.picked else "")
                              + revised)
-                shown = st["candidates"][:n_shown]
-                shown += [c for c in st["candidates"][n_shown:] if c["verdict"] == "passes"]
-                ws = max([34] + [len(c["effect"]) + len(c["axis"]) + 1 for c in shown])
+                shown = st.candidates[:n_shown]
+                shown += [c for c in st.candidates[n_shown:] if c.verdict == "passes"]
+                ws = max([34] + [len(c.key) for c in shown])
                 for c in shown:
-                    lines.append(f"    {c['effect'] + '@' + c['axis']:{ws}s} {100 * c['share_of_left']:4.0f}% / "
-                                 f"{100 * c['share_of_original']:4.0f}%  {c['verdict']}")
-                lines += [f"    tried {r}" for r in st.get("replacements", [])]
+                    lines.append(f"    {c.key:{ws}s} {100 * c.share_of_left:4.0f}% / "
+                                 f"{100 * c.share_of_original:4.0f}%  {c.verdict}")
+                lines += [f"    tried {r}" for r in st.replacements]
             lines.append(f"  stopped: {self.stop}")
         if self.after is not None:
             lines += ["", f"after adding {', '.join(self.after['added'])} and refitting, residual RMS{head}:",
@@ -274,21 +278,20 @@ class Diagnosis:
         lo, hi = (_in_unit(x, r["variable"], display) for x in (r["lo"], r["hi"]))
         return f"{r['variable']} {lo} .. {hi}"
 
-    def refused(self) -> list[dict]:
+    def refused(self) -> list[StepScore]:
         """The candidates that removed at least ``min_explained`` of what their axis had left at some
         step but failed another rule (a sign, the original error, the noise floor, a simpler form),
         each once (at the step where it removed the largest share), the largest share first; each a
-        step row of ``steps`` with its ``step``."""
-        best: dict[str, dict] = {}
+        row of ``steps`` with its ``step``."""
+        best: dict[str, StepScore] = {}
         picked = set(self.missing)
         for st in self.steps:
-            for c in st["candidates"]:
-                key = f"{c['effect']}@{c['axis']}"
-                if c["verdict"] == "passes" or c["share_of_left"] < self.min_explained or key in picked:
+            for c in st.candidates:
+                if c.verdict == "passes" or c.share_of_left < self.min_explained or c.key in picked:
                     continue
-                if key not in best or c["share_of_left"] > best[key]["share_of_left"]:
-                    best[key] = {**c, "step": st["step"]}
-        return sorted(best.values(), key=lambda c: -c["share_of_left"])
+                if c.key not in best or c.share_of_left > best[c.key].share_of_left:
+                    best[c.key] = dataclasses.replace(c, step=st.step)
+        return sorted(best.values(), key=lambda c: -c.share_of_left)
 
     def _samples_lines(self, w: int) -> list[str]:
         """What was fitted and what was left out (``samples``), for ``text``."""

@@ -364,7 +364,7 @@ def score_candidate(scorer: Scorer, cand: Candidate, axis: int, prep: Prepared, 
     value where none has), scored on the held-out fold: a one-sided spring is tried on both sides of
     its onset before its sign is judged. The reported parameters minimize the SSE on all data
     (summed training SSE of both folds), among the physical ones where there are. ``scale``: the
-    axis's {"speed", "position"} scales of the grids (``physics.candidates.Scaled``; the shortest
+    axis's {"speed", "position"} scales of the grids (``physics.grids.Scaled``; the shortest
     period searched is 1 % of "position")."""
     q_full = prep.kin[0]
     grid = cand.settings(q_full, prep.kin[1], axis, scale)

@@ -25,6 +25,7 @@ one, a URDF, a user's Python class). The steps, in order:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from contextlib import nullcontext
@@ -45,6 +46,7 @@ from .layout import edge_outliers, layout, repeated_runs, used_samples
 from .machines import machines_with_axes
 from .regions import region_masks, region_table
 from .report import Diagnosis
+from .rows import CandidateRow, StepRow, StepScore
 from .search import prepare, rank
 from .spectra import bandwidths
 
@@ -217,18 +219,18 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", options: Dia
         for k, (s, share, before) in enumerate(ranking.selected, 1):  # explained, RMS_after: the effect alone
             n = ranking.n_rows[s.axis]
             row = _candidate_row(ranking, alone.get((s.candidate.name, s.axis), s), axes, units, selected=True, step=share)
-            row.update(step=k, RMS_before_at_selection=math.sqrt(before / n),
-                       RMS_after_at_selection=math.sqrt(max(before * (1.0 - share), 0.0) / n))
+            at_step = {"step": k, "RMS_before_at_selection": math.sqrt(before / n),
+                       "RMS_after_at_selection": math.sqrt(max(before * (1.0 - share), 0.0) / n)}
             named = ranking.named[k - 1]
             if named.name != s.candidate.name:  # a form of no set shape, revised from the effect the step named
-                row.update(family=named.family, named_as=named.name)
+                at_step.update(family=named.family, named_as=named.name)
             final = refined.get(f"{s.candidate.name}@{axes[s.axis]}")
             if final is not None:  # the nonlinear parameters as the selection refined them
-                scored = row["parameters"]
-                row["parameters"] = {n: float(getattr(final, n)) for n in scored}
-                if row["parameters"] != scored:  # the shares above were scored at the grid's values
-                    row["refined_from"] = scored
-            rows.append(row)
+                scored = row.parameters
+                at_step["parameters"] = {n: float(getattr(final, n)) for n in scored}
+                if at_step["parameters"] != scored:  # the shares above were scored at the grid's values
+                    at_step["refined_from"] = scored
+            rows.append(dataclasses.replace(row, **at_step))
         picked = {(s.candidate.name, s.axis) for s, _, _ in ranking.selected}
         rest = [s for s in ranking.alone if (s.candidate.name, s.axis) not in picked and ranking.passes_alone(s)]
         for s in sorted(rest, key=lambda s: -ranking.explained(s)):
@@ -252,7 +254,7 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", options: Dia
                             "parameters": dict(zip(system.param_names,
                                                    map(float, after.model.fitted_params.to_vector()), strict=True))}
         families = {c.name: c.family for c in cands}
-        families.update({c["effect"]: c["family"] for c in rows if c.get("named_as")})
+        families.update({c.effect: c.family for c in rows if c.named_as})
         shown = after.model if after is not None else ranking.model  # the model with the effects found or added
         ranges = fitted_ranges(shown, prep, families)
         validated = None if validate is None else validation(validate, prep.model, shown, ranges, axes, units)
@@ -491,13 +493,13 @@ def _effect_params(e: Effect) -> dict:
     return {"effect": e.key, **{n: float(getattr(e, n)) for n in (*e.linear, *e.nonlinear)}}
 
 
-def _candidate_row(ranking, s, axes, units, selected: bool, step: float | None) -> dict:
+def _candidate_row(ranking, s, axes, units, selected: bool, step: float | None) -> CandidateRow:
     cand = s.candidate
     n = ranking.n_rows[s.axis]
-    return {"effect": cand.name, "axis": axes[s.axis], "family": cand.family, "explained": ranking.explained(s),
-            "RMS_before": math.sqrt(ranking.baseline[s.axis] / n),
-            "RMS_after": math.sqrt(s.held_out_sse / n), "unit": units[s.axis], "selected": selected,
-            "explained_at_selection": step, "parameters": {k: float(v) for k, v in s.params.items()}}
+    return CandidateRow(effect=cand.name, axis=axes[s.axis], family=cand.family, explained=ranking.explained(s),
+                        RMS_before=math.sqrt(ranking.baseline[s.axis] / n), RMS_after=math.sqrt(s.held_out_sse / n),
+                        unit=units[s.axis], selected=selected, explained_at_selection=step,
+                        parameters={k: float(v) for k, v in s.params.items()})
 
 
 def validation(trials: Sequence, model: PhysicalModel, after_model: PhysicalModel, ranges: dict, axes, units) -> dict:
@@ -518,22 +520,19 @@ def validation(trials: Sequence, model: PhysicalModel, after_model: PhysicalMode
             "outside": outside_ranges(ranges, kin, rows, used, axes)}
 
 
-def _step_row(k: int, step, axes, n_rows: np.ndarray) -> dict:
-    """One greedy step for the report: each axis's held-out RMS left, and every candidate scored
-    then, the most removed first (``removed_RMS``: RMS of what it removes; ``share_of_left`` of
-    the axis's held-out energy then; ``share_of_original`` of its original error; ``verdict``);
-    ``revised``: earlier picks put in another form of theirs once this one was in; ``replacements``:
-    every other form tried in place of a pick, with the rule's numbers and verdict."""
-    rows = []
+def _step_row(k: int, step, axes, n_rows: np.ndarray) -> StepRow:
+    """One greedy step for the report (``rows.StepRow``): each axis's held-out RMS left, and every
+    candidate scored then, the most removed first (``rows.StepScore``)."""
+    scores = []
     for s, removed, why in sorted(step.scores, key=lambda x: -x[1]):
         a = s.axis
-        rows.append({"effect": s.candidate.name, "axis": axes[a], "removed_RMS": math.sqrt(max(removed, 0.0) / n_rows[a]),
-                     "share_of_left": max(removed, 0.0) / step.left[a] if step.left[a] > 0 else 0.0,
-                     "share_of_original": max(removed, 0.0) / step.original[a] if step.original[a] > 0 else 0.0,
-                     "verdict": why})
+        scores.append(StepScore(effect=s.candidate.name, axis=axes[a], removed_RMS=math.sqrt(max(removed, 0.0) / n_rows[a]),
+                                share_of_left=max(removed, 0.0) / step.left[a] if step.left[a] > 0 else 0.0,
+                                share_of_original=max(removed, 0.0) / step.original[a] if step.original[a] > 0 else 0.0,
+                                verdict=why))
     picked = None if step.picked is None else f"{step.picked.candidate.name}@{axes[step.picked.axis]}"
-    return {"step": k, "left_RMS": {ax: math.sqrt(float(step.left[i]) / n_rows[i]) for i, ax in enumerate(axes)},
-            "picked": picked, "revised": list(step.revised), "replacements": list(step.replacements), "candidates": rows}
+    return StepRow(step=k, left_RMS={ax: math.sqrt(float(step.left[i]) / n_rows[i]) for i, ax in enumerate(axes)},
+                   picked=picked, revised=list(step.revised), replacements=list(step.replacements), candidates=scores)
 
 
 def _machine_file(system: systems.System) -> str | None:

@@ -1,77 +1,47 @@
-"""Candidate effects: what the diagnosis may add to a model, with the grids of their nonlinear
-parameters (``diagnose.search`` tries every combination).
+"""Candidate effects: what the diagnosis may add to a model, each an ``Effect`` class with the grids
+of its nonlinear parameters (``diagnose.search`` tries every combination).
 
-A candidate is an ``Effect`` class plus, for each of its nonlinear parameters, the values the
-search tries. Grid values are fixed numbers, ``Scaled`` numbers (fractions of the axis's speed or
-position scale: ``systems.Axis.speed_scale`` / ``position_scale``, or, where a machine leaves them
-unset, its data's), or a function of the data ``(q, qd, axis_index) -> values`` (e.g. spring
-onsets at quantiles of the axis's measured positions). Periodic effects take their period from
-the peaks of the residual's spectrum over the axis position (``diagnose.search``), not from a
-grid: a period must be known to a fraction of a percent to fit a harmonic over tens of cycles.
-
-The fractions below were chosen on the IX, whose axes declare the scales 20 deg/s and 100 deg,
-so that there they are the grids the diagnosis was developed with (Coulomb smoothing 0.05-2
-deg/s, spring widths 1 and 5 deg, ...). On a machine without declared scales they follow its data:
-a friction smoothing of 0.25 % to 10 % of the axis's top speed is as sharp on a robot joint
-turning at 2 rad/s as on the IX at 20 deg/s, and on a linear axis in m/s.
+Every effect of the library declares how it is searched (its ``search``, a ``physics.grids.Search``);
+``library()`` gives those effects as candidates, in the order of ``physics.effects.EFFECTS``, which
+is the order the diagnosis tries them. A machine adds its own (``System.candidates``: the IX's
+guidance friction, the FlexArm's payload; a user's, ``diagnose.register_effect``).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
 from . import effects as fx
+from .grids import Scaled, Search
 
 DEG = math.pi / 180.0
 
-
-@dataclass(frozen=True)
-class Scaled:
-    """Grid values as fractions of an axis scale: ``by`` "speed" [rad/s or m/s] or "position" [rad or m]."""
-
-    fractions: tuple[float, ...]
-    by: str = "speed"
-
-    def __post_init__(self):
-        if self.by not in ("speed", "position"):
-            raise ValueError(f"Scaled: by must be 'speed' or 'position', got {self.by!r}")
-
-    def values(self, scale: dict) -> np.ndarray:
-        return np.asarray(self.fractions, dtype=float) * scale[self.by]
+__all__ = ["Candidate", "Scaled", "Search", "axis_scale", "candidates_of", "library", "period_peaks",
+           "refined_setting", "refinement"]
 
 
 @dataclass(frozen=True)
-class Candidate:
-    """An effect family member the diagnosis can add: ``effect`` (an Effect subclass),
-    ``family`` (friction, spring, inertia, periodic, gravity, user) and ``grid``: for each
-    nonlinear parameter, a tuple of values, a ``Scaled`` or a function ``(q, qd, axis_index) ->
-    values``. ``period``: the name of a nonlinear parameter that is a period over the axis position,
-    found from the spectrum of the residual (not gridded), or None. ``extends``: the names of
-    simpler candidates whose form this one contains (asymmetric friction contains Coulomb friction):
-    it is taken only where its extra parameters pass the significance rule against what the best
-    simpler one leaves (``diagnose.search``). ``shape_free``: a curve of no set shape (a spline):
-    where a library effect of its axis passes too, the best of those is named first, and this one is
-    then tried in its place where it extends that effect (its shape refined). ``fixed``: nonlinear
-    parameters the search takes from the grid and does not refine (a spline's knot range).
-    ``above_rest``: speeds of a shape that acts at low speed (a Stribeck velocity), tried only from
-    twice the axis's rest speed up (``scale["rest"]``: the samples below it are left out of the fit)."""
+class Candidate(Search):
+    """An effect the diagnosis can add: ``effect`` (an Effect subclass) searched as ``Search`` says.
+    ``Candidate.of(cls)`` takes the effect's own ``search``."""
 
-    effect: type[fx.Effect]
-    family: str
-    grid: dict[str, tuple | Scaled | Callable] = field(default_factory=dict)
-    period: str | None = None
-    extends: tuple[str, ...] = ()
-    shape_free: bool = False
-    fixed: tuple[str, ...] = ()
-    above_rest: tuple[str, ...] = ()
+    effect: type[fx.Effect] | None = field(default=None, kw_only=True)
 
     def __post_init__(self):
-        if isinstance(self.extends, str):
-            object.__setattr__(self, "extends", (self.extends,))
+        super().__post_init__()
+        if not (isinstance(self.effect, type) and issubclass(self.effect, fx.Effect)):
+            raise TypeError(f"Candidate: effect must be an Effect subclass, got {self.effect!r}")
+
+    @classmethod
+    def of(cls, effect: type[fx.Effect], search: Search | None = None) -> Candidate:
+        """The candidate of ``effect``, searched as ``search`` says (default: the effect's own)."""
+        search = search or effect.search
+        if search is None:
+            raise ValueError(f"{effect.name}: the effect declares no search (Effect.search)")
+        return cls(**{f.name: getattr(search, f.name) for f in fields(Search)}, effect=effect)
 
     @property
     def name(self) -> str:
@@ -82,81 +52,25 @@ class Candidate:
         """Linear plus searched nonlinear parameters: the tie-break prefers fewer."""
         return len(self.effect.linear) + len(self.grid) + (self.period is not None)
 
-    def settings(self, q: np.ndarray, qd: np.ndarray, index: int, scale: dict) -> list[dict]:
-        """Every combination of grid values for an axis; ``scale`` {"speed", "position"} of the axis."""
-        combos = [{}]
-        for name, values in self.grid.items():
-            if isinstance(values, Scaled):
-                vals = values.values(scale)
-            else:
-                vals = values(q, qd, index) if callable(values) else values
-            if name in self.above_rest and scale.get("rest"):
-                vals = [v for v in vals if v >= 2 * scale["rest"]] or [max(vals)]
-            combos = [{**c, name: float(v)} for c in combos for v in vals]
-        return combos
-
     def build(self, axis: str, **nonlinear) -> fx.Effect:
         return self.effect(axis=axis, **nonlinear)
 
 
-def angle_quantiles(q, qd, i, n=9):
-    """Onsets of a one-sided spring: quantiles 5 %..95 % of the axis position [rad or m]."""
-    return np.quantile(q[:, i], np.linspace(0.05, 0.95, n))
-
-
-def position_low(q, qd, i):
-    """The low end of a position map's knots: the axis position's 0.5 % quantile [rad or m]."""
-    return [float(np.quantile(q[:, i], 0.005))]
-
-
-def position_high(q, qd, i):
-    """The high end of a position map's knots: the axis position's 99.5 % quantile [rad or m]."""
-    return [float(np.quantile(q[:, i], 0.995))]
-
-
-FRICTION_FORMS = ("coulomb_friction", "asymmetric_friction", "stribeck_friction")
-
-
-LIBRARY: tuple[Candidate, ...] = (
-    Candidate(fx.CoulombFriction, "friction", {"eps": Scaled((0.0025, 0.01, 0.025, 0.05, 0.1))}),
-    # Stribeck velocities stop at 40 % of the speed scale: a wider bump is Coulomb friction
-    Candidate(fx.StribeckFriction, "friction", {"vs": Scaled(tuple(np.geomspace(0.005, 0.4, 20))),
-                                                "eps": Scaled((0.0025, 0.01))},
-              extends=("coulomb_friction",), above_rest=("vs",)),
-    Candidate(fx.AsymmetricFriction, "friction", {"eps": Scaled((0.0025, 0.01, 0.025, 0.05, 0.1))},
-              extends=("coulomb_friction",)),
-    Candidate(fx.LoadFriction, "friction", {"eps": Scaled((0.0025, 0.01, 0.025, 0.05, 0.1))},
-              extends=("coulomb_friction",)),
-    Candidate(fx.FrictionCurve, "friction", {"eps": Scaled((0.0025, 0.01, 0.05)), "v_top": Scaled((1.0,))},
-              extends=FRICTION_FORMS, shape_free=True, fixed=("v_top",)),
-    Candidate(fx.Offset, "offset"),
-    Candidate(fx.CableSpring, "spring", {"q0": angle_quantiles, "width": Scaled((0.01, 0.05), "position"),
-                                         "side": (-1.0, 1.0)}),
-    Candidate(fx.CableInertia, "inertia", {"q0": lambda q, qd, i: angle_quantiles(q, qd, i, 5),
-                                           "width": Scaled((0.05, 0.15), "position")}),
-    Candidate(fx.RotorInertia, "inertia"),
-    Candidate(fx.GearHarmonic, "periodic", period="period"),
-    Candidate(fx.TorqueRipple, "periodic", period="period"),
-    Candidate(fx.CableDrape, "gravity"),
-    Candidate(fx.PositionMap, "position", {"lo": position_low, "hi": position_high},
-              extends=("offset", "cable_spring", "cable_drape"), shape_free=True, fixed=("lo", "hi")),
-)
-"""The library's candidates, in the order the diagnosis tries them."""
-
-REGISTERED: dict[str, Candidate] = {}
-"""The candidates users registered (``diagnose.register_effect``; ``diagnose.CANDIDATES`` is this
-dict), by name."""
+def library() -> list[Candidate]:
+    """The library's candidates: every effect of ``physics.effects.EFFECTS`` that declares a
+    ``search``, in that order (the order the diagnosis tries them)."""
+    return [Candidate.of(cls) for cls in fx.EFFECTS.values() if cls.search is not None]
 
 
 def candidates_of(system) -> list[Candidate]:
-    """The candidates of a machine (a ``systems.System``): the library's, its own
-    (``System.candidates``) and the registered ones, limited to ``System.candidate_names`` where the
-    machine sets them (registered ones stay) and to those whose formula applies to one of its axes at
-    least (``Effect.applies_to``). What the diagnosis tries, ``--add`` accepts and a machine's model
-    may carry (``System.model_effects``, a machine file's ``[[model]]`` tables)."""
-    pool = {c.name: c for c in (*LIBRARY, *system.candidates, *REGISTERED.values())}
+    """The candidates of a machine (a ``systems.System``): the library's and its own
+    (``System.candidates``, with those ``diagnose.register_effect`` added), limited to
+    ``System.candidate_names`` where the machine sets them and to those whose formula applies to one
+    of its axes at least (``Effect.applies_to``). What the diagnosis tries, ``--add`` accepts and a
+    machine's model may carry (``System.model_effects``, a machine file's ``[[model]]`` tables)."""
+    pool = {c.name: c for c in (*library(), *system.candidates)}
     if system.candidate_names is not None:
-        pool = {n: c for n, c in pool.items() if n in system.candidate_names or n in REGISTERED}
+        pool = {n: c for n, c in pool.items() if n in system.candidate_names}
     return [c for c in pool.values() if any(c.effect.applies_to(a) for a in system.axes)]
 
 

@@ -40,6 +40,8 @@ from typing import ClassVar
 import numpy as np
 from numba.extending import register_jitable
 
+from .grids import SMOOTHING, Scaled, Search, angle_quantiles, five_angle_quantiles, position_high, position_low
+
 DEG = math.pi / 180.0
 
 # ---------------------------------------------------------------------------------------------
@@ -204,6 +206,9 @@ class Effect:
     plant_only: ClassVar[bool] = False
     reads: ClassVar[tuple[str, ...]] = ()  # the model torques the formula reads (``Loads``): "torque", "gravity"
     revolute_only: ClassVar[bool] = False  # the formula is periodic in the angle (no meaning on a prismatic axis)
+    search: ClassVar[Search | None] = None  # how the diagnosis searches it (physics.grids); None: it does not
+    plant_kind: ClassVar[int] = 0  # its code in the plants' compiled torque (physics.plant_effects); 0: none
+    no_plant_kind: ClassVar[str] = ""  # why it has no plant kind, where it has none
 
     def __post_init__(self):
         if not isinstance(self.axis, str) or not self.axis:
@@ -304,6 +309,7 @@ class ViscousFriction(Effect):
 
     d: float = 0.0
     name: ClassVar[str] = "viscous_friction"
+    plant_kind: ClassVar[int] = 1
     linear: ClassVar[tuple[str, ...]] = ("d",)
     positive: ClassVar[tuple[str, ...]] = ("d",)
 
@@ -321,6 +327,8 @@ class CoulombFriction(Effect):
     Fc: float = 0.0
     eps: float = 1e-3
     name: ClassVar[str] = "coulomb_friction"
+    search: ClassVar[Search] = Search("friction", {"eps": SMOOTHING})
+    plant_kind: ClassVar[int] = 8
     linear: ClassVar[tuple[str, ...]] = ("Fc",)
     positive: ClassVar[tuple[str, ...]] = ("Fc",)
     nonlinear: ClassVar[tuple[str, ...]] = ("eps",)
@@ -344,6 +352,11 @@ class StribeckFriction(Effect):
     vs: float = 0.4 * DEG
     eps: float = 1e-3
     name: ClassVar[str] = "stribeck_friction"
+    # Stribeck velocities stop at 40 % of the speed scale: a wider bump is Coulomb friction
+    search: ClassVar[Search] = Search("friction", {"vs": Scaled(tuple(np.geomspace(0.005, 0.4, 20))),
+                                                   "eps": Scaled((0.0025, 0.01))},
+                                       extends=("coulomb_friction",), above_rest=("vs",))
+    plant_kind: ClassVar[int] = 9
     linear: ClassVar[tuple[str, ...]] = ("dF",)
     positive: ClassVar[tuple[str, ...]] = ("dF",)
     nonlinear: ClassVar[tuple[str, ...]] = ("vs", "eps")
@@ -376,6 +389,8 @@ class AsymmetricFriction(Effect):
     dFv: float = 0.0
     eps: float = 1e-3
     name: ClassVar[str] = "asymmetric_friction"
+    search: ClassVar[Search] = Search("friction", {"eps": SMOOTHING}, extends=("coulomb_friction",))
+    plant_kind: ClassVar[int] = 6
     linear: ClassVar[tuple[str, ...]] = ("Fc_pos", "Fc_neg", "dFv")
     positive: ClassVar[tuple[str, ...]] = ("Fc_pos", "Fc_neg")
     nonlinear: ClassVar[tuple[str, ...]] = ("eps",)
@@ -405,6 +420,8 @@ class LoadFriction(Effect):
     mu: float = 0.0
     eps: float = 1e-3
     name: ClassVar[str] = "load_friction"
+    search: ClassVar[Search] = Search("friction", {"eps": SMOOTHING}, extends=("coulomb_friction",))
+    plant_kind: ClassVar[int] = 10
     linear: ClassVar[tuple[str, ...]] = ("Fc", "mu")
     positive: ClassVar[tuple[str, ...]] = ("mu",)
     nonlinear: ClassVar[tuple[str, ...]] = ("eps",)
@@ -432,6 +449,10 @@ def second_differences(x) -> np.ndarray:
     for j in range(n - 2):
         D[j, j], D[j, j + 1], D[j, j + 2] = 1 / h[j], -(1 / h[j] + 1 / h[j + 1]), 1 / h[j + 1]
     return D * float(np.mean(h))
+
+
+FRICTION_FORMS = ("coulomb_friction", "asymmetric_friction", "stribeck_friction")
+"""The friction forms a shape-free friction curve contains (``FrictionCurve.search``)."""
 
 
 @dataclass(frozen=True)
@@ -472,6 +493,9 @@ class FrictionCurve(Effect):
     eps: float = 1e-3
     v_top: float = 1.0
     name: ClassVar[str] = "friction_curve"
+    search: ClassVar[Search] = Search("friction", {"eps": Scaled((0.0025, 0.01, 0.05)), "v_top": Scaled((1.0,))},
+                                       extends=FRICTION_FORMS, shape_free=True, fixed=("v_top",))
+    no_plant_kind: ClassVar[str] = "is a curve of no set shape the diagnosis fits (a plant takes a tabulated_force)"
     linear: ClassVar[tuple[str, ...]] = ("p0", "p1", "p2", "p3", "p4", "p5", "n0", "n1", "n2", "n3", "n4", "n5")
     positive: ClassVar[tuple[str, ...]] = ("p0", "n0")
     nonlinear: ClassVar[tuple[str, ...]] = ("eps", "v_top")
@@ -522,6 +546,10 @@ class PositionMap(Effect):
     lo: float = -1.0
     hi: float = 1.0
     name: ClassVar[str] = "position_map"
+    search: ClassVar[Search] = Search("position", {"lo": position_low, "hi": position_high},
+                                       extends=("offset", "cable_spring", "cable_drape"), shape_free=True,
+                                       fixed=("lo", "hi"))
+    no_plant_kind: ClassVar[str] = "is a curve of no set shape the diagnosis fits (a plant takes a tabulated_force)"
     linear: ClassVar[tuple[str, ...]] = tuple(f"c{j}" for j in range(POSITION_KNOTS))
     nonlinear: ClassVar[tuple[str, ...]] = ("lo", "hi")
 
@@ -548,6 +576,8 @@ class Offset(Effect):
 
     c: float = 0.0
     name: ClassVar[str] = "offset"
+    search: ClassVar[Search] = Search("offset")
+    plant_kind: ClassVar[int] = 7
     linear: ClassVar[tuple[str, ...]] = ("c",)
 
     def slopes(self, load: float = 0.0) -> tuple[float, float]:
@@ -571,6 +601,7 @@ class Stiction(Effect):
     sigma0: float = 1e4
     sigma1: float = 60.0
     name: ClassVar[str] = "stiction"
+    no_plant_kind: ClassVar[str] = "has internal state (LuGre bristles)"
     nonlinear: ClassVar[tuple[str, ...]] = ("sigma0", "sigma1")
     plant_only: ClassVar[bool] = True
 
@@ -588,6 +619,9 @@ class CableSpring(Effect):
     width: float = 3 * DEG
     side: float = 1.0
     name: ClassVar[str] = "cable_spring"
+    search: ClassVar[Search] = Search("spring", {"q0": angle_quantiles, "width": Scaled((0.01, 0.05), "position"),
+                                                 "side": (-1.0, 1.0)})
+    plant_kind: ClassVar[int] = 2
     linear: ClassVar[tuple[str, ...]] = ("k",)
     positive: ClassVar[tuple[str, ...]] = ("k",)
     nonlinear: ClassVar[tuple[str, ...]] = ("q0", "width", "side")
@@ -611,6 +645,9 @@ class CableInertia(Effect):
     q0: float = 20 * DEG
     width: float = 10 * DEG
     name: ClassVar[str] = "cable_inertia"
+    search: ClassVar[Search] = Search("inertia", {"q0": five_angle_quantiles,
+                                                  "width": Scaled((0.05, 0.15), "position")})
+    no_plant_kind: ClassVar[str] = "adds to the mass matrix (it needs qdd)"
     linear: ClassVar[tuple[str, ...]] = ("dJ",)
     positive: ClassVar[tuple[str, ...]] = ("dJ",)
     nonlinear: ClassVar[tuple[str, ...]] = ("q0", "width")
@@ -630,6 +667,8 @@ class RotorInertia(Effect):
 
     J: float = 0.0
     name: ClassVar[str] = "rotor_inertia"
+    search: ClassVar[Search] = Search("inertia")
+    no_plant_kind: ClassVar[str] = "adds to the mass matrix (a URDF plant's armature)"
     linear: ClassVar[tuple[str, ...]] = ("J",)
     positive: ClassVar[tuple[str, ...]] = ("J",)
 
@@ -651,6 +690,8 @@ class TorqueRipple(Effect):
     a_cos: float = 0.0
     period: float = 3 * DEG
     name: ClassVar[str] = "torque_ripple"
+    search: ClassVar[Search] = Search("periodic", period="period")
+    no_plant_kind: ClassVar[str] = "scales the input (it needs the drive torque)"
     linear: ClassVar[tuple[str, ...]] = ("a_sin", "a_cos")
     nonlinear: ClassVar[tuple[str, ...]] = ("period",)
     reads: ClassVar[tuple[str, ...]] = ("torque",)
@@ -684,6 +725,8 @@ class GearHarmonic(Effect):
     period: float = 5 * DEG
     v_ref: float = 15 * DEG
     name: ClassVar[str] = "gear_harmonic"
+    search: ClassVar[Search] = Search("periodic", period="period")
+    plant_kind: ClassVar[int] = 3
     linear: ClassVar[tuple[str, ...]] = ("s1", "c1", "s1v", "c1v", "s2", "c2")
     nonlinear: ClassVar[tuple[str, ...]] = ("period", "v_ref")
 
@@ -720,6 +763,8 @@ class CableDrape(Effect):
     s: float = 0.0
     c: float = 0.0
     name: ClassVar[str] = "cable_drape"
+    search: ClassVar[Search] = Search("gravity")
+    plant_kind: ClassVar[int] = 4
     linear: ClassVar[tuple[str, ...]] = ("s", "c")
     revolute_only: ClassVar[bool] = True
 
@@ -746,6 +791,7 @@ class DrivetrainFlexibility(Effect):
     c: float = 7.0
     Jm: float = 0.20
     name: ClassVar[str] = "drivetrain_flexibility"
+    no_plant_kind: ClassVar[str] = "adds states (a motor inertia behind a spring)"
     nonlinear: ClassVar[tuple[str, ...]] = ("k", "c", "Jm")
     plant_only: ClassVar[bool] = True
 
@@ -771,6 +817,7 @@ class TabulatedForce(Effect):
     hi: float = 1.0
     values: tuple[float, ...] = (0.0, 0.0)
     name: ClassVar[str] = "tabulated_force"
+    plant_kind: ClassVar[int] = 5
     plant_only: ClassVar[bool] = True
     max_points: ClassVar[int] = 1024
 
@@ -809,11 +856,12 @@ class TabulatedForce(Effect):
 EFFECTS: dict[str, type[Effect]] = {
     cls.name: cls
     for cls in (
-        ViscousFriction, CoulombFriction, StribeckFriction, AsymmetricFriction, LoadFriction, FrictionCurve, PositionMap,
-        Offset, Stiction, CableSpring, CableInertia, RotorInertia, TorqueRipple, GearHarmonic, CableDrape, DrivetrainFlexibility,
-        TabulatedForce,
+        ViscousFriction, CoulombFriction, StribeckFriction, AsymmetricFriction, LoadFriction, FrictionCurve, Offset,
+        Stiction, CableSpring, CableInertia, RotorInertia, GearHarmonic, TorqueRipple, CableDrape, PositionMap,
+        DrivetrainFlexibility, TabulatedForce,
     )
 }
+"""The library by name, in the order the diagnosis tries the effects that declare a ``search``."""
 
 
 def parse_key(key: str) -> tuple[str, str]:

@@ -14,18 +14,20 @@ the torques are summed, so that a plant's results do not depend on the order the
 its effects in.
 
 The kinds are the effects whose torque is a function of the axis's own position q and velocity
-qd (and, for ``LoadFriction``, of the gravity torque ``load`` the plant passes). Effects that
-change the structure of the equation stay with the plants that have that structure: stiction
-(bristle states), drivetrain flexibility (a motor behind a spring), cable inertia (it adds to
-M(q)), torque ripple (it scales the input), a rotor inertia (a URDF plant's armature) and a
-machine's own effects (the IX's guidance friction); ``STRUCTURAL`` names them with the reason,
-and the shapes of no set form the diagnosis fits (``MODEL_ONLY``) have no plant. One exception to
-the rule: the IX simulates Coulomb and Stribeck friction in its own friction law, whose level its
-guidance friction raises and its stiction scales (``systems.ix.plant.OWN_FRICTION_LAW``).
+qd (and, for ``LoadFriction``, of the gravity torque ``load`` the plant passes): each declares its
+code, ``Effect.plant_kind``. Effects that change the structure of the equation stay with the
+plants that have that structure: stiction (bristle states), drivetrain flexibility (a motor
+behind a spring), cable inertia (it adds to M(q)), torque ripple (it scales the input), a rotor
+inertia (a URDF plant's armature) and a machine's own effects (the IX's guidance friction); the
+shapes of no set form the diagnosis fits have no plant. Each of those says why
+(``Effect.no_plant_kind``). One exception to the rule: the IX simulates Coulomb and Stribeck
+friction in its own friction law, whose level its guidance friction raises and its stiction
+scales (``systems.ix.plant.OWN_FRICTION_LAW``).
 
-Adding an effect of q and qd: its class in ``physics.effects`` (with ``slopes``), its kind in
-``KINDS`` and its branch in ``axis_torque``; ``tests/test_plant_effects.py`` checks every plant
-kind against the class's own ``torque`` and fails on a class that is in neither list.
+Adding an effect of q and qd: its class in ``physics.effects`` (with ``slopes`` and a new
+``plant_kind``) and its branch in ``axis_torque``; ``tests/test_plant_effects.py`` checks every
+plant kind against the class's own ``torque`` and fails on a library class that has neither a
+kind nor a reason.
 """
 
 from __future__ import annotations
@@ -38,31 +40,27 @@ import numpy as np
 from . import effects as fx
 from .compiled import FASTMATH, cache_dir
 
-KINDS: dict[type[fx.Effect], int] = {
-    cls: k + 1
-    for k, cls in enumerate((
-        fx.ViscousFriction, fx.CableSpring, fx.GearHarmonic, fx.CableDrape, fx.TabulatedForce, fx.AsymmetricFriction,
-        fx.Offset, fx.CoulombFriction, fx.StribeckFriction, fx.LoadFriction,
-    ))
-}
-"""Plant kind code of each effect class (0 ends a row); records are summed in this order."""
-(VISCOUS, CABLE_SPRING, GEAR_HARMONIC, CABLE_DRAPE, TABULATED, ASYMMETRIC, OFFSET, COULOMB, STRIBECK,
- LOAD_FRICTION) = range(1, 11)
+PLANT_KINDS: dict[int, type[fx.Effect]] = dict(sorted((cls.plant_kind, cls) for cls in fx.EFFECTS.values() if cls.plant_kind))
+"""The library's effects that every plant simulates, by their ``Effect.plant_kind`` (0 ends a row):
+records are summed in the order of their kinds."""
 
-STRUCTURAL: dict[type[fx.Effect], str] = {
-    fx.Stiction: "has internal state (LuGre bristles)",
-    fx.DrivetrainFlexibility: "adds states (a motor inertia behind a spring)",
-    fx.CableInertia: "adds to the mass matrix (it needs qdd)",
-    fx.TorqueRipple: "scales the input (it needs the drive torque)",
-    fx.RotorInertia: "adds to the mass matrix (a URDF plant's armature)",
-}
-"""Effects that change a plant's equation rather than add a torque of q and qd: the plants with that
-structure carry them (the IX all but the rotor inertia, a URDF plant the rotor inertia)."""
+# the kernel's names of the kinds (numba compiles module-level integers in as constants)
+VISCOUS = fx.ViscousFriction.plant_kind
+CABLE_SPRING = fx.CableSpring.plant_kind
+GEAR_HARMONIC = fx.GearHarmonic.plant_kind
+CABLE_DRAPE = fx.CableDrape.plant_kind
+TABULATED = fx.TabulatedForce.plant_kind
+ASYMMETRIC = fx.AsymmetricFriction.plant_kind
+OFFSET = fx.Offset.plant_kind
+COULOMB = fx.CoulombFriction.plant_kind
+STRIBECK = fx.StribeckFriction.plant_kind
+LOAD_FRICTION = fx.LoadFriction.plant_kind
 
-MODEL_ONLY: dict[type[fx.Effect], str] = {
-    fx.FrictionCurve: "is a curve of no set shape the diagnosis fits (a plant takes a tabulated_force)",
-    fx.PositionMap: "is a curve of no set shape the diagnosis fits (a plant takes a tabulated_force)",
-}
+
+def has_plant_kind(effect: fx.Effect | type[fx.Effect]) -> bool:
+    """Whether every plant simulates ``effect`` (an effect or its class) through ``axis_torque``."""
+    cls = effect if isinstance(effect, type) else type(effect)
+    return PLANT_KINDS.get(cls.plant_kind) is cls
 
 
 def pack(effects: Sequence[fx.Effect], n_rows: int, rows: Sequence[int] | None = None) -> np.ndarray:
@@ -70,10 +68,10 @@ def pack(effects: Sequence[fx.Effect], n_rows: int, rows: Sequence[int] | None =
     ``rows[effect.index]`` (default: its axis index); refuses an effect without a plant kind."""
     per_row: list[list[fx.Effect]] = [[] for _ in range(n_rows)]
     for e in effects:
-        if type(e) not in KINDS:
+        if not has_plant_kind(e):
             raise ValueError(f"{e.key}: {e.name} {refusal(type(e))}")
         per_row[e.index if rows is None else rows[e.index]].append(e)
-    records = [[v for e in sorted(row, key=lambda e: KINDS[type(e)]) for v in _record(e)] for row in per_row]
+    records = [[v for e in sorted(row, key=lambda e: e.plant_kind) for v in _record(e)] for row in per_row]
     out = np.zeros((n_rows, max([len(r) for r in records] + [0]) + 1))  # + 1: the row ends on a 0 kind
     for i, r in enumerate(records):
         out[i, : len(r)] = r
@@ -82,12 +80,12 @@ def pack(effects: Sequence[fx.Effect], n_rows: int, rows: Sequence[int] | None =
 
 def _record(e: fx.Effect) -> list[float]:
     p = [float(v) for v in e.plant_parameters()]
-    return [float(KINDS[type(e)]), float(len(p)), *p]
+    return [float(e.plant_kind), float(len(p)), *p]
 
 
 def refusal(cls: type[fx.Effect]) -> str:
-    """Why effects of ``cls`` are not a plant kind (``STRUCTURAL``, ``MODEL_ONLY``)."""
-    return STRUCTURAL.get(cls) or MODEL_ONLY.get(cls) or "has no plant kind (physics.plant_effects.KINDS)"
+    """Why effects of ``cls`` are not a plant kind (``Effect.no_plant_kind``)."""
+    return cls.no_plant_kind or "has no plant kind (Effect.plant_kind)"
 
 
 def slopes(effects: Sequence[fx.Effect], n_axes: int, load=0.0) -> tuple[np.ndarray, np.ndarray]:

@@ -190,13 +190,13 @@ def plant_from_record(system: System, settings: MachineSettings, record: Mapping
 
 def hidden_effects(system: System) -> dict[str, type]:
     """The effects a machine file's ``[[hidden]]`` accepts on ``system``, by name: those its plant
-    simulates (``urdf_plant.bind_effects``: a torque of q and qd, ``physics.plant_effects.KINDS``,
+    simulates (``urdf_plant.bind_effects``: a torque of q and qd, ``Effect.plant_kind``,
     and the rotor inertia, an armature) whose formula applies to one of its axes at least."""
     from ..physics import effects as fx
     from ..physics import plant_effects
 
     return {name: cls for name, cls in sorted(system.effect_classes().items())
-            if (cls in plant_effects.KINDS or issubclass(cls, fx.RotorInertia))
+            if (plant_effects.has_plant_kind(cls) or issubclass(cls, fx.RotorInertia))
             and any(cls.applies_to(a) for a in system.axes)}
 
 

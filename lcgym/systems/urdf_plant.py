@@ -24,7 +24,7 @@ All of it runs in one compiled loop (``closed_loop``; ``ClosedLoopRun.advance`` 
 samples, ``sample`` one, as the Gymnasium env steps it), at a few microseconds a sample.
 
 The effects whose torque depends on q and qd (viscous, Coulomb, Stribeck and asymmetric friction,
-offsets, cable springs and drapes, gear harmonics, tabulated forces: ``physics.plant_effects.KINDS``)
+offsets, cable springs and drapes, gear harmonics, tabulated forces: ``Effect.plant_kind``)
 act through ``physics.plant_effects.axis_torque``, the one compiled torque every plant adds. A
 load-dependent friction (``load_friction``) reads the plant's own gravity torque g(q) at each RK4
 stage (``rigid_body.gravity_torque``). A rotor inertia J (``rotor_inertia``) is added to the model's
@@ -295,8 +295,8 @@ def bind_effects(effects: Sequence[fx.Effect], system: System) -> list[fx.Effect
     for effect in effects:
         if not isinstance(effect, fx.Effect):
             raise TypeError(f"hidden effects must be lcgym effects (physics.effects), got {type(effect).__name__}")
-        if type(effect) not in plant_effects.KINDS and not isinstance(effect, fx.RotorInertia):
-            names = ", ".join([cls.name for cls in plant_effects.KINDS] + [fx.RotorInertia.name])
+        if not plant_effects.has_plant_kind(effect) and not isinstance(effect, fx.RotorInertia):
+            names = ", ".join([cls.name for cls in plant_effects.PLANT_KINDS.values()] + [fx.RotorInertia.name])
             raise ValueError(f"{effect.key}: URDFPlant simulates effects whose torque depends on q and qd only "
                              f"({names}); {effect.name} {plant_effects.refusal(type(effect))}")
         if isinstance(effect, fx.RotorInertia) and effect.J < 0:

@@ -7,6 +7,7 @@ from typing import ClassVar
 
 from ...physics.candidates import Candidate
 from ...physics.effects import Effect
+from ...physics.grids import Search
 
 
 @dataclass(frozen=True)
@@ -31,6 +32,7 @@ class Payload(Effect):
     Iyz: float = 0.0
     Izz: float = 0.0
     name: ClassVar[str] = "payload"
+    search: ClassVar[Search] = Search("inertia")
     linear: ClassVar[tuple[str, ...]] = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz")
     positive: ClassVar[tuple[str, ...]] = ("m",)
 
@@ -40,4 +42,4 @@ class Payload(Effect):
         return tuple(link_columns(5, q, qd, qdd)[:, self._i(), :].T)
 
 
-CANDIDATES = (Candidate(Payload, "inertia"),)
+CANDIDATES = (Candidate.of(Payload),)

@@ -129,7 +129,7 @@ class FlexArmPlant:
     frictions' sgn is tanh(v / friction_eps). A much smaller value makes the friction of the light
     wrist joints a stiff damper (Flc / eps over a small inertia) that RK4 at the default step
     cannot integrate: the wrist then chatters. effects: hidden effects of the library on the joints
-    (axes j1-j6) whose torque depends on the load angle and velocity (``physics.plant_effects.KINDS``
+    (axes j1-j6) whose torque depends on the load angle and velocity (``Effect.plant_kind``
     but the load-dependent friction), in motor N m like the model's input; they act on the load side
     (a bearing's friction, a cable's spring), N times their torque; the default step suits effects no
     stiffer than the drives' own friction."""
@@ -170,7 +170,7 @@ class FlexArmPlant:
         for e in self.effects:
             if not isinstance(e, fx.Effect):
                 raise TypeError(f"hidden effects must be lcgym effects (physics.effects), got {type(e).__name__}")
-            if type(e) not in plant_effects.KINDS or isinstance(e, fx.LoadFriction):
+            if not plant_effects.has_plant_kind(e) or isinstance(e, fx.LoadFriction):
                 why = ("reads the gravity torque, which the FlexArm's kernel does not compute apart"
                        if isinstance(e, fx.LoadFriction) else plant_effects.refusal(type(e)))
                 raise ValueError(f"{e.key}: the FlexArm plant simulates effects of the joint angle and velocity only; "

@@ -16,6 +16,7 @@ from numba.extending import register_jitable
 
 from ...physics.candidates import Candidate
 from ...physics.effects import Effect, smooth_sign
+from ...physics.grids import Search
 
 DEG = math.pi / 180.0
 
@@ -46,6 +47,7 @@ class PositionDependentFriction(Effect):
     c_sin: float = 0.0
     eps: float = 1e-3
     name: ClassVar[str] = "position_dependent_friction"
+    search: ClassVar[Search] = Search("friction", {"eps": tuple(np.array([0.05, 0.5, 2.0]) * DEG)})
     linear: ClassVar[tuple[str, ...]] = ("c_cos", "c_cos_roll", "c_sin")
     nonlinear: ClassVar[tuple[str, ...]] = ("eps",)
 
@@ -55,4 +57,4 @@ class PositionDependentFriction(Effect):
         return tuple(b * sgn for b in basis)
 
 
-CANDIDATES = (Candidate(PositionDependentFriction, "friction", {"eps": tuple(np.array([0.05, 0.5, 2.0]) * DEG)}),)
+CANDIDATES = (Candidate.of(PositionDependentFriction),)

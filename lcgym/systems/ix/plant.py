@@ -177,7 +177,7 @@ def pack_effects(effects: Sequence[fx.Effect], rigid: ix.IXParameters) -> tuple[
             raise ValueError(f"{e.key}: the IX plant does not simulate a load-dependent friction (its kernel does "
                              "not compute the gravity torque apart)")
     bound = [e.bound(ix.AXES) for e in effects]
-    kernel_own = [type(e) not in plant_effects.KINDS or isinstance(e, OWN_FRICTION_LAW) for e in bound]
+    kernel_own = [not plant_effects.has_plant_kind(e) or isinstance(e, OWN_FRICTION_LAW) for e in bound]
     own = [e for e, k in zip(bound, kernel_own, strict=True) if k]
     records = plant_effects.pack([e for e, k in zip(bound, kernel_own, strict=True) if not k], 2)
     E = np.zeros((2, K.STATIC + records.shape[1]))
