@@ -146,7 +146,7 @@ def test_regressor_cache_lives_only_inside_its_block():
         assert arm_motor.regressor(None, q + 1e-9, qd, qdd) is not X  # keyed by the values
         batch = tuple(x[:10] for x in (q, qd, qdd))  # a training batch: computed, not kept
         assert arm_motor.regressor(None, *batch) is not arm_motor.regressor(None, *batch)
-    assert arm_motor._CACHE._store is None  # nothing kept after the block
+    assert arm_motor._memo()._store is None  # nothing kept after the block
 
 
 def test_a_cache_block_keeps_as_many_as_it_is_told():
@@ -156,7 +156,7 @@ def test_a_cache_block_keeps_as_many_as_it_is_told():
     with arm_motor.cached_regressors(size=len(kin)):
         first = [arm_motor.regressor(None, *k) for k in kin]
         assert all(arm_motor.regressor(None, *k) is X for k, X in zip(kin, first, strict=True))
-    assert arm_motor._CACHE.size == arm_motor.CACHE_SIZE
+    assert arm_motor._memo().size == arm_motor.CACHE_SIZE
     with arm_motor.cached_regressors():
         first = [arm_motor.regressor(None, *k) for k in kin]
         assert arm_motor.regressor(None, *kin[0]) is not first[0]  # the oldest dropped

@@ -1,9 +1,11 @@
-"""``physics.memo.ArrayMemo``: what it keeps, for how long, and by what it knows an array."""
+"""``physics.memo.ArrayMemo``: what it keeps, for how long, and by what it knows an array; and
+``physics.workspace``, where a process keeps every such cache."""
 
 import numpy as np
 import pytest
 
 from lcgym.physics.memo import ArrayMemo
+from lcgym.physics.workspace import WORKSPACE, Workspace
 
 
 def _counted():
@@ -66,3 +68,26 @@ def test_short_arrays_are_computed_and_read_only_ones_known_by_identity():
         assert len(calls) == 2
         with pytest.raises(ValueError):
             memo.get(lambda: f(a), a)[0] = 1.0  # what it returns is read-only
+
+
+def test_a_workspace_makes_each_slot_once_and_clear_empties_them_all():
+    space, (calls, f) = Workspace(), _counted()
+    memo = space.slot("m", lambda: ArrayMemo(size=4))
+    assert space.slot("m", lambda: ArrayMemo(size=1)) is memo  # made once: the second maker is not called
+    models = space.slot("models", dict)
+    x = np.arange(3.0)
+    with memo.active():
+        memo.get(lambda: f(x), x)
+        models["fitted"] = object()
+        space.clear()
+        memo.get(lambda: f(x), x)  # emptied: computed again, and kept again
+        memo.get(lambda: f(x), x)
+    assert len(calls) == 2 and models == {} and space.names() == ["m", "models"]
+
+
+def test_the_caches_of_lcgym_live_in_its_workspace():
+    """Control for the module globals it replaced: using a cache makes its slot in ``WORKSPACE``."""
+    from lcgym.physics.lti import discretize_foh
+
+    discretize_foh(np.array([[0.0, 1.0], [-1.0, -0.1]]), np.array([[0.0], [1.0]]), 1e-3)
+    assert "physics.lti.foh" in WORKSPACE.names()

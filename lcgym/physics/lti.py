@@ -20,6 +20,7 @@ import numpy as np
 from scipy import linalg
 
 from .compiled import cache_dir
+from .workspace import WORKSPACE
 
 _previous_cache_dir = numba.config.CACHE_DIR
 numba.config.CACHE_DIR = cache_dir(__file__)
@@ -33,17 +34,15 @@ def discretize_foh(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarray,
         [ u(dt) ] = exp [  0     0    I ] [   u0    ]
         [ u1-u0 ]       [  0     0    0 ] [ u1 - u0 ]
 
-    Memoized on (A, B, dt) (read-only arrays): the FlexArm's nominal models are discretized again
+    Memoized on (A, B, dt) (read-only arrays, in ``physics.workspace``): the FlexArm's nominal models are discretized again
     and again with the same matrices, and the matrix exponential was most of their cost."""
     key = (A.shape, B.shape, np.asarray(A, dtype=float).tobytes(), np.asarray(B, dtype=float).tobytes(), float(dt))
-    if key not in _FOH:
-        if len(_FOH) >= 256:
-            _FOH.clear()
-        _FOH[key] = tuple(_read_only(a) for a in _discretize_foh(A, B, dt))
-    return _FOH[key]
-
-
-_FOH: dict = {}
+    kept = WORKSPACE.slot("physics.lti.foh", dict)
+    if key not in kept:
+        if len(kept) >= 256:
+            kept.clear()
+        kept[key] = tuple(_read_only(a) for a in _discretize_foh(A, B, dt))
+    return kept[key]
 
 
 def _read_only(a: np.ndarray) -> np.ndarray:

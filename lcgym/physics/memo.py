@@ -58,6 +58,11 @@ class ArrayMemo:
             self._store.popitem(last=False)
         return result
 
+    def clear(self) -> None:
+        """Drop the results kept (an active block goes on keeping new ones)."""
+        if self._store is not None:
+            self._store.clear()
+
     @contextmanager
     def active(self, size: int | None = None):
         """Keep results while the block runs (nested blocks share the outer one's store); ``size``:

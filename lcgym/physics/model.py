@@ -51,6 +51,7 @@ from .effects import Effect, Loads
 from .kinematics import lowpass_zero_phase, reference_kinematics, reference_positions
 from .linalg import penalty_rows, solve_min_norm  # noqa: F401 (the fit's solve; tests import it from here)
 from .memo import ArrayMemo
+from .workspace import WORKSPACE
 
 POSITIONS = ("reference", "measured", "position")
 
@@ -353,7 +354,7 @@ class PhysicalModel:
     def kept_reduce(self, A: np.ndarray, lengths: Sequence[int], mask: np.ndarray | None) -> np.ndarray:
         """``masked_reduce``, kept for the same arrays while a ``reduction_memo`` block runs (the
         designs and inputs a diagnosis's refits share)."""
-        return _MEMO.get(lambda: self.masked_reduce(A, lengths, mask), A, mask,
+        return _memo().get(lambda: self.masked_reduce(A, lengths, mask), A, mask,
                          extra=(tuple(lengths), self.fs, self.filter_hz, self.decimate))
 
     def masked_reduce(self, A: np.ndarray, lengths: Sequence[int], mask: np.ndarray | None) -> np.ndarray:
@@ -382,7 +383,7 @@ class PhysicalModel:
         self.params_ = self.system.params_from_vector(vector)
         free_columns = X[:, :, : int(mask.sum())]
         self.fit_info_ = {"n_free": int(mask.sum()),
-                          "rank": _MEMO.get(lambda: np.array(column_rank(free_columns, self.rcond)), free_columns, None,
+                          "rank": _memo().get(lambda: np.array(column_rank(free_columns, self.rcond)), free_columns, None,
                                             extra=("rank", self.rcond)).item()}
         # the reduced design and input as fitted: unchanged by the fit where no effect reads the model's
         # torques, so the diagnosis reuses them (``diagnose.search.prepare``) instead of filtering them again
@@ -427,10 +428,11 @@ class PhysicalModel:
         return theta, resid
 
 
-_MEMO = ArrayMemo(size=16, by_identity=True)
-"""A diagnosis refits one model with one effect more or less tens of times on the same data, and
-filtering its rigid regressor (tens of columns per axis, every sample) is most of a fit: kept here
-while a ``reduction_memo`` block runs."""
+def _memo() -> ArrayMemo:
+    """A diagnosis refits one model with one effect more or less tens of times on the same data, and
+    filtering its rigid regressor (tens of columns per axis, every sample) is most of a fit: kept
+    here (``physics.workspace``) while a ``reduction_memo`` block runs."""
+    return WORKSPACE.slot("physics.model.reductions", lambda: ArrayMemo(size=16, by_identity=True))
 
 
 def _same_trials(kinematics: tuple, trials: Sequence) -> tuple:
@@ -444,7 +446,7 @@ def _same_trials(kinematics: tuple, trials: Sequence) -> tuple:
 def reduction_memo():
     """A context in which ``PhysicalModel.kept_reduce`` keeps its results for the same arrays
     (a diagnosis's refits on one set of trials)."""
-    return _MEMO.active()
+    return _memo().active()
 
 
 def diagnosis_decimation(fs: float, filter_hz: float) -> int:

@@ -81,6 +81,7 @@ from ..envs.batched import BatchedVectorEnv
 from ..envs.episodes import EPISODE_STEPS, Window, checked_episode_steps
 from ..envs.render import HumanWindow, checked_render_mode, human_frame_due, render_episode, rendered
 from ..physics.kinematics import reference_kinematics, reference_positions, relay
+from ..physics.workspace import WORKSPACE
 from ..references import Reference
 from .urdf_plant import OK, ClosedLoopRun, URDFPlant
 
@@ -92,7 +93,6 @@ REWARD_SCALE = {"rad": 0.1 * DEG, "m": 0.1e-3}
 RESIDUAL_FRACTION = 0.2  # the residual action's bound, a fraction of the input scale
 OBS_BOUND = 25.0
 DEFAULT_REFERENCES, DEFAULT_DURATION = 8, 20.0
-_MODEL_CACHE: dict[tuple, object] = {}  # (plant, seed) -> the physical model fitted on its training runs
 
 
 class MachineTask:
@@ -150,10 +150,11 @@ class MachineTask:
             if base == "none":
                 return None, "none"
             key = (repr(self.plant), self.system.model_effects, seed)  # the plant and what its model carries
-            if key not in _MODEL_CACHE:  # the first env of a process runs and fits; later ones reuse it
+            models = WORKSPACE.slot("systems.machine_env.env_models", dict)  # (plant, seed) -> fitted model
+            if key not in models:  # the first env of a process runs and fits; later ones reuse it
                 train = self.bench.references("train", seed, DEFAULT_REFERENCES, DEFAULT_DURATION)
-                _MODEL_CACHE[key] = self.system.physical_model(fs=self.plant.fs).fit(self.plant.run(train))
-            return _MODEL_CACHE[key], "physical"
+                models[key] = self.system.physical_model(fs=self.plant.fs).fit(self.plant.run(train))
+            return models[key], "physical"
         if not callable(getattr(base, "predict", None)):
             raise ValueError(f"base_feedforward must be 'none', 'physical' or a fitted model with predict(positions), "
                              f"got {type(base).__name__}")

@@ -106,6 +106,7 @@ from ...envs.actions import action_space_of, checked_action
 from ...envs.batched import BatchedVectorEnv
 from ...envs.episodes import EPISODE_STEPS, Window, checked_episode_steps
 from ...envs.render import HumanWindow, checked_render_mode, human_frame_due, render_episode, rendered
+from ...physics.workspace import WORKSPACE
 from ...references import Reference
 from . import plant as F
 from . import vector as V
@@ -122,20 +123,18 @@ OBS_BOUND = 25.0
 BASES = ("basic", "none", "physical")  # the names base_feedforward accepts (or a fitted model)
 GIVEN_MODEL = "physical (given model)"
 
-_MODEL_CACHE: dict[tuple, object] = {}
-
-
 def physical_model(plant: F.FlexArmPlant, seed: int = 0):
     """The FlexArm's physical model (``ArmModel``) fitted on feedback-only runs of the training
-    references of ``seed`` on ``plant`` (cached per process), as ``methods.PhysicalFeedforward``
+    references of ``seed`` on ``plant`` (kept per process, ``physics.workspace``), as ``methods.PhysicalFeedforward``
     fits it on the benchmark's training trials."""
     key = (repr(plant), seed)
-    if key not in _MODEL_CACHE:
+    models = WORKSPACE.slot("systems.flexarm.env_models", dict)
+    if key not in models:
         from . import FLEXARM
 
         trials = [plant.run(r) for r in arm_reference_set("train", seed, fs=plant.fs)]
-        _MODEL_CACHE[key] = FLEXARM.physical_model(fs=plant.fs).fit(trials)
-    return _MODEL_CACHE[key]
+        models[key] = FLEXARM.physical_model(fs=plant.fs).fit(trials)
+    return models[key]
 
 
 def _is_model(base) -> bool:

@@ -30,6 +30,7 @@ import numpy as np
 from ...physics import linalg
 from ...physics.compiled import cache_dir
 from ...physics.memo import ArrayMemo
+from ...physics.workspace import WORKSPACE
 from ..system import REGRESSOR_MIN_ROWS
 from . import dynamics as arm
 
@@ -99,12 +100,19 @@ def regressor(zeta_n, q, qd, qdd) -> np.ndarray:
     Inside ``with cached_regressors():`` the last ``CACHE_SIZE`` results are kept (``physics.memo.ArrayMemo``):
     one evaluation costs about 40 us per sample (60 RNEA passes)."""
     q, qd, qdd = (np.ascontiguousarray(np.atleast_2d(np.asarray(x, dtype=float))) for x in (q, qd, qdd))
-    return _CACHE.get(lambda: _regressor(DH_TABLE, GEAR, q, qd, qdd, arm.GRAVITY, EPS), q, qd, qdd)
+    return _memo().get(lambda: _regressor(DH_TABLE, GEAR, q, qd, qdd, arm.GRAVITY, EPS), q, qd, qdd)
 
 
 CACHE_SIZE = 3
-_CACHE = ArrayMemo(CACHE_SIZE, min_rows=REGRESSOR_MIN_ROWS)
-cached_regressors = _CACHE.active  # the FlexArm's ``System.caching``
+
+
+def _memo() -> ArrayMemo:
+    return WORKSPACE.slot("systems.flexarm.regressors", lambda: ArrayMemo(CACHE_SIZE, min_rows=REGRESSOR_MIN_ROWS))
+
+
+def cached_regressors(size: int | None = None):
+    """The FlexArm's ``System.caching``: a block inside which its last regressors are kept."""
+    return _memo().active(size)
 
 
 # numba reads CACHE_DIR when a function is decorated: this module's kernels cache in a folder named

@@ -90,6 +90,7 @@ from ...envs.episodes import EPISODE_STEPS, Window, checked_episode_steps
 from ...envs.render import HumanWindow, checked_render_mode, human_frame_due, render_episode, rendered
 from ...physics.kinematics import reference_kinematics, reference_positions, relay
 from ...physics.model import PhysicalModel
+from ...physics.workspace import WORKSPACE
 from ...references import Reference
 from . import kernel as K
 from .plant import IXPlant
@@ -106,17 +107,16 @@ OBS_BOUND = 25.0
 N_OBS = 6 * len(PREVIEW) + 6  # 3 signals x 2 axes x P preview points, relay, base ff, error
 IX_ACTION = "(propeller, roll) feedforward in V"
 
-_MODEL_CACHE: dict[tuple, PhysicalModel] = {}
-
-
 def physical_model(plant: IXPlant, seed: int = 0) -> PhysicalModel:
-    """Rigid model fitted on feedback-only runs of the training references (cached per process)."""
+    """Rigid model fitted on feedback-only runs of the training references (kept per process,
+    ``physics.workspace``)."""
     from . import IX
 
     key = (repr(plant), seed)
-    if key not in _MODEL_CACHE:
-        _MODEL_CACHE[key] = IX.physical_model(fs=plant.fs).fit(plant.run(reference_set("train", seed, fs=plant.fs)))
-    return _MODEL_CACHE[key]
+    models = WORKSPACE.slot("systems.ix.env_models", dict)
+    if key not in models:
+        models[key] = IX.physical_model(fs=plant.fs).fit(plant.run(reference_set("train", seed, fs=plant.fs)))
+    return models[key]
 
 
 def reference_features(positions: np.ndarray, fs: float, base_ff: np.ndarray) -> np.ndarray:
