@@ -2,9 +2,9 @@
 
 A candidate (``physics.candidates.Candidate``) is an ``Effect`` class with the grids of its
 nonlinear parameters (the effect's ``search``). A machine's candidates are the library's
-(``physics.candidates.library``) and its own (``System.candidates``: the IX's guidance friction,
+(``physics.candidates.library``) and its own (``System.diagnosis.candidates``: the IX's guidance friction,
 the FlexArm's payload, a user's effect added by ``register_effect``), limited to
-``System.candidate_names`` where the machine sets them and to the effects whose formula applies to
+``System.diagnosis.candidate_names`` where the machine sets them and to the effects whose formula applies to
 the axis kind (``Effect.applies_to``).
 """
 
@@ -73,11 +73,13 @@ def register_effect(system, effect, family: str = "user", grid: dict | None = No
     if missing:
         raise ValueError(f"{effect.name}: grid names {missing}, which are not nonlinear parameters {effect.nonlinear}")
     candidate = Candidate.of(effect, Search(family, grid, period))
-    names = system.candidate_names
-    return dataclasses.replace(
-        system, effects=(*[e for e in system.effects if e.name != effect.name], effect),
-        candidates=(*[c for c in system.candidates if c.name != effect.name], candidate),
-        candidate_names=None if names is None else (*names, effect.name))
+    settings = system.diagnosis
+    names = settings.candidate_names
+    diagnosis = dataclasses.replace(settings, candidates=(*[c for c in settings.candidates if c.name != effect.name],
+                                                          candidate),
+                                    candidate_names=None if names is None else (*names, effect.name))
+    return dataclasses.replace(system, effects=(*[e for e in system.effects if e.name != effect.name], effect),
+                               diagnosis=diagnosis)
 
 
 def _function_effect(function, name: str, n_coefficients: int, nonlinear: tuple[str, ...],

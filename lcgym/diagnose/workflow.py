@@ -428,8 +428,8 @@ def _noise_floor(system: systems.System, prep, min_rms: float | None) -> np.ndar
     """min_rms per axis: given, the machine's noise_rms, or NOISE_SHARE of the low-passed input's RMS."""
     if min_rms is not None:
         return np.full(system.n_axes, float(min_rms))
-    if system.noise_rms is not None:
-        return np.full(system.n_axes, float(system.noise_rms))
+    if system.diagnosis.noise_rms is not None:
+        return np.full(system.n_axes, float(system.diagnosis.noise_rms))
     return NOISE_SHARE * np.sqrt((prep.u**2).sum(axis=0) / np.maximum(prep.n_used, 1))
 
 

@@ -3,7 +3,7 @@ of its nonlinear parameters (``diagnose.search`` tries every combination).
 
 Every effect of the library declares how it is searched (its ``search``, a ``physics.grids.Search``);
 ``library()`` gives those effects as candidates, in the order of ``physics.effects.EFFECTS``, which
-is the order the diagnosis tries them. A machine adds its own (``System.candidates``: the IX's
+is the order the diagnosis tries them. A machine adds its own (``System.diagnosis.candidates``: the IX's
 guidance friction, the FlexArm's payload; a user's, ``diagnose.register_effect``).
 """
 
@@ -64,13 +64,14 @@ def library() -> list[Candidate]:
 
 def candidates_of(system) -> list[Candidate]:
     """The candidates of a machine (a ``systems.System``): the library's and its own
-    (``System.candidates``, with those ``diagnose.register_effect`` added), limited to
-    ``System.candidate_names`` where the machine sets them and to those whose formula applies to one
+    (``System.diagnosis.candidates``, with those ``diagnose.register_effect`` added), limited to
+    ``System.diagnosis.candidate_names`` where the machine sets them and to those whose formula applies to one
     of its axes at least (``Effect.applies_to``). What the diagnosis tries, ``--add`` accepts and a
     machine's model may carry (``System.model_effects``, a machine file's ``[[model]]`` tables)."""
-    pool = {c.name: c for c in (*library(), *system.candidates)}
-    if system.candidate_names is not None:
-        pool = {n: c for n, c in pool.items() if n in system.candidate_names}
+    settings = system.diagnosis
+    pool = {c.name: c for c in (*library(), *settings.candidates)}
+    if settings.candidate_names is not None:
+        pool = {n: c for n, c in pool.items() if n in settings.candidate_names}
     return [c for c in pool.values() if any(c.effect.applies_to(a) for a in system.axes)]
 
 

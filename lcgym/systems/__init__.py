@@ -30,7 +30,7 @@ from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from .system import Axis, ParameterVector, SimulationDiverged, System
+from .system import Axis, DiagnosisSettings, ParameterVector, SimulationDiverged, System
 
 if TYPE_CHECKING:
     from .bench import Bench
@@ -254,7 +254,7 @@ def register_envs() -> None:
 
 
 __all__ = [
-    "Axis", "BUILT_IN", "BuiltIn", "ENVS", "EXAMPLES", "ParameterVector", "SimulationDiverged", "System",
+    "Axis", "BUILT_IN", "BuiltIn", "DiagnosisSettings", "ENVS", "EXAMPLES", "ParameterVector", "SimulationDiverged", "System",
     "URDF_EXAMPLES", "VERSIONS", "BenchMachine", "built_in", "from_python", "get", "is_file_machine",
     "newest_benchmarks", "register_envs", "resolve",
 ]

@@ -123,6 +123,29 @@ def _as_axes(axes) -> tuple[Axis, ...]:
     return out
 
 
+@dataclass(frozen=True)
+class DiagnosisSettings:
+    """What the diagnosis needs of a machine beyond its model (``System.diagnosis``).
+
+    noise_rms [input unit]: the RMS below which the diagnosis does not count an improvement as
+    real (None: 1 % of each axis's low-passed input RMS). candidates: its candidate effects beyond
+    the library's (``physics.candidates.Candidate``: the IX's guidance friction, the FlexArm's
+    payload, a user's, ``diagnose.register_effect``). candidate_names: the effect names the
+    diagnosis tries (None: every one that applies).
+    """
+
+    noise_rms: float | None = None
+    candidates: tuple = ()
+    candidate_names: tuple[str, ...] | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "candidates", tuple(self.candidates))
+        if self.candidate_names is not None:
+            object.__setattr__(self, "candidate_names", tuple(self.candidate_names))
+        if self.noise_rms is not None and not (np.isfinite(self.noise_rms) and self.noise_rms >= 0):
+            raise ValueError(f"DiagnosisSettings: noise_rms must be >= 0, got {self.noise_rms}")
+
+
 @dataclass(frozen=True, eq=False)
 class System:
     """One machine (module docstring). Benchmark machines also carry ``bench`` (a
@@ -136,13 +159,11 @@ class System:
     model: the physical-model class (``physics.model.PhysicalModel`` or a subclass), built with
     ``physical_model`` / ``diagnosis_model``. fs [Hz]: the machine's sample rate (None: the data's).
     advance [samples]: how far ahead of a sample the feedforward's kinematics are evaluated
-    (computation delay plus half the hold interval of the machine's controller). noise_rms [input
-    unit]: the RMS below which the diagnosis does not count an improvement as real (None: 1 % of
-    each axis's low-passed input RMS). constraint_configs: at most this many configurations per
-    batch enter the PGNN's mass-matrix constraint (None: all). effects: effect classes of this
-    machine beyond ``physics.effects`` (their formulas use its geometry); candidates: the
-    diagnosis's candidate effects on it beyond the library's (``physics.candidates.Candidate``);
-    candidate_names: the effect names the diagnosis tries (None: every one that applies).
+    (computation delay plus half the hold interval of the machine's controller).
+    constraint_configs: at most this many configurations per batch enter the PGNN's mass-matrix
+    constraint (None: all). effects: effect classes of this machine beyond ``physics.effects``
+    (their formulas use its geometry). diagnosis: what the diagnosis needs beyond the model
+    (``DiagnosisSettings``: its noise floor and candidate effects).
     hints: per-method settings for this machine (``hints["pgnn"]``: ``PGNNConfig`` fields;
     ``hints["benchmark"][method]``: the benchmark protocol's settings of a leaderboard method on it,
     e.g. ``{"rl": {"passes": 3.0, "num_envs": 8}}``, a machine file's ``[benchmark.rl]``). Each
@@ -179,11 +200,9 @@ class System:
     model: type | None = None
     fs: float | None = None
     advance: float = 0.5
-    noise_rms: float | None = None
     constraint_configs: int | None = 16
     effects: tuple[type, ...] = ()
-    candidates: tuple = ()
-    candidate_names: tuple[str, ...] | None = None
+    diagnosis: DiagnosisSettings = field(default_factory=DiagnosisSettings)
     hints: Mapping[str, Mapping] = field(default_factory=dict)
     quadratic_in_nonlinear: bool = False
     nonlinear_columns: tuple[int, ...] | None = None

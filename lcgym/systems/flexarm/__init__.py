@@ -14,7 +14,7 @@ import math
 
 from .. import ENVS
 from ..bench import BenchFactory
-from ..system import Axis, System
+from ..system import Axis, DiagnosisSettings, System
 from . import dynamics, motor
 from .bench import FlexArmBench
 from .effects import CANDIDATES, Payload
@@ -35,11 +35,10 @@ FLEXARM = System(
     model=ArmModel,
     fs=1000.0,
     advance=0.5,  # samples: the plant holds u over the sample
-    noise_rms=0.01,  # N m
     constraint_configs=16,  # the 6 x 6 mass matrices cost 6 regressor evaluations each
     effects=(Payload,),
-    candidates=CANDIDATES,
-    candidate_names=("coulomb_friction", "stribeck_friction", "payload"),
+    diagnosis=DiagnosisSettings(noise_rms=0.01, candidates=CANDIDATES,  # N m
+                                candidate_names=("coulomb_friction", "stribeck_friction", "payload")),
     # the PGNN on 1 kHz data of moves of 1-2 s: u low-passed at 5 Hz, not 1 Hz, every 10th sample
     hints={"pgnn": {"filter_hz": 5.0, "decimate": 10},
            # the benchmark's PGNN on the shared feedback-only trials; the RL agent: 1 pass in 4 envs

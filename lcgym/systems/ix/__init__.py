@@ -14,7 +14,7 @@ import numpy as np
 
 from .. import ENVS
 from ..bench import BenchFactory
-from ..system import Axis, System
+from ..system import Axis, DiagnosisSettings, System
 from . import dynamics
 from .bench import IXBench
 from .compiled import regressor
@@ -42,10 +42,9 @@ IX = System(
     parameters=dynamics.IXParameters,
     fs=500.0,
     advance=1.5,  # samples: one computation delay + half a hold interval
-    noise_rms=0.004,  # V: the low-passed input's quantization noise
     constraint_configs=None,
     effects=(PositionDependentFriction,),
-    candidates=CANDIDATES,
+    diagnosis=DiagnosisSettings(noise_rms=0.004, candidates=CANDIDATES),  # V: the low-passed input's quantization noise
     quadratic_in_nonlinear=True,
     nonlinear_columns=(dynamics.M2, dynamics.M3),  # m2 x2, m3 y3 z3, ...: the masses carry zeta_n
     # the benchmark's PGNN trains on a run with the physical model's feedforward on, u low-passed at
