@@ -69,10 +69,12 @@ def r2_ratio(name: str, rng, n: int = 10_000) -> None:
     q = rng.uniform(-1.5, 1.5, (n, system.n_axes))
     qt = torch.from_numpy(q)
 
-    def full():
-        torch.clamp(torch.exp(-physical_constraints(system, zeta, qt)) - 1.0, min=0.0).sum().backward()
+    configs = PGNNConfig.for_system(system).constraint_configs  # the machine's thinning of R2's configurations
 
-    ratio_line(f"R2 with its gradient, {name}", full, lambda: physics_penalty(system, zeta0, q))
+    def full():
+        torch.clamp(torch.exp(-physical_constraints(system, zeta, qt, configs)) - 1.0, min=0.0).sum().backward()
+
+    ratio_line(f"R2 with its gradient, {name}", full, lambda: physics_penalty(system, zeta0, q, configs))
 
 
 def networks(rng, alternatives: bool, n: int = 10_000) -> None:

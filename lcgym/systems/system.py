@@ -159,11 +159,10 @@ class System:
     model: the physical-model class (``physics.model.PhysicalModel`` or a subclass), built with
     ``physical_model`` / ``diagnosis_model``. fs [Hz]: the machine's sample rate (None: the data's).
     advance [samples]: how far ahead of a sample the feedforward's kinematics are evaluated
-    (computation delay plus half the hold interval of the machine's controller).
-    constraint_configs: at most this many configurations per batch enter the PGNN's mass-matrix
-    constraint (None: all). effects: effect classes of this machine beyond ``physics.effects``
-    (their formulas use its geometry). diagnosis: what the diagnosis needs beyond the model
-    (``DiagnosisSettings``: its noise floor and candidate effects).
+    (computation delay plus half the hold interval of the machine's controller). effects: effect
+    classes of this machine beyond ``physics.effects`` (their formulas use its geometry).
+    diagnosis: what the diagnosis needs beyond the model (``DiagnosisSettings``: its noise floor
+    and candidate effects).
     hints: per-method settings for this machine (``hints["pgnn"]``: ``PGNNConfig`` fields;
     ``hints["benchmark"][method]``: the benchmark protocol's settings of a leaderboard method on it,
     e.g. ``{"rl": {"passes": 3.0, "num_envs": 8}}``, a machine file's ``[benchmark.rl]``). Each
@@ -200,7 +199,6 @@ class System:
     model: type | None = None
     fs: float | None = None
     advance: float = 0.5
-    constraint_configs: int | None = 16
     effects: tuple[type, ...] = ()
     diagnosis: DiagnosisSettings = field(default_factory=DiagnosisSettings)
     hints: Mapping[str, Mapping] = field(default_factory=dict)

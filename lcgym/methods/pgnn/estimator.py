@@ -83,7 +83,7 @@ class PGNN:
         torch.manual_seed(cfg.seed)
         self.module_ = PGNNModule(system, zeta0, data.inputs.shape[1], cfg.hidden, cfg.activation,
                                   torch.tensor(mean, dtype=torch.float32), torch.tensor(std, dtype=torch.float32),
-                                  cfg.zeta_steps)
+                                  cfg.zeta_steps, cfg.constraint_configs)
         left = None if cfg.max_seconds is None else cfg.max_seconds - (time.perf_counter() - start)
         self.info_ = train(self.module_, data, cfg, progress=progress, seconds=left)
         self.info_["fit_seconds"] = time.perf_counter() - start
@@ -162,7 +162,7 @@ class PGNN:
                              f"not of {machine.name!r} ({len(machine.param_names)})")
         self = cls(config, fs=header["fs"], system=machine)
         self.module_ = PGNNModule(machine, state["zeta0"].numpy(), header["n_inputs"], config.hidden, config.activation,
-                                  zeta_steps=config.zeta_steps)
+                                  zeta_steps=config.zeta_steps, constraint_configs=config.constraint_configs)
         self.module_.load_state_dict(state)
         effects = tuple(effect_from_record(r, machine) for r in header.get("effects", []))
         self.fixed_ = None if not effects else PhysicalModel(  # the fitted effects, on the least-squares zeta0

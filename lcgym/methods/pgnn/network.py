@@ -50,11 +50,13 @@ class PGNNModule(nn.Module):
     """Physical model + per-axis networks. ``forward`` returns (f_M, f_C), each (B, n_axes)."""
 
     def __init__(self, system: System, zeta0: np.ndarray, n_inputs: int, hidden: Sequence[int] = (30, 30),
-                 activation: str = "tanh", input_mean=None, input_std=None, zeta_steps: str = "absolute"):
+                 activation: str = "tanh", input_mean=None, input_std=None, zeta_steps: str = "absolute",
+                 constraint_configs: int | None = None):
         super().__init__()
         if zeta_steps not in ("absolute", "relative"):
             raise ValueError(f"zeta_steps must be 'absolute' or 'relative', got {zeta_steps!r}")
         self.system = system
+        self.constraint_configs = constraint_configs  # R2's configurations per batch (PGNNConfig); None: all
         zeta0 = np.asarray(zeta0, dtype=np.float32)
         self.register_buffer("zeta0", torch.tensor(zeta0))
         scale = np.ones_like(zeta0) if zeta_steps == "absolute" else np.maximum(np.abs(zeta0), 1e-3)
@@ -92,17 +94,18 @@ class PGNNModule(nn.Module):
         return self.physical(q, qd, qdd, X), self.network(inputs)
 
 
-def physical_constraints(system: System, zeta: torch.Tensor, q: torch.Tensor) -> torch.Tensor:
+def physical_constraints(system: System, zeta: torch.Tensor, q: torch.Tensor, configs: int | None = None) -> torch.Tensor:
     """h of eqs. (31)-(33), each > 0 when satisfied: the parameters that are positive physically
     (IX: masses, inertias, viscous coefficients) and the smallest eigenvalue of M(theta) over the
-    given configurations (evenly thinned to ``system.constraint_configs`` where set)."""
-    q = _constraint_configs(system, q)
+    given configurations (evenly thinned to at most ``configs`` where set:
+    ``PGNNConfig.constraint_configs``)."""
+    q = _thinned(q, configs)
     return torch.cat([zeta[list(system.positive)], min_eigenvalue(system.mass_matrix(zeta, q)).min().reshape(1)])
 
 
-def _constraint_configs(system: System, q):
-    if system.constraint_configs and q.shape[0] > system.constraint_configs:
-        return q[:: -(-q.shape[0] // system.constraint_configs)]
+def _thinned(q, configs: int | None):
+    if configs and q.shape[0] > configs:
+        return q[:: -(-q.shape[0] // configs)]
     return q
 
 
@@ -120,9 +123,10 @@ PD_MARGIN = 1e-3
 """Relative to the largest entry of M: a smallest eigenvalue above this is positive in float32 too."""
 
 
-def physics_penalty(system: System, zeta: np.ndarray, q: np.ndarray) -> tuple[float, np.ndarray]:
+def physics_penalty(system: System, zeta: np.ndarray, q: np.ndarray, configs: int | None = None
+                    ) -> tuple[float, np.ndarray]:
     """R2 of eq. (30), sum_k max(0, exp(-h_k) - 1), and its gradient with respect to zeta (numpy,
-    float64; zeta (n_params,), configurations q (B, n_axes)).
+    float64; zeta (n_params,), configurations q (B, n_axes), thinned to at most ``configs``).
 
     The mass-matrix term and its gradient are zero while M(theta) is positive definite, as it is
     for physical parameters; differentiating it is the costly part (the arm's 6 x 6 matrices come
@@ -132,7 +136,7 @@ def physics_penalty(system: System, zeta: np.ndarray, q: np.ndarray) -> tuple[fl
     h is ``physical_constraints`` differentiated by torch's autograd."""
     zeta, q = np.asarray(zeta, dtype=float), np.asarray(q, dtype=float)
     positive = list(system.positive)
-    M = system.mass_matrix(zeta, _constraint_configs(system, q))
+    M = system.mass_matrix(zeta, _thinned(q, configs))
     lam = float(min_eigenvalue(M).min())
     if lam > PD_MARGIN * float(np.abs(M).max()):
         h = zeta[positive]
@@ -141,6 +145,6 @@ def physics_penalty(system: System, zeta: np.ndarray, q: np.ndarray) -> tuple[fl
         np.add.at(grad, positive, np.where(excess[:-1] > 0, -np.exp(-h), 0.0))
         return float(np.maximum(excess, 0.0).sum()), grad
     z = torch.tensor(zeta, requires_grad=True)
-    value = torch.clamp(torch.exp(-physical_constraints(system, z, torch.from_numpy(q))) - 1.0, min=0.0).sum()
+    value = torch.clamp(torch.exp(-physical_constraints(system, z, torch.from_numpy(q), configs)) - 1.0, min=0.0).sum()
     value.backward()
     return float(value.detach()), z.grad.numpy()

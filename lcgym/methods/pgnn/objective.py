@@ -351,7 +351,7 @@ class Objective:
 
     def _penalty(self, q: np.ndarray, gradient: bool) -> float:
         """R2 (eq. 30); mu2 times its gradient is added to ``params.grad``."""
-        r2, grad = physics_penalty(self.module.system, self.zeta(), q)
+        r2, grad = physics_penalty(self.module.system, self.zeta(), q, self.module.constraint_configs)
         if gradient:
             self.params.delta_grad[:] += (self.mu2 * grad * self.scale).astype(np.float32)
         return r2

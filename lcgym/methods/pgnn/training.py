@@ -79,6 +79,7 @@ class PGNNConfig:
     # beyond the paper (both off by default): extra network inputs
     history: tuple[float, ...] = ()  # delays [s]: add the reference velocity d seconds ago, per axis
     periods: tuple[tuple[int, float], ...] = ()  # (axis index, period [rad]): add sin, cos(2 pi q / period)
+    constraint_configs: int | None = 16  # at most this many configurations of a batch enter R2's M(theta) term; None: all
 
     @classmethod
     def for_system(cls, system: System, **overrides) -> PGNNConfig:
