@@ -45,8 +45,8 @@ def shape_left(trial) -> float:
     could take; and the residual's largest |value| [N] with its time [s] and velocity [m/s]."""
     model = diagnose([trial], EMPS, kinematics="measured", add=["asymmetric_friction@x"]).after_model
     r = model.residual([trial])[:, 0]
-    kin, lengths = model.kinematics([trial])
-    v = model.reduce(kin[1], lengths)[:, 0]
+    kin, lengths = model.preprocessing.kinematics([trial])
+    v = model.preprocessing.reduce(kin[1], lengths)[:, 0]
     k = np.floor(v / 0.01).astype(int)
     worst = int(np.argmax(np.abs(r)))
     t = worst * model.decimate / trial.fs

@@ -171,8 +171,8 @@ def test_measured_motion_removes_the_tracking_lag_from_the_residual():
     out = {}
     for positions in ("reference", "measured"):
         m = PhysicalModel(IX, positions=positions).fit(trials)
-        kin, lengths = m.kinematics(trials)
-        r = m.reduce(np.concatenate([t.u for t in trials]) - m.torque(*kin), lengths)
+        kin, lengths = m.preprocessing.kinematics(trials)
+        r = m.preprocessing.reduce(np.concatenate([t.u for t in trials]) - m.torque(*kin), lengths)
         out[positions] = np.sqrt(np.mean(r**2, axis=0))
     assert out["measured"][1] < 0.3 * out["reference"][1]
     assert out["measured"][0] < out["reference"][0]

@@ -7,9 +7,9 @@ Not every sample of a real log says something about the model:
   below its rest speed for at least ``settle`` s (shorter: the axis reverses, and the friction's
   switch is what identifies it), those samples are left out of that axis's fit and score (the
   other axes keep them): set to zero in its u and its regressor columns before the low-pass, so
-  that nothing of them spreads into the samples around (``PhysicalModel.masked_reduce``), their
+  that nothing of them spreads into the samples around (``Preprocessing.masked_reduce``), their
   rows dropped after. A log without a reference has u low-passed with its position before the fit
-  (``PhysicalModel.inputs``): there a rest is widened by that low-pass's reach. The rest speed
+  (``Preprocessing.inputs``): there a rest is widened by that low-pass's reach. The rest speed
   comes from the data: ``REST_NOISE`` times the speed noise the position's noise makes through the
   kinematics' low-pass and differentiation (the noise estimated from the log, at least the
   encoder step's quantization), and at least ``REST_SHARE`` of the axis's top speed (99th
@@ -309,7 +309,7 @@ def used_samples(trials: Sequence, kin: tuple[np.ndarray, np.ndarray, np.ndarray
     low-pass corner, ``velocity_filter_hz``: the one the velocity went through; ``trim``: per
     trial, samples to leave out at its start and at its end beyond the fixed margin
     (``edge_outliers``); ``spread`` [s]: how far a low-pass that u went through before the fit
-    (the measured position's, ``PhysicalModel.inputs``) spreads a rest into the motion around it:
+    (the measured position's, ``Preprocessing.inputs``) spreads a rest into the motion around it:
     that much more is left out on either side of each rest."""
     settle = settle_time(filter_hz)
     margin = int(math.ceil(settle * fs))

@@ -1,6 +1,6 @@
 """Which effect is missing: every candidate on every axis, scored on held-out data.
 
-The residual is worked with after the model's own reduction (``PhysicalModel.reduce``: zero-phase
+The residual is worked with after the model's own reduction (``Preprocessing.reduce``: zero-phase
 low-pass of u and of every regressor column, then decimation), so that the encoder-quantization
 noise the feedback puts into u does not count as something to explain.
 
@@ -112,13 +112,13 @@ class Prepared:
     penalties: list = field(default_factory=list)  # the design's roughness penalties (``PhysicalModel.penalties``)
 
     def reduce(self, columns: np.ndarray, axis: int) -> np.ndarray:
-        """Columns (T, k) of ``axis`` reduced as the design is (``PhysicalModel.masked_reduce``)."""
-        return self.model.masked_reduce(columns, self.lengths, self.mask[:, axis])
+        """Columns (T, k) of ``axis`` reduced as the design is (``Preprocessing.masked_reduce``)."""
+        return self.model.preprocessing.masked_reduce(columns, self.lengths, self.mask[:, axis])
 
     @property
     def residual(self) -> np.ndarray:
         """Reduced residual (R, A) of the fitted model: u minus the reduced model torque (zero where not used)."""
-        return self.u - self.model.masked_reduce(self.torque, self.lengths, self.mask)
+        return self.u - self.model.preprocessing.masked_reduce(self.torque, self.lengths, self.mask)
 
     @property
     def n_used(self) -> np.ndarray:
@@ -137,16 +137,17 @@ class Prepared:
 
 def prepare(trials: Sequence, model: PhysicalModel, layout: Layout, kinematics: tuple | None = None) -> Prepared:
     """Fit ``model`` (unfitted) on the samples of ``trials`` that ``layout`` uses and reduce
-    everything the search needs. ``kinematics``: ``model.kinematics(trials)`` where the caller has
-    it (every model of one diagnosis has the same kinematics: computed once)."""
-    kinematics = model.kinematics(trials) if kinematics is None else kinematics
+    everything the search needs. ``kinematics``: ``model.preprocessing.kinematics(trials)`` where
+    the caller has it (every model of one diagnosis has the same kinematics: computed once)."""
+    pre = model.preprocessing
+    kinematics = pre.kinematics(trials) if kinematics is None else kinematics
     model.fit(trials, mask=layout.used, kinematics=kinematics)
     kin, lengths = kinematics
     free, fixed, theta = model.free_design(kin)
     rigid_torque = free @ theta + fixed
     nonlinear = None
     torque = model.torque(*kin) - fixed  # the held part (e.g. CAD inertia) is moved to the input side
-    rows = model.reduced_rows(lengths)
+    rows = pre.reduced_rows(lengths)
     used = layout.used[rows]
     if model.reduced_ is not None:  # a linear fit's own reduced design: the same columns
         design, u = model.reduced_
@@ -154,8 +155,8 @@ def prepare(trials: Sequence, model: PhysicalModel, layout: Layout, kinematics: 
         effect_cols = model.effect_design(kin, model.load_torques(kin))
         nonlinear = model.nonlinear_design(kin)  # zeta_n refitted to first order with each candidate
         parts = [free] + ([] if nonlinear is None else [nonlinear]) + [effect_cols]
-        design = model.masked_reduce(np.concatenate(parts, axis=2), lengths, layout.used)
-        u = model.masked_reduce(model.inputs(trials) - fixed, lengths, layout.used)
+        design = pre.masked_reduce(np.concatenate(parts, axis=2), lengths, layout.used)
+        u = pre.masked_reduce(pre.inputs(trials) - fixed, lengths, layout.used)
     trial, guard = [], []
     for k, n in enumerate(lengths):
         t = np.arange(0, n, max(1, model.decimate)) / model.fs

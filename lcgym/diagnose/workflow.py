@@ -40,7 +40,8 @@ from ..metrics import norms as metric_norms
 from ..physics.candidates import axis_scale
 from ..physics.effects import Effect, parse_key
 from ..physics.kinematics import lowpass_zero_phase, reference_kinematics
-from ..physics.model import PhysicalModel, reduction_memo
+from ..physics.model import PhysicalModel
+from ..physics.preprocessing import reduction_memo
 from .candidates import Candidate, candidates_for
 from .layout import edge_outliers, layout, repeated_runs, used_samples
 from .machines import machines_with_axes
@@ -173,9 +174,10 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", options: Dia
     moving = moving_axes(trials, system)
     if not moving:
         raise ValueError("diagnose: no axis moves more than its minimum travel (1 deg, 1 mm) in the data")
-    kin, lengths = model.kinematics(trials)
-    corners = (model.filter_hz, _velocity_filter_hz(model, trials))
-    spread = 1.0 / model.kinematics_filter_hz if any(model.uses_position(tr) for tr in trials) else 0.0
+    pre = model.preprocessing
+    kin, lengths = pre.kinematics(trials)
+    corners = (model.filter_hz, pre.velocity_filter_hz(trials))
+    spread = pre.position_spread(trials)
     repeats = repeated_runs(trials, moving)
     lay = layout(trials, kin, lengths, fs, *corners, block_seconds, spread=spread, moving=moving, repeats=repeats)
     strict = ""
@@ -348,11 +350,6 @@ def outside_ranges(ranges: dict, kin, rows: np.ndarray, used: np.ndarray, axes: 
     return out
 
 
-def _velocity_filter_hz(model: PhysicalModel, trials) -> float:
-    """The corner [Hz] of the low-pass the fit's velocity went through (``PhysicalModel.kinematics``)."""
-    return model.kinematics_filter_hz if any(model.uses_position(tr) for tr in trials) else model.error_filter_hz
-
-
 def _samples_record(lay, axes, kinds, trials, fs) -> dict:
     """What the layout left out, per axis, for the report (``Diagnosis.samples``)."""
     total = lay.counts["samples"]
@@ -441,7 +438,7 @@ def _velocity(trials, fs) -> np.ndarray:
 
 def _kinematics_note(trials, model: PhysicalModel) -> str:
     if model.positions == "position" or all(tr.ref is None for tr in trials):
-        return (f"measured position, {model.kinematics_filter_hz:g} Hz zero-phase low-pass, then differentiated"
+        return (f"measured position, {model.preprocessing.kinematics_filter_hz:g} Hz zero-phase low-pass, then differentiated"
                 + (" (the data have no reference)" if model.positions != "position" else ""))
     if model.positions == "measured":
         return "reference corrected by the measured tracking error (low-passed), differentiated"
@@ -507,11 +504,11 @@ def validation(trials: Sequence, model: PhysicalModel, after_model: PhysicalMode
     (the model with the effects added, else refitted with the selected ones), and where those
     trials leave the effects' fitted ranges (``ranges``, ``outside_ranges``)."""
     added = [e.key for e in after_model.effects if e.key not in {f.key for f in model.effects}]
-    kin, lengths = model.kinematics(trials)
-    spread = 1.0 / model.kinematics_filter_hz if any(model.uses_position(tr) for tr in trials) else 0.0
-    mask = used_samples(trials, kin, lengths, model.fs, model.filter_hz, _velocity_filter_hz(model, trials),
-                        spread=spread)[0]  # standstill and trial edges left out, as in the data fitted
-    rows = model.reduced_rows(lengths)
+    pre = model.preprocessing
+    kin, lengths = pre.kinematics(trials)
+    mask = used_samples(trials, kin, lengths, model.fs, model.filter_hz, pre.velocity_filter_hz(trials),
+                        spread=pre.position_spread(trials))[0]  # standstill and trial edges left out, as fitted
+    rows = pre.reduced_rows(lengths)
     used = mask[rows]
     ranges = {k: r for k, r in ranges.items() if k in added}
     return {"trials": len(trials), "n_samples": int(sum(tr.n_samples for tr in trials)), "added": added,

@@ -5,7 +5,7 @@ same filtered design, tens of times; a benchmark cell evaluates its bases on eac
 and again. ``ArrayMemo`` keeps the last results while an ``active()`` block runs and drops them when
 it ends, so that a long-lived process holds no hundreds of MB between uses. One class serves a
 machine's regressors (``System.caching``) and the model's filtered designs
-(``physics.model.reduction_memo``).
+(``physics.preprocessing.reduction_memo``).
 """
 
 from __future__ import annotations

@@ -17,7 +17,8 @@ Fit (``fit(trials)``):
      that lag in the residual, where it looks like low-speed friction;
    - ``"position"`` (and a log without a reference): the measured position low-passed at
      ``position_filter_hz`` (default twice ``filter_hz``), then differentiated. u passes the same
-     low-pass first (``inputs``), so that u and the columns linear in the kinematics see one filter.
+     low-pass first (``Preprocessing.inputs``), so that u and the columns linear in the kinematics
+     see one filter.
 2. u and every regressor column pass one zero-phase Butterworth low-pass (``filter_hz``, order 2)
    per trial and are decimated (``decimate``). One linear filter on both sides keeps the least
    squares consistent and removes the quantization noise that the feedback's derivative puts in u.
@@ -48,12 +49,9 @@ from scipy.optimize import least_squares
 
 from .compiled import cache_dir
 from .effects import Effect, Loads
-from .kinematics import lowpass_zero_phase, reference_kinematics, reference_positions
+from .kinematics import reference_kinematics, reference_positions
 from .linalg import penalty_rows, solve_min_norm  # noqa: F401 (the fit's solve; tests import it from here)
-from .memo import ArrayMemo
-from .workspace import WORKSPACE
-
-POSITIONS = ("reference", "measured", "position")
+from .preprocessing import POSITIONS, Preprocessing, reduction_memo, reductions
 
 
 @dataclass
@@ -120,6 +118,13 @@ class PhysicalModel:
     def parts(self) -> tuple[str, ...]:
         """What this model has without its effects (the diagnosis does not offer these again)."""
         return self.built_in
+
+    @property
+    def preprocessing(self) -> Preprocessing:
+        """How this model sees data (``physics.preprocessing``): the kinematics of its fit, the
+        input as it uses it, and the low-pass and decimation of both."""
+        return Preprocessing(self.fs, self.advance, self.filter_hz, self.decimate, self.positions,
+                             self.error_filter_hz, self.position_filter_hz)
 
     # ------------------------------------------------------------------ evaluation
     @property
@@ -235,78 +240,14 @@ class PhysicalModel:
             cols.append(c)
         return np.concatenate(cols, axis=2)
 
-    def reduce(self, A, lengths):
-        """Per-trial zero-phase low-pass along time, then decimation; A is (T, ...). Columns that are
-        zero throughout (a regressor's parameters that do not act on an axis) stay zero unfiltered."""
-        A = np.asarray(A, dtype=float)
-        flat = A.reshape(A.shape[0], -1)
-        used = np.flatnonzero(np.any(flat != 0.0, axis=0)) if flat.shape[1] > 1 else np.arange(flat.shape[1])
-        out, start = [], 0
-        for n in lengths:
-            seg = flat[start : start + n, used]
-            start += n
-            if self.filter_hz:
-                seg = lowpass_zero_phase(seg, self.fs, self.filter_hz, axis=0)
-            out.append(seg[:: max(1, self.decimate)])
-        kept = np.concatenate(out, axis=0)
-        if used.size == flat.shape[1]:
-            return kept.reshape(kept.shape[0], *A.shape[1:])
-        full = np.zeros((kept.shape[0], flat.shape[1]))
-        full[:, used] = kept
-        return full.reshape(kept.shape[0], *A.shape[1:])
-
-    def kinematics(self, trials: Sequence) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], list[int]]:
-        """(q, qd, qdd) of the fit, each (sum of T, n_axes), and the trial lengths (see ``positions``;
-        a trial without a reference always takes its measured position's)."""
-        if not trials:
-            raise ValueError("PhysicalModel.fit: no trials given")
-        kins, lengths = [], []
-        for tr in trials:
-            if abs(tr.fs - self.fs) > 1e-6 * self.fs:
-                raise ValueError(f"trial sampled at {tr.fs} Hz, model expects {self.fs} Hz")
-            if self.uses_position(tr):
-                q, qd, qdd = reference_kinematics(lowpass_zero_phase(tr.pos, self.fs, self.kinematics_filter_hz),
-                                                  self.fs, self.advance)
-            else:
-                q, qd, qdd = reference_kinematics(tr.ref, self.fs, self.advance)
-                if self.positions == "measured":
-                    e = lowpass_zero_phase(tr.ref - tr.pos, self.fs, self.error_filter_hz)
-                    e, ed, edd = reference_kinematics(e, self.fs, self.advance)
-                    q, qd, qdd = q - e, qd - ed, qdd - edd
-            kins.append((q, qd, qdd))
-            lengths.append(tr.n_samples)
-        return tuple(np.concatenate([k[i] for k in kins]) for i in range(3)), lengths
-
-    def uses_position(self, trial) -> bool:
-        """Whether the fit takes ``trial``'s kinematics from its measured position (module docstring)."""
-        return self.positions == "position" or trial.ref is None
-
-    def inputs(self, trials: Sequence) -> np.ndarray:
-        """The measured input u (sum of T, n_axes) as the fit uses it: where the kinematics come from
-        the low-passed measured position, u low-passed the same way (module docstring)."""
-        return np.concatenate([lowpass_zero_phase(tr.u, self.fs, self.kinematics_filter_hz) if self.uses_position(tr)
-                               else np.asarray(tr.u, dtype=float) for tr in trials])
-
-    @property
-    def kinematics_filter_hz(self) -> float:
-        """Corner [Hz] of the low-pass of a measured position before it is differentiated (and of u
-        then): ``position_filter_hz``, else twice ``filter_hz``, else ``error_filter_hz``."""
-        if self.position_filter_hz is not None:
-            return float(self.position_filter_hz)
-        return 2.0 * self.filter_hz if self.filter_hz else self.error_filter_hz
-
     def residual(self, trials: Sequence, mask: np.ndarray | None = None) -> np.ndarray:
         """Reduced residual (R, n_axes) [input unit] of this fitted model on ``trials`` (any, e.g.
         data it was not fitted on): the input as the fit uses it minus the model's torque, both
         through ``reduce`` (low-pass and decimation), the kinematics taken as in the fit; ``mask``
         as in ``fit`` (the rows it leaves out are zero)."""
-        kin, lengths = self.kinematics(trials)
-        return self.masked_reduce(self.inputs(trials) - self.torque(*kin), lengths, mask)
-
-    def reduced_rows(self, lengths: Sequence[int]) -> np.ndarray:
-        """The sample (over all trials) each row of ``reduce``'s output comes from."""
-        starts = np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(int)
-        return np.concatenate([s + np.arange(0, n, max(1, self.decimate)) for s, n in zip(starts, lengths, strict=True)])
+        pre = self.preprocessing
+        kin, lengths = pre.kinematics(trials)
+        return pre.masked_reduce(pre.inputs(trials) - self.torque(*kin), lengths, mask)
 
     def fit(self, trials: Sequence, mask: np.ndarray | None = None, kinematics: tuple | None = None) -> PhysicalModel:
         """Least-squares fit on measured trials (each with ``ref`` (or None), ``pos``, ``u`` and sample
@@ -316,11 +257,12 @@ class PhysicalModel:
         all), e.g. the diagnosis's without standstill: the others are set to zero in u and in every
         regressor column of that axis before the low-pass (the equation u = X theta holds there as
         0 = 0, so nothing of them spreads into the samples used), and their rows are left out after it.
-        ``kinematics``: ``self.kinematics(trials)`` where the caller has it (a diagnosis refits models
+        ``kinematics``: ``self.preprocessing.kinematics(trials)`` where the caller has it (a diagnosis refits models
         of the same kinematic settings on the same trials many times)."""
-        kin, lengths = self.kinematics(trials) if kinematics is None else _same_trials(kinematics, trials)
+        pre = self.preprocessing
+        kin, lengths = pre.kinematics(trials) if kinematics is None else _same_trials(kinematics, trials)
         self.reduced_ = None
-        u = self.inputs(trials)
+        u = pre.inputs(trials)
         if mask is not None:
             mask = np.asarray(mask, dtype=bool)
             if mask.shape != u.shape:
@@ -351,30 +293,16 @@ class PhysicalModel:
                           **({"shapes": shapes} if shapes else {})}
         return self
 
-    def kept_reduce(self, A: np.ndarray, lengths: Sequence[int], mask: np.ndarray | None) -> np.ndarray:
-        """``masked_reduce``, kept for the same arrays while a ``reduction_memo`` block runs (the
-        designs and inputs a diagnosis's refits share)."""
-        return _memo().get(lambda: self.masked_reduce(A, lengths, mask), A, mask,
-                         extra=(tuple(lengths), self.fs, self.filter_hz, self.decimate))
-
-    def masked_reduce(self, A: np.ndarray, lengths: Sequence[int], mask: np.ndarray | None) -> np.ndarray:
-        """``reduce`` of A (T, n_axes, ...) with the samples ``mask`` (T, n_axes) leaves out set to
-        zero before the low-pass and their rows to zero after it (``fit``); a mask (T,) of one axis
-        for its columns A (T, k); no mask: ``reduce``."""
-        if mask is None:
-            return self.reduce(A, lengths)
-        m = mask.reshape(mask.shape + (1,) * (np.ndim(A) - mask.ndim))
-        return self.reduce(A * m, lengths) * m[self.reduced_rows(lengths)]
-
     def _fit_linear(self, kin, lengths, u, mask=None):
         """A machine linear in all its parameters: one minimum-norm least-squares solve of the free
         parameters and the effects' coefficients, the fixed parameters' torque moved to u's side;
         ``mask``: the samples of each axis that count (``fit``)."""
         free, fixed, theta_free = self.free_design(kin, self.params)  # a fit starts from the given values
         loads = self.load_torques(kin, self.params.to_vector(), rigid=free @ theta_free + fixed)
-        X = np.concatenate([self.kept_reduce(free, lengths, mask),  # a diagnosis's refits share this one
-                            self.masked_reduce(self.effect_design(kin, loads), lengths, mask)], axis=2)
-        y = self.kept_reduce(u - fixed, lengths, mask).reshape(-1)
+        pre = self.preprocessing
+        X = np.concatenate([pre.kept_reduce(free, lengths, mask),  # a diagnosis's refits share this one
+                            pre.masked_reduce(self.effect_design(kin, loads), lengths, mask)], axis=2)
+        y = pre.kept_reduce(u - fixed, lengths, mask).reshape(-1)
         theta0 = np.concatenate([theta_free, *[e.coefficients() for e in self.effects]])
         theta, resid = solve_min_norm(X, y, theta0, rcond=self.rcond, penalties=self.penalties(free.shape[2]))
         vector = self.params.to_vector()
@@ -383,7 +311,7 @@ class PhysicalModel:
         self.params_ = self.system.params_from_vector(vector)
         free_columns = X[:, :, : int(mask.sum())]
         self.fit_info_ = {"n_free": int(mask.sum()),
-                          "rank": _memo().get(lambda: np.array(column_rank(free_columns, self.rcond)), free_columns, None,
+                          "rank": reductions().get(lambda: np.array(column_rank(free_columns, self.rcond)), free_columns, None,
                                             extra=("rank", self.rcond)).item()}
         # the reduced design and input as fitted: unchanged by the fit where no effect reads the model's
         # torques, so the diagnosis reuses them (``diagnose.search.prepare``) instead of filtering them again
@@ -394,11 +322,12 @@ class PhysicalModel:
         """A machine with nonlinear parameters zeta_n (the IX): variable projection over zeta_n, the
         linear parameters and the effects' coefficients eliminated by least squares at each step;
         ``mask`` as in ``_fit_linear``."""
-        u_red = self.kept_reduce(u, lengths, mask).reshape(-1)
+        pre = self.preprocessing
+        u_red = pre.kept_reduce(u, lengths, mask).reshape(-1)
         # masked before the low-pass (linear: the design stays quadratic in zeta_n) and after it
         before = after = lambda A: A  # noqa: E731
         if mask is not None:
-            m_before, m_after = mask[..., None], mask[self.reduced_rows(lengths)][..., None]
+            m_before, m_after = mask[..., None], mask[pre.reduced_rows(lengths)][..., None]
             before, after = (lambda A: A * m_before), (lambda A: A * m_after)
         n = self.system.n_linear
         p0 = self.params.to_vector()
@@ -410,9 +339,9 @@ class PhysicalModel:
         evaluate = (QuadraticDesign if self.system.quadratic_in_nonlinear else _Design)
         for _ in range(n_pass):
             rigid = evaluate(lambda zn, columns=None: before(self.system.regressor(zn, *kin, **(
-                {} if columns is None else {"columns": columns}))), zeta_n.size, lambda A: self.reduce(A, lengths),
+                {} if columns is None else {"columns": columns}))), zeta_n.size, lambda A: pre.reduce(A, lengths),
                 columns=self.system.nonlinear_columns)
-            fixed = self.masked_reduce(self.effect_design(kin, loads), lengths, mask)
+            fixed = pre.masked_reduce(self.effect_design(kin, loads), lengths, mask)
             design = lambda zn, r=rigid, f=fixed: np.concatenate([after(r(zn)), f], axis=2)  # noqa: E731
             if self.fit_nonlinear:
                 sol = least_squares(
@@ -428,25 +357,12 @@ class PhysicalModel:
         return theta, resid
 
 
-def _memo() -> ArrayMemo:
-    """A diagnosis refits one model with one effect more or less tens of times on the same data, and
-    filtering its rigid regressor (tens of columns per axis, every sample) is most of a fit: kept
-    here (``physics.workspace``) while a ``reduction_memo`` block runs."""
-    return WORKSPACE.slot("physics.model.reductions", lambda: ArrayMemo(size=16, by_identity=True))
-
-
 def _same_trials(kinematics: tuple, trials: Sequence) -> tuple:
     """``kinematics`` ((q, qd, qdd), lengths) after checking that it is of ``trials``."""
     kin, lengths = kinematics
     if list(lengths) != [tr.n_samples for tr in trials] or kin[0].shape[0] != sum(lengths):
         raise ValueError("PhysicalModel.fit: the kinematics given are not of these trials (their lengths differ)")
     return kin, list(lengths)
-
-
-def reduction_memo():
-    """A context in which ``PhysicalModel.kept_reduce`` keeps its results for the same arrays
-    (a diagnosis's refits on one set of trials)."""
-    return _memo().active()
 
 
 def diagnosis_decimation(fs: float, filter_hz: float) -> int:

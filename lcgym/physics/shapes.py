@@ -91,15 +91,16 @@ class _Problem:
         self.model, self.kin, self.lengths, self.mask = model, kin, list(lengths), mask
         free, fixed, self.theta = model.free_design(kin, model.params)
         self.loads = model.load_torques(kin, model.params.to_vector(), rigid=free @ self.theta + fixed)
-        self.base = model.kept_reduce(free, self.lengths, mask)  # (R, A, k)
-        self.y = model.kept_reduce(u - fixed, self.lengths, mask)  # (R, A)
-        self.rows = model.reduced_rows(self.lengths)
+        pre = model.preprocessing
+        self.base = pre.kept_reduce(free, self.lengths, mask)  # (R, A, k)
+        self.y = pre.kept_reduce(u - fixed, self.lengths, mask)  # (R, A)
+        self.rows = pre.reduced_rows(self.lengths)
 
     def columns(self, effect: Effect) -> np.ndarray:
         """The effect's reduced columns (R, len(linear)) on its own axis."""
         i = effect.index
         cols = effect.columns(*self.kin, self.loads)
-        return self.model.masked_reduce(cols, self.lengths, None if self.mask is None else self.mask[:, i])
+        return self.model.preprocessing.masked_reduce(cols, self.lengths, None if self.mask is None else self.mask[:, i])
 
     def design(self, effects: Sequence[Effect], columns: Sequence[np.ndarray], rigid: bool = True) -> np.ndarray:
         """The reduced design (R, A, p): the rigid body's columns (``rigid``), then those of

@@ -4,7 +4,7 @@ In the spirit of pinocchio's ``Data`` beside its immutable ``Model``: machines, 
 hold no results of earlier calls; what is worth keeping lives in ``WORKSPACE``, one named slot
 per cache, made on first use:
 
-* ``"physics.model.reductions"``: a model's filtered designs (``physics.model.reduction_memo``);
+* ``"physics.model.reductions"``: a model's filtered designs (``physics.preprocessing.reduction_memo``);
 * ``"physics.lti.foh"``: first-order-hold discretizations of linear systems (``physics.lti``);
 * ``"systems.flexarm.regressors"``: the FlexArm's regressors (``System.caching``);
 * ``"systems.<machine>.env_models"``: the physical model an env fitted on its plant's training
