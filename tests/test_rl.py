@@ -146,7 +146,7 @@ def test_sb3_adapter_reports_episode_rms_and_hides_error():
     assert done[0]
     np.testing.assert_allclose(infos[0]["tracking_rms"], np.sqrt(np.mean(info["trial"].error ** 2, axis=0)))
     assert infos[0]["episode"]["l"] == refs[0].n_samples
-    hidden = HideError(make_sb3_vec_env("lcgym/IX-v0", num_envs=2, references=refs), IX.observation_error)
+    hidden = HideError(make_sb3_vec_env("lcgym/IX-v0", num_envs=2, references=refs), IX.bench.observation_error)
     obs = hidden.reset()
     for _ in range(20):
         obs, *_ = hidden.step(np.ones((2, 2), dtype=np.float32))

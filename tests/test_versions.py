@@ -36,7 +36,7 @@ def test_the_version_lists_agree():
         machine = systems.get(name)
         assert systems.VERSIONS[name] == machine.bench.versions
         own = {f"lcgym/{entry.env}-{v}" for v in machine.bench.versions}
-        assert set(machine.envs) == own and machine.env_id == f"lcgym/{entry.env}-{machine.bench.versions[-1]}"
+        assert set(machine.bench.envs) == own and machine.env_id == f"lcgym/{entry.env}-{machine.bench.versions[-1]}"
         ids |= own
     assert ids == set(systems.ENVS)
 

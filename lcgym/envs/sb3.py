@@ -107,7 +107,7 @@ def make_sb3_vec_env(env_id: str = "lcgym/IX-v1", num_envs: int = 4, agent_rate:
 
 
 class HideError(VecEnvWrapper):
-    """Zeroes the observation's tracking-error ``columns`` (``System.observation_error``) in every
+    """Zeroes the observation's tracking-error ``columns`` (``System.bench.observation_error``) in every
     observation of an SB3 vector env, terminal ones included."""
 
     def __init__(self, venv: VecEnv, columns: slice):

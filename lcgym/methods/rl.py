@@ -195,7 +195,7 @@ def _vec_env(system: systems.System, references, plant, base, config: RLConfig, 
         venv = DummyVecEnv([lambda: Monitor(make_env(env_id, **kwargs))] * n)
     if hold > 1:
         venv = VecHoldAction(venv, hold)
-    return venv if config.observe_error else HideError(venv, system.observation_error)
+    return venv if config.observe_error else HideError(venv, system.bench.observation_error)
 
 
 class RLFeedforward(Controller):
@@ -409,7 +409,7 @@ class RLFeedforward(Controller):
         cfg = self._config()
         env = HoldAction(make_env(self.system_.env_id, references=[reference], base_feedforward=self._base(),
                                   plant=plant, episode_steps=None), self.hold())
-        hide = self.system_.observation_error
+        hide = self.system_.bench.observation_error
         act = deterministic_actor(self.model_)
         obs, _ = env.reset(seed=cfg.seed, options={"reference": 0})
         action = np.zeros(env.action_space.shape)  # at the first sample: the base alone, see below

@@ -82,7 +82,7 @@ ENVS = {f"lcgym/{m.env}-{v}": {"entry_point": m.entry_point, "vector_entry_point
                                "kwargs": {**dict(m.env_kwargs), "version": v}}
         for m in BUILT_IN.values() for v in m.versions}
 ENVS["lcgym/Machine-v0"] = {"entry_point": _MACHINE_ENV[0], "vector_entry_point": _MACHINE_ENV[1], "kwargs": {}}
-"""The Gymnasium ids and entry points of the built-in machines (their ``System.envs`` take them
+"""The Gymnasium ids and entry points of the built-in machines (their ``System.bench.envs`` take them
 from here) and ``lcgym/Machine-v0``, any machine's (``gym.make("lcgym/Machine-v0",
 machine="my_arm.toml")``), so that ``import lcgym`` registers them without importing the machines
 (plants, kernels, scipy)."""

@@ -10,8 +10,8 @@ Machines: ``ix/bench.py``, ``flexarm/bench.py``, ``urdf_bench.py`` (a URDF or a 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
@@ -93,12 +93,21 @@ class Bench(ABC):
 
 @dataclass(frozen=True)
 class BenchFactory:
-    """How a machine makes its bench (``System.bench``): ``kind``, the ``Bench`` subclass, built
-    with the machine, a version and, where given, ``settings`` (a machine file's
-    ``MachineSettings``: what its plant carries beyond the URDF)."""
+    """How a machine makes its bench, and which Gymnasium envs run its plant (``System.bench``).
+
+    ``kind``: the ``Bench`` subclass, built with the machine, a version and, where given,
+    ``settings`` (a machine file's ``MachineSettings``: what its plant carries beyond the URDF).
+    ``envs``: the machine's Gymnasium ids and entry points, oldest version first;
+    ``observation_error``: where the tracking error sits in an env's observation (the columns an RL
+    agent that does not observe its error is not shown)."""
 
     kind: type[Bench]
     settings: Any = None
+    envs: Mapping[str, Mapping] = field(default_factory=dict)
+    observation_error: slice | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "envs", {k: dict(v) for k, v in self.envs.items()})
 
     def __call__(self, system, version: str | None = None) -> Bench:
         """A fresh bench of ``system`` with the plant of ``version`` (None: the newest)."""

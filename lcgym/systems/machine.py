@@ -131,10 +131,11 @@ def benchmark_machine(machine: System | str | Path, settings: MachineSettings | 
     settings = settings or MachineSettings(**kwargs)
     system = machine if isinstance(machine, System) else from_urdf(machine, joints=joints, name=name)
     hints = {**system.hints, **{k: dict(v) for k, v in settings.hints.items()}}
-    return dataclasses.replace(system, fs=settings.fs, bench=BenchFactory(MachineBench, settings), hints=hints,
-                               observation_error=slice(-system.n_axes, None),  # the env's error columns
-                               # the id's entry points are registered once, in ``systems.ENVS``
-                               envs=envs or {MACHINE_ENV: {"kwargs": {"machine": settings.source or system.name}}})
+    # the id's entry points are registered once, in ``systems.ENVS``; the env's error columns come last
+    bench = BenchFactory(MachineBench, settings,
+                         envs=envs or {MACHINE_ENV: {"kwargs": {"machine": settings.source or system.name}}},
+                         observation_error=slice(-system.n_axes, None))
+    return dataclasses.replace(system, fs=settings.fs, bench=bench, hints=hints)
 
 
 class MachineBench(URDFBench):

@@ -150,11 +150,9 @@ class DiagnosisSettings:
 class System:
     """One machine (module docstring). Benchmark machines also carry ``bench`` (a
     ``bench.BenchFactory``: ``make_bench`` makes a bench, which holds the plant, the reference sets
-    and what the benchmark scores; ``systems/bench.py``),
-    ``envs`` (their Gymnasium ids and entry points), ``observation_error`` (where the tracking error
-    sits in the env's observation) and ``nominal`` (a nominal feedforward structure that learning
-    methods start from, paper 002's Basic on the FlexArm; None: they start from the fitted physical
-    model).
+    and what the benchmark scores, ``systems/bench.py``; and the machine's Gymnasium envs) and
+    ``nominal`` (a nominal feedforward structure that learning methods start from, paper 002's
+    Basic on the FlexArm; None: they start from the fitted physical model).
 
     model: the physical-model class (``physics.model.PhysicalModel`` or a subclass), built with
     ``physical_model`` / ``diagnosis_model``. fs [Hz]: the machine's sample rate (None: the data's).
@@ -208,8 +206,6 @@ class System:
     joint_axes: Callable | None = None
     caching: Callable | None = None
     bench: BenchFactory | None = None
-    envs: Mapping[str, Mapping] = field(default_factory=dict)
-    observation_error: slice | None = None
     nominal: object | None = None
     model_effects: tuple[str, ...] = ()
 
@@ -249,12 +245,11 @@ class System:
 
             for key in self.model_effects:  # a ValueError says why its model cannot carry it
                 model_candidate(self, key, (self.model or PhysicalModel).built_in)
-        object.__setattr__(self, "envs", {k: dict(v) for k, v in self.envs.items()})
 
     @property
     def env_id(self) -> str | None:
         """The machine's Gymnasium id (its newest version's, the last), or None (a machine without a plant)."""
-        return next(reversed(self.envs), None)
+        return None if self.bench is None else next(reversed(self.bench.envs), None)
 
     def make_bench(self, version: str | None = None) -> Bench:
         """A fresh bench of this machine with the plant of ``version`` (None: the newest); a

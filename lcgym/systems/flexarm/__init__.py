@@ -46,9 +46,8 @@ FLEXARM = System(
     description="flexible-joint 6-DOF industrial arm of paper 002: joints j1-j6, motor torques in N m",
     joint_axes=lambda: dynamics.joint_axes(dynamics.HOME),
     caching=motor.cached_regressors,
-    bench=BenchFactory(FlexArmBench),
-    envs={k: v for k, v in ENVS.items() if k.startswith("lcgym/FlexArm-")},
-    observation_error=slice(30, 36),
+    bench=BenchFactory(FlexArmBench, envs={k: v for k, v in ENVS.items() if k.startswith("lcgym/FlexArm-")},
+                       observation_error=slice(30, 36)),
     nominal=BasicFeedforward(),
 )
 

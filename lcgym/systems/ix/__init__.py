@@ -53,9 +53,8 @@ IX = System(
                          "rl": {"passes": 3.0, "num_envs": 8, "agent_rate": 50.0}}},
     description="interventional X-ray C-arm of paper 000: propeller and roll, input in V",
     joint_axes=joint_axes,
-    bench=BenchFactory(IXBench),
-    envs={k: v for k, v in ENVS.items() if k.startswith("lcgym/IX-")},
-    observation_error=slice(34, 36),
+    bench=BenchFactory(IXBench, envs={k: v for k, v in ENVS.items() if k.startswith("lcgym/IX-")},
+                       observation_error=slice(34, 36)),
 )
 
 __all__ = ["IX"]

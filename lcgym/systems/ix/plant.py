@@ -140,19 +140,12 @@ otherwise make 0.5 V of chatter in u: Table II's residual); the roll's stiffer (
 
 
 def default_hidden_effects() -> tuple[fx.Effect, ...]:
-    """The IX's hidden effects (IX-v0's sizes), sized so the fitted rigid model leaves a structured error.
-
-    Roll: guidance friction whose level follows the normal force (0.045 V + 0.075 |cos th2| (1 +
-    0.4 cos th3) + 0.06 |sin th2|), a Stribeck rise of 0.09 V below 0.4 deg/s and LuGre stiction
-    (sigma0 1e4 /rad, sigma1 60 s/rad); a one-sided cable spring 0.22 V/rad beyond 20 deg; cable
-    inertia up to 0.06 around 20 deg. Propeller: friction 0.10 + 0.06 |cos th2| V with a 0.075 V
-    Stribeck rise below 0.3 deg/s and stiction; a gear harmonic (period 5 deg, 0.14 V growing
-    with speed, plus 0.06 V at twice the frequency); cable drape 0.18 sin(th2 + 20 deg). Both:
-    two-mass drives (motor inertia 0.20, modes near 15-17 and 34 Hz) and 3 % torque ripple.
-
-    The Stribeck rise is an additive level (0.09 / 0.075 V, about 0.6 /
-    0.5 of the mean friction level), not a factor on the configuration-dependent level.
-    """
+    """The IX's hidden effects at IX-v0's sizes (``HiddenEffectSizes``), sized so that the fitted
+    rigid model leaves a structured error. Roll: guidance friction whose level follows the normal
+    force, a Stribeck rise (an additive level) and LuGre stiction, a one-sided cable spring beyond
+    20 deg and a cable inertia around it. Propeller: friction with a Stribeck rise and stiction, a
+    gear harmonic of period 5 deg and a cable drape. Both: two-mass drives (modes near 15-17 and
+    34 Hz) and 3 % torque ripple."""
     return HiddenEffectSizes().effects()
 
 
