@@ -17,13 +17,28 @@ def _record(row) -> dict:
             if getattr(row, f.name) is not None or f.metadata.get("always")}
 
 
+class _Row:
+    def to_dict(self) -> dict:
+        """The row's JSON form (module docstring)."""
+        return _record(self)
+
+
+class _EffectRow(_Row):
+    """A row of one effect (``effect``) on one axis (``axis``)."""
+
+    @property
+    def key(self) -> str:
+        """``name@axis``."""
+        return f"{self.effect}@{self.axis}"
+
+
 def _always(default=None):
     """A field written to the JSON even when it is None."""
     return dataclasses.field(default=default, metadata={"always": True})
 
 
 @dataclass(frozen=True)
-class RegionRow:
+class RegionRow(_Row):
     """One operating region of one axis (``regions.region_table``): ``where`` in words, the
     residual ``RMS`` there, its ``ratio`` to the axis's overall RMS, the share of the axis's
     ``samples`` in it and of its residual ``energy``."""
@@ -35,11 +50,9 @@ class RegionRow:
     samples: float
     energy: float
 
-    to_dict = _record
-
 
 @dataclass(frozen=True)
-class CandidateRow:
+class CandidateRow(_EffectRow):
     """One candidate effect that passes alone on one axis (``workflow``), the selected ones first.
 
     ``explained``: the share of the axis's held-out residual energy it removes alone
@@ -65,16 +78,9 @@ class CandidateRow:
     named_as: str | None = None
     refined_from: dict | None = None
 
-    @property
-    def key(self) -> str:
-        """``name@axis``."""
-        return f"{self.effect}@{self.axis}"
-
-    to_dict = _record
-
 
 @dataclass(frozen=True)
-class StepScore:
+class StepScore(_EffectRow):
     """One candidate scored at one greedy step: the RMS of what it removes (``removed_RMS``), its
     share of what the axis had left (``share_of_left``) and of the axis's original error
     (``share_of_original``), and the significance rule's ``verdict`` ("passes" or why not).
@@ -87,13 +93,6 @@ class StepScore:
     share_of_original: float
     verdict: str
     step: int | None = None
-
-    @property
-    def key(self) -> str:
-        """``name@axis``."""
-        return f"{self.effect}@{self.axis}"
-
-    to_dict = _record
 
 
 @dataclass(frozen=True)
