@@ -6,8 +6,9 @@ learn which physical effect is missing, add it, and watch the error fall (`lcgym
     report = diagnose(trials, "ix", DiagnoseOptions(min_explained=0.2))      # the options as one object
     print(report.text())
 
-Steps in ``workflow.py``; the candidate search in ``search.py``; candidates, and a user's
-effect added to a machine (``register_effect``), in ``candidates.py``; regions in ``regions.py``; the report in ``report.py``.
+Steps in ``workflow.py``; the candidate search in ``search.py``; candidates, and a user's effect
+added to a machine (``register_effect``), in ``candidates.py``; regions in ``regions.py``; the
+report in ``report.py``, its rows in ``rows.py``.
 """
 
 from .candidates import Candidate, register_effect
