@@ -264,6 +264,26 @@ def test_shipped_leaderboard_is_valid():
     assert (df["status"] == "ok").all()
 
 
+def test_the_ranking_does_not_depend_on_the_order_the_cells_finished_in():
+    """A parallel run appends its cells in the order they finish: the means over seeds, the ranks
+    (ties included: methods that fall back to their base score its values to the last bit) and the
+    notes are those of any other order of the same rows."""
+    from lcgym.leaderboard.report import notes
+
+    df = read_results(REPO / "results" / "leaderboard.csv")
+    cells = [part for _, part in df.groupby(["system", "method", "seed"], sort=False)]
+
+    def finished(k: int) -> pd.DataFrame:  # the same cells, each with its rows, in another order
+        return pd.concat([cells[i] for i in np.random.default_rng(k).permutation(len(cells))], ignore_index=True)
+
+    tables = [ranking(df)] + [ranking(finished(k)) for k in range(3)]
+    for other in tables[1:]:
+        pd.testing.assert_frame_equal(tables[0], other)
+    pd.testing.assert_frame_equal(notes(df), notes(finished(0)))
+    ties = tables[0].groupby(["system", "signal", "period", "axis", "rank"]).size()
+    assert (ties > 1).any()  # the file has ties, the case a row order could break
+
+
 def test_parallel_jobs_give_the_serial_numbers(tmp_path):
     serial, parallel = tmp_path / "s.csv", tmp_path / "p.csv"
     config = BenchConfig(methods=BASE, **{**TINY, "seeds": (0, 1)})

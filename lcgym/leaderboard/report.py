@@ -65,7 +65,9 @@ def ranking(df: pd.DataFrame, reference_set: str = "validation") -> pd.DataFrame
     ok = df[(df["status"] == "ok") & (df["reference_set"] == reference_set)]
     if ok.empty:
         return pd.DataFrame(columns=[*KEYS, "rank", "method", "base", "vs_base", *NORM_COLUMNS, "unit", "seeds"])
-    g = ok.groupby([*KEYS, "method"], sort=False)
+    # the means over seeds summed in seed order, not in the order the cells finished (a parallel run's):
+    # else two methods of equal values can differ in the last bit and their tie be broken by chance
+    g = ok.sort_values("seed", kind="stable").groupby([*KEYS, "method"], sort=False)
     norms = {c: (c, "mean") for c in METRICS} | {SPREAD: (RANKED_BY, "std")}
     table = g.agg(**{c: norms[c] for c in NORM_COLUMNS},
                   unit=("unit", "first"), base=("base", "first"), seeds=("seed", "nunique"),
@@ -83,7 +85,7 @@ def ranking(df: pd.DataFrame, reference_set: str = "validation") -> pd.DataFrame
     # each machine's axes in the order its rows give them (the machine's: rail, shoulder, elbow), not alphabetical
     seen = {key: i for i, key in enumerate(dict.fromkeys(zip(ok["system"], ok["signal"], ok["axis"], strict=True)))}
     table["axis_order"] = [seen[key] for key in zip(table["system"], table["signal"], table["axis"], strict=True)]
-    table = table.sort_values(["system", "signal", "period", "axis_order", "rank"],
+    table = table.sort_values(["system", "signal", "period", "axis_order", "rank", "method"],
                               key=lambda c: c.map(order[c.name]) if c.name in order else c, kind="stable")
     return table[[*KEYS, "rank", "method", "base", "vs_base", *NORM_COLUMNS, "unit", "seeds", "plant_trials",
                   "env_steps", "fit_seconds", *COUNT_RANGES]].reset_index(drop=True)
@@ -178,7 +180,9 @@ def notes(df: pd.DataFrame) -> pd.DataFrame:
     if "note" not in df:
         return pd.DataFrame(columns=["system", "method", "seed", "note"])
     said = df[(df["status"] == "ok") & df["note"].fillna("").astype(str).str.strip().ne("")]
-    return said[["system", "method", "seed", "note"]].drop_duplicates().reset_index(drop=True)
+    said = said[["system", "method", "seed", "note"]].drop_duplicates()
+    # by machine, method and seed, whatever order the cells finished in
+    return said.sort_values(["system", "method", "seed"], kind="stable").reset_index(drop=True)
 
 
 def _sections(table: pd.DataFrame):
