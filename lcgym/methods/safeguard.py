@@ -5,9 +5,8 @@ A method that cannot measure the reference it is scored on before it acts (RL, t
 transfer) picks what it returns on its training references: the learned feedforward and the base's
 are both run there, and compared per scored axis and per reference (RMS of the tracking error over
 the reference: the leaderboard's ranking signal; the input residual u - f is not guarded, since a
-better tracking may take more feedback effort: the RBF expert's correction on the IX's propeller
-lowered its tracking error on three training references and raised its input residual on one,
-0.48 -> 0.71 V, tests/test_rbf_expert.py). Where the learned one is worse on an axis on any
+better tracking may take more feedback effort, as the RBF expert's correction on the IX's
+propeller does, tests/test_rbf_expert.py). Where the learned one is worse on an axis on any
 reference, that axis falls back to the base; the mixed
 feedforward is run again to check it, and if it is still worse on any axis and reference, the base
 acts alone on every axis. (Per reference, not over all of them: a learner better on 7 training

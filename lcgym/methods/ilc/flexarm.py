@@ -25,9 +25,8 @@ The update of one trial (``update``; the default ``torque="motor"``, ``offset=Fa
     f'      = f_0 + Q [ f - f_0 + u_fb + g P_m^-1 N (e_m + Delta_o) ]  (torque [N m])
     o'      = o + Delta_o
 
-The offset learned from the accelerometer (``offset=True``) diverged on FlexArm-v1 (seed 0: j2 6.4
--> 12.4 mdeg, EE 0.080 -> 0.100 m/s^2 in five trials): it is off by default
-(docs/methods/ilc.md).
+The offset learned from the accelerometer (``offset=True``) diverged on FlexArm-v1 within five
+trials: it is off by default (the figures: docs/methods/ilc.md).
 
 u_fb = u - f is the measured feedback torque: (P_m S)^-1 e_m = C e_m + P_m^-1 e_m, and C e_m is
 what the PID put out (with its integrator's start, which the settled start hands over to f), so
