@@ -9,6 +9,7 @@ energy unforced, feels a hidden Coulomb friction by its level and reports diverg
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -318,6 +319,54 @@ def test_plant_tracks_a_perfect_feedforward(arm):
     assert np.abs(ref - true).max() < 1e-6  # rad; 2.2e-7 measured (2.3e-2 under feedback alone)
     assert np.abs(feedback_only.error).max() > 5e-3  # the same reference under feedback alone
     np.testing.assert_allclose(tracked.u, ff, atol=2e-3)  # the feedback has almost nothing to do
+
+
+def _loop_reaction(ref: np.ndarray, gains: FeedbackGains, fs: float) -> np.ndarray:
+    """What the PD outputs when the encoders read ``ref`` exactly, written out from the controller's
+    definition (module docstring of ``urdf_plant``), not by the plant's kernel: -kd times the
+    derivative of the measurement (zero for a loop that differentiates the error, which is zero)."""
+    ts, out = 1.0 / fs, np.zeros_like(ref)
+    if gains.derivative == "error":
+        return out
+    kd = np.asarray(gains.kd)
+    held = np.vstack([ref[:1], ref[:1], ref])  # the pre-roll holds the first sample
+    if gains.derivative == "measurement_fir2":
+        return -kd * (held[2:] - held[:-2]) / (2 * ts)
+    alpha = np.exp(-2 * np.pi * np.asarray(gains.f_lp) / fs)
+    d = np.zeros(ref.shape[1])
+    for k in range(ref.shape[0]):
+        d = alpha * d + (1 - alpha) * (held[k + 2] - held[k + 1]) / ts
+        out[k] = -kd * d
+    return out
+
+
+@pytest.mark.parametrize("derivative", ["error", "measurement", "measurement_fir2"])
+def test_a_loop_that_reacts_to_the_motion_tracks_with_its_reference_term(arm, derivative):
+    """``reference_feedback`` is the loop's output on the reference itself (against the controller's
+    formula); the rigid model's feedforward plus ``loop_feedforward`` tracks exactly on every loop,
+    while on a loop that differentiates the measurement the force alone leaves the error kd qd / kp;
+    the bench's input residual u - f - C r of the exact run is zero."""
+    from lcgym.methods.loop import loop_feedforward
+    from lcgym.systems.urdf_bench import URDFBench
+
+    fs = 1000.0
+    ref = sampled(move_profiles(), fs)[0]
+    force = arm.inverse_dynamics(arm.nominal_params().to_vector(), *sampled(move_profiles(), fs, advance=arm.advance))
+    gains = dataclasses.replace(tuned_gains(arm, fs=fs), derivative=derivative)
+    plant = URDFPlant(arm, gains=gains, fs=fs)
+    np.testing.assert_allclose(plant.reference_feedback(ref), _loop_reaction(ref, gains, fs), rtol=1e-9, atol=1e-9)
+    tracked = plant.run(ref, force + loop_feedforward(plant, ref))
+    true = np.column_stack([tracked.extra["load_shoulder"], tracked.extra["load_elbow"]])
+    assert np.abs(ref - true).max() < 1e-6  # rad
+    force_alone = plant.run(ref, force)
+    assert (np.abs(force_alone.error).max() > 1e-3) == (derivative != "error")
+    commanded = force + loop_feedforward(plant, ref) + plant.reference_feedback(ref)
+    np.testing.assert_allclose(tracked.u - commanded, 0.0, atol=2e-3)  # N m: the residual u - f - C r
+    bench = URDFBench.__new__(URDFBench)
+    bench.system, bench.plant, bench.axes = arm, plant, arm.axis_names
+    residual = bench.tables([tracked], [force + loop_feedforward(plant, ref)])[1]
+    assert residual["RMS"].max() < 2e-3 and residual["signal"].eq("input_residual").all()
+    assert bench.signals[1].label == ("input residual u - f" if derivative == "error" else "input residual u - f - C r")
 
 
 def test_unforced_arm_conserves_energy(arm):

@@ -36,6 +36,7 @@ from tqdm.auto import tqdm
 
 from .. import systems
 from ..data import UNIFORM_TOLERANCE, another_machine, log_rate, regularize
+from ..methods.loop import loop_feedforward
 from ..metrics import norms as metric_norms
 from ..physics.candidates import axis_scale
 from ..physics.effects import Effect, parse_key
@@ -564,14 +565,15 @@ def replay_plant(trials: Sequence, system: systems.System, spec: str | None = No
 def replay_tracking(trials: Sequence, before: PhysicalModel, after: PhysicalModel,
                     system: systems.System | None = None, plant=None) -> dict:
     """Re-run the plant recorded in the trials' metadata (``replay_plant``; or ``plant``) on their
-    references with the feedforward of ``before`` and of ``after``; tracking-error RMS per axis in
-    the axes' display unit (deg, mm)."""
+    references with the feedforward of ``before`` and of ``after`` (each with what the loop needs to
+    track exactly, as the benchmark's physical base has it: ``methods.loop.loop_feedforward``);
+    tracking-error RMS per axis in the axes' display unit (deg, mm)."""
     system = before.system if system is None else system
     plant = replay_plant(trials, system) if plant is None else plant
     refs = [tr.ref for tr in trials]
     out = {}
     for label, m in (("before", before), ("after", after)):
-        runs = plant.run(refs, [m.predict(r) for r in refs])
+        runs = plant.run(refs, [m.predict(r) + loop_feedforward(plant, r) for r in refs])
         e = np.concatenate([r.error for r in runs])
         out[label] = {a.name: float(a.display[0] * np.sqrt(np.mean(e[:, i] ** 2))) for i, a in enumerate(system.axes)}
     out["unit"] = {a.name: a.display[1] for a in system.axes}

@@ -9,6 +9,13 @@ feedforward. The base is named on the command line after the method, ``METHOD@BA
 * ``basic``: the FlexArm's nominal structure of paper 002 (``BasicArmFeedforward``), what the
   paper's LCS and NN prediction start from.
 
+A base uses the loop as it is built: where the machine's feedback reacts to the motion itself (a
+cascade drive's velocity loop differentiates the measured position, the EMPS's), even a perfect
+force feedforward leaves e = (kd / kp) qd_r. So every base adds what the loop needs to track
+exactly, minus the loop's own output on the reference (``loop.loop_feedforward``: kd times the
+reference's velocity there, a drive's velocity feedforward; zero where the loop acts on the
+tracking error alone, the IX, the FlexArm and the two-link arm).
+
 ``protocol.split_spec("ilc@basic")`` is ("ilc", "basic"); the results name a method on its default base by
 its id alone (``ilc``) and on another base by ``id@base`` (``ilc@basic``), and the ``base`` column
 says which base every learning row has.

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import systems as machines
+from .loop import loop_feedforward, machine_loop
 from .protocol import Controller, Cost, given_system
 
 
@@ -25,11 +26,13 @@ class BasicArmFeedforward(Controller):
         self.system = system
 
     def fit(self, trials) -> BasicArmFeedforward:
+        self.loop_ = None
         if self.nominal is not None:
             self.nominal_ = self.nominal
         else:
             self.system_ = given_system(self, alternative=", or the structure, BasicArmFeedforward(nominal=...)")
             self.nominal_ = self.system_.nominal
+            self.loop_ = machine_loop(self.system_)
         if self.nominal_ is None:
             raise ValueError("basic: the machine has no nominal feedforward structure (System.nominal)")
         self.cost_ = Cost()
@@ -41,8 +44,9 @@ class BasicArmFeedforward(Controller):
         return self.nominal_.compute(reference.positions, reference.fs)
 
     def feedforward(self, reference) -> np.ndarray:
-        """tau_ff,0 (T, 6) [N m, motor side]."""
-        return self._parts(reference)["tau_ff"]
+        """tau_ff,0 (T, 6) [N m, motor side], plus the loop's term (``loop.loop_feedforward``; zero on
+        the FlexArm, whose PIDs act on the error alone), the same rule as the physical base's."""
+        return self._parts(reference)["tau_ff"] + loop_feedforward(self.loop_, reference)
 
     def reference_offset(self, reference) -> np.ndarray:
         """The motor reference offset of F1 and r_q,0, as load-side angle (T, 6) [rad]."""

@@ -22,7 +22,13 @@ from ..metrics import Signal
 TRACE_DECIMATION = 5  # samples per stored trace point
 TRACKING_ERROR = Signal("tracking_error", "tracking error")
 INPUT_RESIDUAL = Signal("input_residual", "input residual u - f")
-"""The two signals every bench scores: reference minus position, and input minus feedforward."""
+"""The two signals every bench scores: reference minus position, and the input residual: the input
+minus what the loop commands along the reference, u - (f + C r), C r the feedback's output when the
+measurement follows the reference exactly (``plant.reference_feedback``). It is zero when a method
+tracks exactly. Where the loop acts on the tracking error alone (the IX, the FlexArm), C r = 0 and
+it is paper 000's u - f (eq. 34-36's eps); where the loop reacts to the motion itself (a velocity
+loop on the measured position, the EMPS), the bench labels it ``INPUT_RESIDUAL_LOOP``."""
+INPUT_RESIDUAL_LOOP = Signal("input_residual", "input residual u - f - C r")
 
 
 def trace_frame(trial, axes: Sequence[str], error: np.ndarray, columns: Sequence[int]) -> pd.DataFrame:

@@ -17,7 +17,9 @@ Action (float32, shape (n,), n the machine's axes): the feedforward of each axis
     feedforward, scale u_scale (the input limit; 1 where the machine has none). ``"physical"``: the
     action is added to the rigid-model feedforward (``PhysicalModel`` fitted on feedback-only runs
     of the training references), scale ``RESIDUAL_FRACTION`` x u_scale. A fitted model (anything with
-    ``predict(positions) -> (T, n)``) may be given instead: residual learning on that model.
+    ``predict(positions) -> (T, n)``) may be given instead: residual learning on that model. Either
+    base carries what the loop needs to track exactly (minus ``URDFPlant.reference_feedback``: a
+    velocity loop's velocity feedforward, ``methods.loop``).
     Out-of-bound actions are clipped and counted (``info["clipped_actions"]``); NaN, inf, a wrong
     shape or non-numbers raise ``ValueError`` naming the step, before the plant moves.
 
@@ -137,8 +139,9 @@ class MachineTask:
         self.err_scale = np.array([ERR_SCALE[u] for u in units])
         self.reward_scale = np.array([REWARD_SCALE[u] for u in units])
         self.preview = np.array([int(round(t * fs)) for t in PREVIEW_SECONDS])
+        # a base's feedforward carries what the loop needs to track exactly (``methods.loop``)
         self.base_ff = [np.zeros_like(x) if model is None else np.asarray(model.predict(x), dtype=float)
-                        for x in self.positions]
+                        - self.plant.reference_feedback(x) for x in self.positions]
         self.feats = [self._features(x, f) for x, f in zip(self.positions, self.base_ff, strict=True)]
         self.n_obs = self.feats[0].shape[1] + n
         self._settled: dict[int, np.ndarray] = {}

@@ -7,7 +7,9 @@ channel. References: random point-to-point moves of every axis within the URDF's
 moves each, each set from its own random stream (``references.stream``: train, validation and test
 never share a reference). Scored on every axis: the tracking error reference - encoder [deg, or mm
 on a prismatic axis: reported in the units the machine's ``Axis.display`` gives] and the input
-residual u - f [the machine's input unit].
+residual u - f - C r [the machine's input unit]: the input minus what the loop commands along the
+reference, C r the feedback's output when the encoders follow it (``URDFPlant.reference_feedback``;
+zero unless the loop differentiates the measurement: then it is labelled so, ``signals``).
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ import pandas as pd
 
 from ..metrics import input_residual_table, norms_table
 from ..references import DEG, AxisLimits, stream, sweeps
-from .bench import Bench, trace_frame
+from .bench import INPUT_RESIDUAL, INPUT_RESIDUAL_LOOP, TRACKING_ERROR, Bench, trace_frame
 from .system import System
 
 VERSIONS = ("v0",)  # a machine of a machine file has one plant: the file's
@@ -34,6 +36,13 @@ class URDFBench(Bench):
         self.name = f"{system.name}-{version}"
         self.plant = settings.plant(system)
         self.axes = system.axis_names
+
+    @property
+    def signals(self):
+        """The tracking error and the input residual, labelled u - f - C r where the loop reacts to
+        the motion itself (``URDFPlant.reference_feedback``), u - f where it does not."""
+        reacts = self.plant.gains.derivative != "error"
+        return (TRACKING_ERROR, INPUT_RESIDUAL_LOOP if reacts else INPUT_RESIDUAL)
 
     def references(self, set_name: str, seed: int, n: int = 8, duration: float = 20.0):
         """The seeded set ``set_name``: "train", "validation", "test" (``n`` references of random moves
@@ -69,12 +78,14 @@ class URDFBench(Bench):
         return self.plant.run(list(references), None if feedforward is None else list(feedforward))
 
     def tables(self, trials, feedforward, references=None) -> list[pd.DataFrame]:
-        """The tracking error per axis [deg or mm] and the input residual u - f [each axis's input unit:
-        N m on a revolute joint, N on a prismatic one]."""
+        """The tracking error per axis [deg or mm] and the input residual u - f - C r [each axis's input
+        unit: N m on a revolute joint, N on a prismatic one]."""
         factors, units = zip(*(a.display for a in self.system.axes), strict=True)
         e = np.asarray(factors) * np.concatenate([t.error for t in trials])
+        commanded = [np.asarray(f, dtype=float) + self.plant.reference_feedback(t.ref)
+                     for t, f in zip(trials, feedforward, strict=True)]
         return [norms_table(e, self.axes, "tracking_error", units),
-                input_residual_table(trials, feedforward, unit=self.system.input_units)]
+                input_residual_table(trials, commanded, unit=self.system.input_units)]
 
     def trace(self, trial) -> pd.DataFrame:
         """Every TRACE_DECIMATION-th sample of the reference and the tracking error [rad or m]."""

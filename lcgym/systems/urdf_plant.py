@@ -186,6 +186,19 @@ def closed_loop(first, last, S, C, E, L, ref, ff, noise, out, ts, substeps, pare
     return last, OK
 
 
+@numba.njit(cache=True, fastmath=FASTMATH, **NO_REFCOUNTS)
+def exact_tracking_feedback(C, ref, zeros, out, S, ts):
+    """The controller's output when every encoder reads the reference exactly, into out[:, OUT_U]:
+    ``control`` run with the position set to ``ref[k]`` at each sample (C: controller rows without
+    quantization, limits or error bound; ref, zeros (T, n) in the rows' order; S: a zeroed
+    workspace). The loop's own reaction to the motion: zero where it acts on the tracking error
+    alone, -kd times the (filtered) reference velocity where it differentiates the measurement."""
+    for k in range(ref.shape[0]):
+        for i in range(ref.shape[1]):
+            S[Q, i] = ref[k, i]
+        control(k, S, C, ref, zeros, zeros, out, ts)
+
+
 numba.config.CACHE_DIR = _previous_cache_dir
 
 
@@ -432,6 +445,27 @@ class URDFPlant:
             if g.ki[a] > 0:
                 out[0, a] = 0.0  # with one it removes a constant error: P S (1) = 0
         return out
+
+    def reference_feedback(self, positions) -> np.ndarray:
+        """What this plant's feedback outputs (T, n_axes) [N m or N] when its encoders follow
+        ``positions`` (T, n_axes) [rad or m] exactly: the loop's own reaction to the motion, which a
+        feedforward must cancel for the loop to track exactly (``methods.loop.loop_feedforward``).
+        Zero where the derivative term differentiates the tracking error; -kd times the reference's
+        velocity, as the loop differentiates it, where it differentiates the measurement (a
+        cascade drive's velocity loop: what its velocity feedforward supplies). The compiled
+        ``control`` computes it, with the measurement set to the reference (no quantization, noise
+        or input limit), from a start held at the first sample, as a run's pre-roll holds it."""
+        x = np.asarray(positions, dtype=float)
+        if x.ndim != 2 or x.shape[1] != self.n_axes:
+            raise ValueError(f"positions must have shape (T, {self.n_axes}), got {x.shape}")
+        if self.gains.derivative == "error":
+            return np.zeros_like(x)
+        C = self._C.copy()
+        C[:, RES], C[:, UMAX], C[:, MAXERR] = 0.0, np.inf, np.inf
+        ref = np.ascontiguousarray(x[:, np.argsort(self.robot.v_index)])
+        out = np.zeros((x.shape[0], 3, self.n_axes))
+        exact_tracking_feedback(C, ref, np.zeros_like(ref), out, self.workspace(ref[0], np.zeros(self.n_axes)), 1.0 / self.fs)
+        return out[:, OUT_U][:, self.robot.v_index]
 
     # ------------------------------------------------------------------ set-up
     def _true_model(self, parameters):

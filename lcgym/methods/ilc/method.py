@@ -3,7 +3,9 @@
 The update of trial j to j + 1, per axis, is plant-inversion ILC with a robustness filter,
 f_{j+1} = Q (f_j + L e_j), computed on the whole trial in the frequency domain (FFT over the trial,
 zero-padded to twice its length so that the circular wrap of the non-causal filters falls in the
-padding):
+padding). On a base f_0, Q acts on what is learned, f_{j+1} = f_0 + Q (f_j - f_0 + L e_j), as the
+FlexArm's update does (``ilc.flexarm``): the base's own content above Q's corner stays (a velocity
+loop's velocity feedforward, ``methods.loop``, whose steps Q would round off):
 
 * A machine without a nominal feedforward structure (``System.nominal`` is None: the IX, paper
   000's machine) starts from its physical model fitted on the training trials; e = reference -
@@ -20,11 +22,11 @@ padding):
   motor torque to load acceleration (``nominal.load_response``). One iteration by default, as in
   the paper.
 
-The edges: Q filters the previous feedforward too, and zero padding would filter it as if it
-dropped to zero before and after the trial; the arm's tau_nl holds gravity at rest, which Q would
-bend at both ends (a start-up transient, ringing after the trial). ``nominal_update`` pads tau_nl
-with its edge values (``frequency_update(hold_edges=True)``); the IX's tracking-error ILC keeps
-the zero padding (its fade-in covers the start; changing it would change its results).
+The edges: on Basic (eq. 16) Q filters the previous feedforward too, and zero padding would filter
+it as if it dropped to zero before and after the trial; the arm's tau_nl holds gravity at rest,
+which Q would bend at both ends (a start-up transient, ringing after the trial). ``nominal_update``
+pads tau_nl with its edge values (``frequency_update(hold_edges=True)``); the tracking-error ILC
+filters only its learned correction, zero-padded (its fade-in covers the start).
 
 Q is zero phase: the magnitude |B(w)|^2 of a Butterworth low-pass of order ``q_order`` with corner
 ``q_hz`` (B applied twice, as ``filtfilt`` does). ``q_hz`` trades the bandwidth of what is learned
@@ -214,7 +216,7 @@ class IterativeLearningControl(Controller):
             check_divergence(history, reference.name)
             if j < cfg.trials:
                 e = deadzone(trial.error, 0.5 * np.asarray(plant.encoder_resolution))
-                f = f0 + fade * (frequency_update(f, e, inverse, q, cfg.gain) - f0)
+                f = f0 + fade * frequency_update(f - f0, e, inverse, q, cfg.gain)
         scored = self._scored(f0.shape[1])
         used = cfg.trials + 1
         mixed = _per_axis_best(tried, history)

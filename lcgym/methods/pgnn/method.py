@@ -43,6 +43,7 @@ import numpy as np
 from ... import systems
 from ...references import references_of
 from ..bases import ReferenceMemo
+from ..loop import loop_feedforward, machine_loop
 from ..physical import PhysicalFeedforward
 from ..protocol import Controller, Cost, given_system, machine_settings
 from ..safeguard import Safeguard, mixed
@@ -125,6 +126,7 @@ class PGNNFeedforward(Controller):
 
     def fit(self, trials: Sequence) -> PGNNFeedforward:
         self.system_ = given_system(self)
+        self.loop_ = machine_loop(self.system_)
         self.trials_ = list(trials)
         self.memo_ = ReferenceMemo()
         self.collect_ = self.collect or PGNNProtocol.of(self.system_).collect
@@ -177,7 +179,7 @@ class PGNNFeedforward(Controller):
         model = self._model()
         model.use_network = False
         try:
-            return model.predict(reference), model.reference_offset(reference)
+            return model.predict(reference) + loop_feedforward(self.loop_, reference), model.reference_offset(reference)
         finally:
             model.use_network = True
 
@@ -188,7 +190,7 @@ class PGNNFeedforward(Controller):
 
     def _whole(self, reference):
         model = self._model()
-        return model.predict(reference), model.reference_offset(reference)
+        return model.predict(reference) + loop_feedforward(self.loop_, reference), model.reference_offset(reference)
 
     def _signals(self, reference):
         if not hasattr(self, "part_kept_") or not self.gate:

@@ -142,7 +142,7 @@ class RBFExpertFeedforward(Controller):
 
             return predicted_update(self.nominal_, f0, o0, e_hat, reference.fs, self.plant_.gains)
         inverse, q, fade = learning_filters(self.plant_, reference, learning)
-        return f0 + fade * (frequency_update(f0, e_hat, inverse, q, learning.gain) - f0), o0
+        return f0 + fade * frequency_update(np.zeros_like(f0), e_hat, inverse, q, learning.gain), o0
 
     def _signals(self, reference) -> tuple[np.ndarray, np.ndarray | None]:
         if not hasattr(self, "kept_"):

@@ -191,6 +191,12 @@ class FlexArmPlant:
                          self.max_error, int(round(self.preroll * self.fs)), self.friction_eps,
                          1.0 if self.settled_start else 0.0])
 
+    def reference_feedback(self, positions) -> np.ndarray:
+        """What the feedback outputs (T, 6) [N m] when the joints follow ``positions`` exactly: zero,
+        since each PID acts on the motor's tracking error alone (``urdf_plant.URDFPlant.reference_feedback``
+        for a loop that differentiates the measurement)."""
+        return np.zeros_like(np.asarray(positions, dtype=float))
+
     @property
     def deterministic(self) -> bool:
         """A run is a function of its inputs: the accelerometer's noise is drawn from a stream seeded

@@ -298,6 +298,12 @@ class IXPlant:
         one-sample computation delay, and this plant's PD + low-pass feedback C(z)."""
         return process_sensitivity(n, self.fs, positions, self.gains, params)
 
+    def reference_feedback(self, positions) -> np.ndarray:
+        """What the feedback outputs (T, 2) [V] when the encoders follow ``positions`` exactly: zero,
+        since its PD acts on the tracking error alone (``urdf_plant.URDFPlant.reference_feedback``
+        for a loop that differentiates the measurement)."""
+        return np.zeros_like(np.asarray(positions, dtype=float))
+
     @property
     def deterministic(self) -> bool:
         """A run is a function of its inputs (no noise: the encoders quantize)."""
