@@ -49,7 +49,7 @@ from .machines import machines_with_axes
 from .regions import region_masks, region_table
 from .report import Diagnosis
 from .rows import CandidateRow, StepRow, StepScore
-from .search import prepare, rank
+from .search import Prepared, prepare, rank
 from .spectra import bandwidths
 
 DEG = math.pi / 180.0
@@ -215,10 +215,12 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", options: Dia
                        progress=bar, search_axes=moving, scales=scales, kinds=system.axes,
                        position_blind=[i for g in groups for i in g["axes"]])
         bar.close()
+        selected_keys = [f"{s.candidate.name}@{axes[s.axis]}" for s, _, _ in ranking.selected]
+        suggested = refit_shapes(ranking.model, selected_keys, trials, lay, (kin, lengths)) if selected_keys else None
 
         rows = []
         alone = {(s.candidate.name, s.axis): s for s in ranking.alone}
-        refined = {e.key: e for e in ranking.model.effects}
+        refined = {e.key: e for e in (ranking.model if suggested is None else suggested.model).fitted_effects}
         for k, (s, share, before) in enumerate(ranking.selected, 1):  # explained, RMS_after: the effect alone
             n = ranking.n_rows[s.axis]
             row = _candidate_row(ranking, alone.get((s.candidate.name, s.axis), s), axes, units, selected=True, step=share)
@@ -228,7 +230,7 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", options: Dia
             if named.name != s.candidate.name:  # a form of no set shape, revised from the effect the step named
                 at_step.update(family=named.family, named_as=named.name)
             final = refined.get(f"{s.candidate.name}@{axes[s.axis]}")
-            if final is not None:  # the nonlinear parameters as the selection refined them
+            if final is not None:  # the nonlinear parameters as the model's estimator found them (``refit_shapes``)
                 scored = row.parameters
                 at_step["parameters"] = {n: float(getattr(final, n)) for n in scored}
                 if at_step["parameters"] != scored:  # the shares above were scored at the grid's values
@@ -244,21 +246,25 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", options: Dia
         found = {f"{s.candidate.name}@{axes[s.axis]}": s.candidate.build(axes[s.axis], **s.params)
                  for s in ranking.alone}
         picked = {f"{s.candidate.name}@{axes[s.axis]}" for s, _, _ in ranking.selected}
-        found.update({e.key: e for e in ranking.model.effects if e.key in picked})  # as selected and refined
+        found.update({e.key: e for e in refined.values() if e.key in picked})  # as selected, then fitted
         after = after_record = None
         if added:
             effects = [found.get(e.key, e) if isinstance(a, str) else e for a, e in zip(add, added, strict=True)]
             after_model = prep.model
             for e in effects:
                 after_model = after_model.with_effect(e)
-            after = prepare(trials, after_model, lay, (kin, lengths))
+            # an effect added by name is fitted as a [[model]] table of it would be; one given with values keeps them
+            by_name = [e.key for a, e in zip(add, effects, strict=True) if isinstance(a, str)]
+            after = refit_shapes(after_model, by_name, trials, lay, (kin, lengths)) if by_name else \
+                prepare(trials, after_model, lay, (kin, lengths))
             after_record = {"added": [e.key for e in effects], "residual": norms(after.residual, axes, units, after.used),
                             "effects": [_effect_params(e) for e in after.model.fitted_effects],
                             "parameters": dict(zip(system.param_names,
                                                    map(float, after.model.fitted_params.to_vector()), strict=True))}
         families = {c.name: c.family for c in cands}
         families.update({c.effect: c.family for c in rows if c.named_as})
-        shown = after.model if after is not None else ranking.model  # the model with the effects found or added
+        # the model with the effects found or added
+        shown = after.model if after is not None else (ranking.model if suggested is None else suggested.model)
         ranges = fitted_ranges(shown, prep, families)
         validated = None if validate is None else validation(validate, prep.model, shown, ranges, axes, units)
         replayed = None
@@ -271,7 +277,7 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", options: Dia
                            model_effects=[*prep.model.parts(), *(e.key for e in prep.model.effects)],
                            residual=norms(residual, axes, units, prep.used), regions=regions, candidates=rows,
                            min_explained=min_explained, min_rms=dict(zip(axes, map(float, floor), strict=True)),
-                           model=prep.model, suggested_model=ranking.model,
+                           model=prep.model, suggested_model=ranking.model if suggested is None else suggested.model,
                            series={"t": prep.rows / fs, "residual": residual, "q": q, "qd": qd, "used": prep.used,
                                    "ref_velocity": _velocity(trials, fs)[prep.rows], **extra_series},
                            kinematics=_kinematics_note(trials, prep.model), identified=(info["rank"], info["n_free"]),
@@ -290,6 +296,27 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", options: Dia
                            after_model=None if after is None else after.model, ranges=ranges, validation=validated,
                            replay=replayed)
     return report
+
+
+def refit_shapes(model: PhysicalModel, keys: Sequence[str], trials: Sequence, lay, kinematics) -> Prepared:
+    """``model`` fitted again (``prepare``) with the nonlinear parameters of its effects ``keys``
+    found by the physical model's own estimator (``physics.shapes``): the one a machine file's
+    ``[[model]]`` table of them is fitted by, so that the values the report prints, its replay and
+    validation, and the benchmark's model with those tables come from one fit of each effect. The
+    selection's search chose the effects; their shapes it tried stay in its step rows. An effect
+    that estimator cannot take keeps the selection's shape."""
+    from ..physics.shapes import model_candidate
+
+    def fits(key: str) -> bool:
+        try:
+            model_candidate(model.system, key, type(model).built_in)
+        except ValueError:
+            return False
+        return True
+
+    ours = tuple(k for k in keys if fits(k))
+    search = (*model.search_shapes, *(k for k in ours if k not in model.search_shapes))
+    return prepare(trials, dataclasses.replace(model, search_shapes=search), lay, kinematics)
 
 
 VARIABLES = ("position", "velocity", "acceleration")
