@@ -155,7 +155,7 @@ def test_store_reads_files_of_schema_1_and_refuses_an_unknown_period(tmp_path):
     df.drop(columns=["period", "note", "base", "signal_label", "schema"]).to_csv(tmp_path / "old.csv", index=False)
     old, new = read_results(tmp_path / "old.csv"), read_results(out)
     assert list(old.columns) == list(COLUMNS) and (old["period"] == "all").all() and (old["schema"] == 1).all()
-    assert set(new["schema"]) == {2} and set(old["signal_label"]) == {"tracking error", "input residual"}
+    assert set(new["schema"]) == {3} and set(old["signal_label"]) == {"tracking error", "input residual"}
     assert set(new["signal_label"]) == {"tracking error", "input residual u - f"}
     same = [c for c in COLUMNS if c not in ("signal_label", "schema")]
     pd.testing.assert_frame_equal(old[same], new[same])

@@ -352,14 +352,15 @@ def test_one_seed_shows_no_spread_and_ilc_is_marked_in_the_text_and_markdown(tmp
     assert "ilc: learned on each reference it is scored on" in text
     section = text.split(f"{RAIL} / tracking_error / rail\n")[1].split("\n\n")[0].splitlines()
     header, rows = section[0].split(), {r.split()[1]: r.split() for r in section[1:]}
-    assert header[:9] == ["rank", "method", "base", "vs_base", "MA", "RMS", "RMS_std", "Inf", "unit"]
-    assert len(rows["feedback"]) == len(header) and rows["feedback"][8] == "mm"  # two seeds: a spread
-    assert len(rows["physical"]) == len(header) - 1 and rows["physical"][7] == "mm"  # one seed: none
+    assert header[:10] == ["rank", "method", "base", "vs_base", "share", "MA", "RMS", "RMS_std", "Inf", "unit"]
+    assert len(rows["feedback"]) == len(header) and rows["feedback"][9] == "mm"  # two seeds: a spread
+    assert len(rows["physical"]) == len(header) - 1 and rows["physical"][8] == "mm"  # one seed: none
     assert rows["ilc"][2] == "physical" and rows["ilc"][3].endswith("x")  # its gain over its base
-    assert float(rows["ilc"][3].rstrip("x")) == pytest.approx(float(rows["ilc"][5]) / float(rows["physical"][5]), abs=0.006)
+    assert float(rows["ilc"][3].rstrip("x")) == pytest.approx(float(rows["ilc"][6]) / float(rows["physical"][6]), abs=0.006)
+    assert rows["ilc"][4] == "1.00" and rows["physical"][4] == rows["feedback"][4] == "–"  # ILC is the bound
     assert f"{RAIL} / input_residual / rail" in text and f"{RAIL} / input_residual / elbow" in text
     md = write_markdown(df, tmp_path / "board.md", source=str(csv)).read_text()
     assert "`ilc`: learned on each reference it is scored on" in md
     table = md.split(f"## {RAIL} / tracking_error / shoulder\n")[1].split("\n\n")[0].splitlines()
     cells = {r.split("|")[2].strip(): [c.strip() for c in r.split("|")[1:-1]] for r in table[2:]}
-    assert cells["physical"][6] == "" and cells["feedback"][6] != "" and cells["physical"][8] == "deg"
+    assert cells["physical"][7] == "" and cells["feedback"][7] != "" and cells["physical"][9] == "deg"

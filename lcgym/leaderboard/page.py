@@ -12,8 +12,9 @@ What it shows, top to bottom:
   axis, mm on a prismatic one), its background coloured by the ratio RMS / RMS of
   ``report.REFERENCE_METHOD`` (the physical model; each column's best where the CSV lacks it) on a
   log scale, green better, red worse (``ratio_colour``), the lowest RMS per column bold with a
-  marker; the last columns are the geometric mean of the row's ratios and the plant trials the
-  method learned from; a method that learns on each reference it is scored on (ILC,
+  marker; the last columns are the geometric mean of the row's ratios, the learner's share of the
+  learnable (``shares``: 1 all that per-reference ILC learns on its base, 0 its base; the mean over
+  the columns, each column's in the cell's tooltip) and the plant trials the method learned from; a method that learns on each reference it is scored on (ILC,
   ``report.learned_on_scored``) is marked, and the marker explained under the legend. Clicking a
   column header sorts the rows by it (a few lines of inline JavaScript, no library);
 - the details per machine: a compact table per (signal, period) with MA, RMS +- std and Inf per
@@ -46,6 +47,7 @@ from .report import (
     KEYS,
     REFERENCE_METHOD,
     SCORED_NOTE,
+    SHARE_NOTE,
     SPREAD,
     bar_figures,
     count_text,
@@ -196,7 +198,10 @@ def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str, scored: set
         versus = own["vs_base"].to_numpy(dtype=float) if "vs_base" in own else np.array([np.nan])
         gain = (float(np.exp(np.mean(np.log(versus)))) if len(versus) == len(columns) and np.isfinite(versus).all()
                 and (versus > 0).all() else np.nan, str(own["base"].iloc[0]) if "base" in own and len(own) else "")
-        rows.append((m, ratios, summary, trials, gain))
+        # its share of the learnable (``shares``) in each of the overview's columns, in their order
+        of = own.set_index(["signal", "axis"])["share"]
+        learnable = [float(of.get(c, np.nan)) for c in columns]
+        rows.append((m, ratios, summary, trials, gain, learnable))
     rows.sort(key=lambda r: (not np.isfinite(r[2]), r[2] if np.isfinite(r[2]) else 0.0))
     ref_name = f"{REFERENCE_METHOD}" if has_reference else "the column's best"
     head = ["<th data-col='0' class='method' scope='col'>method</th>"]
@@ -212,10 +217,12 @@ def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str, scored: set
                 f"RMS of {e(ref_name)}: for a learner built on the physical model, its gain over its base (a learner "
                 f"on another base gives its ratio to that base below)'>× {e(REFERENCE_METHOD if has_reference else 'best')}"
                 f"<small>geo. mean</small></th>")
-    head.append(f"<th data-col='{n + 2}' scope='col' title='closed-loop plant runs the method learned from, over "
+    head.append(f"<th data-col='{n + 2}' scope='col' title='{e(SHARE_NOTE)}; the mean over the columns (each "
+                f"column's in the tooltip of the cell)'>share</th>")
+    head.append(f"<th data-col='{n + 3}' scope='col' title='closed-loop plant runs the method learned from, over "
                 f"seeds (their range where seeds differ)'>trials<small>plant</small></th>")
     body = []
-    for m, ratios, summary, trials, (gain, base) in rows:
+    for m, ratios, summary, trials, (gain, base), learnable in rows:
         tds = [_method(str(m), scored)]
         for col, ratio in zip(columns, ratios, strict=True):
             key = (*col, m)
@@ -234,6 +241,12 @@ def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str, scored: set
         other_base = (f"<small title='geometric mean of RMS / RMS of its base, {e(base)}'>{e(_num(gain))}× {e(base)}"
                       f"</small>" if base and base != REFERENCE_METHOD and np.isfinite(gain) else "")
         tds.append(f"<td data-value='{_value(summary)}' class='ratio'>{e(_num(summary))}{times}{other_base}</td>")
+        finite = [x for x in learnable if np.isfinite(x)]
+        mean = float(np.mean(finite)) if finite else np.nan
+        per_column = ", ".join(f"{a} {'–' if not np.isfinite(x) else f'{x:.2f}'}" for (_, a), x in zip(columns, learnable,
+                                                                                                       strict=True))
+        tip = f" title='{e(per_column)}'" if finite else ""
+        tds.append(f"<td data-value='{_value(mean)}' class='share'{tip}>{e(_num(mean) if finite else '–')}</td>")
         tds.append(f"<td data-value='{_value(trials[0])}' class='count'>{e(trials[1])}</td>")
         body.append("<tr>" + "".join(tds) + "</tr>")
     failed = fails[fails["system"] == system]
@@ -426,7 +439,7 @@ code{font:12px ui-monospace,SFMono-Regular,Menlo,Consolas,monospace}
 .best{color:#0b5d1e;font-size:11px;margin-right:3px}
 sup.scored{color:#8a4b00;font-weight:600;margin-left:1px}
 .scored-note{display:block;margin-top:2px}
-.machines{display:flex;flex-wrap:wrap;gap:8px 18px;align-items:flex-start}
+.machines{display:flex;flex-wrap:wrap;gap:8px 12px;align-items:flex-start}
 table{border-collapse:collapse;font-variant-numeric:tabular-nums}
 th,td{border:1px solid var(--line);padding:2px 7px;text-align:right;white-space:nowrap}
 thead th{background:var(--head);font-weight:600;vertical-align:bottom}
@@ -438,10 +451,10 @@ th[aria-sort=descending]::after{content:" ▼";font-size:9px;color:var(--accent)
 th.method,td.method{text-align:left}
 tbody th{font-weight:500}
 td.top{font-weight:700}
-td.ratio,td.count{color:var(--muted)}
+td.ratio,td.count,td.share{color:var(--muted)}
 td.ratio small{display:block;font-size:11px}
-table.overview{font-size:12.5px}
-table.overview th,table.overview td{padding:1px 5px}
+table.overview{font-size:12px}
+table.overview th,table.overview td{padding:1px 4px}
 table.details{font-size:12.5px;margin:4px 0 10px}
 details{margin:4px 0}
 summary{cursor:pointer;font-weight:600;padding:2px 0}

@@ -30,6 +30,7 @@ import pandas as pd
 from ..data import atomic_write
 from ..metrics import METRICS, PERIODS, RANKED_BY
 from ..provenance import __version__
+from .shares import mean_shares
 
 KEYS = ["system", "signal", "period", "axis"]
 SPREAD = f"{RANKED_BY}_std"
@@ -61,10 +62,11 @@ def select(df: pd.DataFrame, config_hash: str | None = None) -> tuple[pd.DataFra
 
 def ranking(df: pd.DataFrame, reference_set: str = "validation") -> pd.DataFrame:
     """Mean norms over seeds and the rank by RMS per (system, signal, axis); each machine's axes in the
-    order of its rows (the machine's own order)."""
+    order of its rows (the machine's own order). ``vs_base``: a learner's RMS over its base's;
+    ``share``: its share of the learnable, from the means (``shares.mean_shares``)."""
     ok = df[(df["status"] == "ok") & (df["reference_set"] == reference_set)]
     if ok.empty:
-        return pd.DataFrame(columns=[*KEYS, "rank", "method", "base", "vs_base", *NORM_COLUMNS, "unit", "seeds"])
+        return pd.DataFrame(columns=[*KEYS, "rank", "method", "base", "vs_base", "share", *NORM_COLUMNS, "unit", "seeds"])
     # the means over seeds summed in seed order, not in the order the cells finished (a parallel run's):
     # else two methods of equal values can differ in the last bit and their tie be broken by chance
     g = ok.sort_values("seed", kind="stable").groupby([*KEYS, "method"], sort=False)
@@ -78,6 +80,7 @@ def ranking(df: pd.DataFrame, reference_set: str = "validation") -> pd.DataFrame
     table[SPREAD] = table[SPREAD].fillna(0.0)
     table["base"] = table["base"].fillna("").astype(str)
     table["vs_base"] = _versus_base(table)
+    table["share"] = mean_shares(table, KEYS)
     table["rank"] = table.groupby(KEYS)[RANKED_BY].rank(method="min").astype(int)
     # signals in the order the rows give them (each bench's declared order), periods in PERIODS' order
     order = {"signal": {s: i for i, s in enumerate(dict.fromkeys(ok["signal"]))},
@@ -87,7 +90,7 @@ def ranking(df: pd.DataFrame, reference_set: str = "validation") -> pd.DataFrame
     table["axis_order"] = [seen[key] for key in zip(table["system"], table["signal"], table["axis"], strict=True)]
     table = table.sort_values(["system", "signal", "period", "axis_order", "rank", "method"],
                               key=lambda c: c.map(order[c.name]) if c.name in order else c, kind="stable")
-    return table[[*KEYS, "rank", "method", "base", "vs_base", *NORM_COLUMNS, "unit", "seeds", "plant_trials",
+    return table[[*KEYS, "rank", "method", "base", "vs_base", "share", *NORM_COLUMNS, "unit", "seeds", "plant_trials",
                   "env_steps", "fit_seconds", *COUNT_RANGES]].reset_index(drop=True)
 
 
@@ -206,13 +209,17 @@ def learned_on_scored(methods: Iterable[str]) -> list[str]:
 SCORED_NOTE = ("learned on each reference it is scored on (it runs the plant on that very reference before "
                "it is scored), not a prediction for unseen references")
 """What the views say of the methods of ``learned_on_scored``."""
+SHARE_NOTE = ("share: a learner's share of the learnable, (base - method) / (base - ILC on that base) in RMS; 1 is all "
+              "that per-reference ILC learns, 0 its base; empty where ILC is no better than the base")
+"""What the views say of the ``share`` column (``shares``)."""
 
 
 def format_text(df: pd.DataFrame, reference_set: str = "validation") -> str:
     """Plain-text leaderboard, one table per system, signal and axis; an empty ``RMS_std`` is a
     method of one seed (no spread)."""
     table = ranking(df, reference_set)
-    out = [f"lcgym leaderboard ({reference_set} references; mean over seeds, counts as their range over seeds)"]
+    out = [f"lcgym leaderboard ({reference_set} references; mean over seeds, counts as their range over seeds)",
+           SHARE_NOTE]
     scored = learned_on_scored(table["method"])
     if scored:
         out.append(f"{', '.join(scored)}: {SCORED_NOTE}")
@@ -288,8 +295,10 @@ def _as_shown(part: pd.DataFrame) -> pd.DataFrame:
               for c in ("plant_trials", "env_steps")}
     spread = ["" if seeds < 2 else f"{std:.4g}" for std, seeds in zip(part[SPREAD], part["seeds"], strict=True)]
     versus = ["–" if not np.isfinite(v) else f"{v:.2f}x" for v in part["vs_base"]]
+    shares = ["–" if not np.isfinite(v) else f"{v:.2f}" for v in part["share"]]
     base = [b or "–" for b in part["base"]]
-    return part.drop(columns=list(COUNT_RANGES)).assign(**counts, **{SPREAD: spread}, base=base, vs_base=versus)
+    return part.drop(columns=list(COUNT_RANGES)).assign(**counts, **{SPREAD: spread}, base=base, vs_base=versus,
+                                                        share=shares)
 
 
 REFERENCE_METHOD = "physical"
@@ -390,12 +399,13 @@ def write_markdown(df: pd.DataFrame, path: str | Path, reference_set: str = "val
     table = ranking(df, reference_set)
     lines = [f"# lcgym leaderboard\n\n{_provenance(df, reference_set, source)}"
              + (f" Generated by `lcgym leaderboard {source} --markdown {path}`." if source else "") + "\n"]
+    lines.append(f"{SHARE_NOTE[0].upper()}{SHARE_NOTE[1:]}.\n")
     scored = learned_on_scored(table["method"])
     if scored:
         lines.append(f"{', '.join(f'`{m}`' for m in scored)}: {SCORED_NOTE}.\n")
     for (system, signal, axis), part in _sections(table):
         lines.append(f"\n## {system} / {signal} / {axis}\n")
-        cols = ["rank", "method", "base", "vs_base", *NORM_COLUMNS, "unit", "seeds", "plant_trials",
+        cols = ["rank", "method", "base", "vs_base", "share", *NORM_COLUMNS, "unit", "seeds", "plant_trials",
                 "env_steps", "fit_seconds"]
         lines.append("| " + " | ".join(cols) + " |")
         lines.append("|" + "---|" * len(cols))

@@ -50,6 +50,7 @@ from ..methods.bases import runs_on
 from ..methods.protocol import build_method, display_name, evaluate, method_base, split_spec
 from ..provenance import __version__, git_commit, source_hash
 from ..systems.runs import remembered_runs
+from .shares import row_shares
 from .store import append_rows, completed_cells
 
 EVALUATED_SETS = ("train", "validation")
@@ -343,7 +344,8 @@ def run_benchmark(config: BenchConfig, out: str | Path, jobs: int | None = 1, da
             path = trace_path(out, rows[0]["system"], rows[0]["method"], rows[0]["seed"])
             path.parent.mkdir(exist_ok=True)
             atomic_write(path, lambda tmp: trace.to_parquet(tmp, index=False))
-        append_rows(out, [{**r, **provenance, "timestamp": stamp} for r in rows])
+        append_rows(out, [{**r, **provenance, "timestamp": stamp} for r in rows],
+                    derive=lambda table: table.assign(share=row_shares(table)))
 
     bar = tqdm(total=len(todo), desc="lcgym bench", unit="cell", disable=not progress)
     if dask is None and jobs == 1:

@@ -13,8 +13,11 @@ it learned from, the shared training runs included; ``env_steps``; ``fit_seconds
 and learn, plus that of learning reused from a cache, ``Cost.cached_seconds``), ``nn_rms`` (RMS of a
 neural network's feedforward contribution, where the method has one), ``status`` (``ok`` or
 ``failed``) and ``error``, provenance (``lcgym_version``, ``git_commit``, ``timestamp`` in UTC,
-``config_hash`` of the benchmark's configuration), ``note``: what the method says of its cell, and
-``schema``: the version of these columns (``SCHEMA``).
+``config_hash`` of the benchmark's configuration), ``note``: what the method says of its cell,
+``share``: a learner's share of the learnable on that seed (``leaderboard.shares``: (base - method)
+/ (base - ILC on its base) in RMS; empty where it has no base, ILC is no better than the base or a
+row it needs is missing; the runner fills it as the rows it needs arrive), and ``schema``: the
+version of these columns (``SCHEMA``).
 
 The store knows no machine: a row's machine, signal and unit are what its bench wrote. It checks
 that every ok row has finite norms >= 0, a signal and a unit, and that one configuration gives each
@@ -32,7 +35,7 @@ from __future__ import annotations
 
 import fcntl
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -41,12 +44,12 @@ import pandas as pd
 from ..data import atomic_write
 from ..metrics import METRICS, PERIODS
 
-SCHEMA = 2
+SCHEMA = 3
 """The version of ``COLUMNS``. 1: files written before the column existed (``_from_schema_1``); 2
-added ``signal_label`` and ``schema``."""
+added ``signal_label`` and ``schema``; 3 added ``share`` (a file of 1 or 2 reads with it empty)."""
 COLUMNS = (
     "run_id", "system", "method", "base", "seed", "reference_set", "axis", "signal", "signal_label", "period",
-    *METRICS, "unit", "plant_trials", "env_steps", "fit_seconds", "nn_rms", "status", "error",
+    *METRICS, "unit", "plant_trials", "env_steps", "fit_seconds", "nn_rms", "share", "status", "error",
     "lcgym_version", "git_commit", "timestamp", "config_hash", "note", "schema",
 )
 REFERENCE_SETS = ("train", "validation", "test")
@@ -96,9 +99,11 @@ def _same_file(fh, path: Path) -> bool:
     return (mine.st_dev, mine.st_ino) == (here.st_dev, here.st_ino)
 
 
-def append_rows(path: str | Path, rows: Sequence[dict]) -> None:
+def append_rows(path: str | Path, rows: Sequence[dict],
+                derive: Callable[[pd.DataFrame], pd.DataFrame] | None = None) -> None:
     """Append rows (dicts keyed by COLUMNS, ``schema`` left out) to the results CSV atomically and
-    under the lock."""
+    under the lock. ``derive``: a function of the whole table that returns it with the columns
+    derived from other rows filled in (the runner's ``share``), applied before it is written."""
     path = Path(path)
     if not rows:
         return
@@ -110,6 +115,8 @@ def append_rows(path: str | Path, rows: Sequence[dict]) -> None:
     with locked(path):
         old = read_results(path) if path.exists() and path.stat().st_size > 0 else None
         table = new if old is None else pd.concat([old, new], ignore_index=True)
+        if derive is not None:
+            table = derive(table).reindex(columns=COLUMNS)
         atomic_write(path, lambda tmp: table.to_csv(tmp, index=False, float_format="%.9g"))
 
 
@@ -126,6 +133,8 @@ def read_results(path: str | Path) -> pd.DataFrame:
     _results_file(df, str(path))  # before any column is added, so that a stranger's own columns are named
     if "schema" not in df.columns:
         df = _from_schema_1(df)
+    if "share" not in df.columns:  # schema 1 or 2: the views compute it from the means
+        df = df.assign(share=float("nan")).reindex(columns=COLUMNS)
     df[["base", "note"]] = df[["base", "note"]].fillna("")
     validate(df, str(path))
     return df
@@ -168,6 +177,8 @@ def validate(df: pd.DataFrame, where: str = "results") -> None:
     for col in METRICS:
         values = pd.to_numeric(df[col], errors="coerce")
         bad(col, ok & ~(values.notna() & (values >= 0) & values.abs().lt(float("inf"))))
+    share = pd.to_numeric(df["share"], errors="coerce")
+    bad("share", (df["share"].notna() & share.isna()) | share.abs().eq(float("inf")))  # a number or empty
     bad("seed", ~pd.to_numeric(df["seed"], errors="coerce").ge(0))
     bad("unit", ok & ~named("unit"))
     units = df[ok].groupby(["config_hash", "system", "signal", "axis"], dropna=False)["unit"].transform("nunique")

@@ -81,6 +81,11 @@ class PhysicalModel:
     position_filter_hz: float | None = None  # kinematics from the measured position (see above); None: 2 filter_hz
     search_shapes: tuple[str, ...] = ()  # effects (name@axis) whose nonlinear parameters fit finds (physics.shapes)
     built_in: ClassVar[tuple[str, ...]] = ("rigid_body", "viscous_friction")  # what the model has without effects
+    fitted_on: ClassVar[str] = "measured"
+    """The kinematics a machine's model is fitted on (``System.physical_model``): the motion the machine
+    made, as the diagnosis fits it. On the reference instead, a feedback-only run's lag is taken for
+    the motion: a position-dependent effect lands where the reference was, not where the axis was (a
+    one-sided elbow spring fitted at k 16 for 25, tests/test_model_tables.py)."""
     rcond: ClassVar[float] = 1e-9  # relative singular-value cut of the linear solve (directions the data lacks)
 
     def __post_init__(self):

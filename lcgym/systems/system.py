@@ -329,13 +329,13 @@ class System:
     # ------------------------------------------------------------------ models
     def physical_model(self, **kwargs):
         """The machine's physical model (unfitted), ``self.model(system=self, **kwargs)``, with its
-        ``model_effects`` (their parameters found by its fit). It is fitted to the motion the machine
-        made (``positions="measured"``, unless ``kwargs`` say otherwise), as the diagnosis fits
-        its model: an effect the diagnosis names and a machine file's ``[[model]]`` table then
-        declares is found by one estimator (``physics.shapes``) from the same kinematics. Fitted to
-        the reference instead, a feedback-only run's lag is taken for the motion: a position-dependent
-        effect lands where the reference was, not where the axis was."""
-        return self._with_model_effects(self._model_class()(system=self, **{"positions": "measured", **kwargs}))
+        ``model_effects`` (their parameters found by its fit), fitted on the kinematics its class
+        names (``PhysicalModel.fitted_on``, unless ``kwargs`` give ``positions``): the motion the
+        machine made, as the diagnosis fits its model, so that an effect the diagnosis names and a
+        machine file's ``[[model]]`` table then declares is found by one estimator
+        (``physics.shapes``) from the same kinematics."""
+        model = self._model_class()
+        return self._with_model_effects(model(system=self, **{"positions": model.fitted_on, **kwargs}))
 
     def diagnosis_model(self, fs: float):
         """The model ``lcgym diagnose`` starts from (``PhysicalModel.for_diagnosis``), with the
