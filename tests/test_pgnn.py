@@ -241,7 +241,7 @@ def test_zeta_steps_absolute_or_relative():
 def test_pgnn_method_records_its_training_data_with_the_physical_feedforward():
     """On the IX the leaderboard's PGNN trains on a run of the training references with the physical
     model's feedforward on (one plant trial per reference, counted), not on the feedback-only runs."""
-    from lcgym.methods.pgnn.method import PGNNFeedforward
+    from lcgym.methods.pgnn.method import PaperPGNN, PGNNFeedforward
     from lcgym.methods.physical import PhysicalFeedforward
     from lcgym.references import references_of
     from lcgym.systems.ix.plant import IXPlant
@@ -261,7 +261,10 @@ def test_pgnn_method_records_its_training_data_with_the_physical_feedforward():
     assert method.feedforward(train[0].ref).shape == train[0].ref.shape
     default = PGNNFeedforward()
     default.system_ = method.system_
-    assert default.training_config().filter_hz == 5.0 and default.training_config().threads == 1
+    assert default.training_config().filter_hz is None and default.training_config().threads == 1  # u as measured
+    paper = PaperPGNN()
+    paper.system_ = method.system_
+    assert paper.training_config().filter_hz == 5.0  # paper000-pgnn: the IX's protocol of before
 
 
 def test_iteration_cap_in_proportion_to_the_training_runs():

@@ -46,11 +46,9 @@ IX = System(
     diagnosis=DiagnosisSettings(noise_rms=0.004, candidates=CANDIDATES),  # V: the low-passed input's quantization noise
     quadratic_in_nonlinear=True,
     nonlinear_columns=(dynamics.M2, dynamics.M3),  # m2 x2, m3 y3 z3, ...: the masses carry zeta_n
-    # the benchmark's PGNN trains on a run with the physical model's feedforward on, u low-passed at
-    # 5 Hz; the RL agent gets 3 passes over the training samples in 8 envs, acting at 50 Hz
+    # the RL agent gets 3 passes over the training samples in 8 envs, acting at 50 Hz
     hints={"pgnn": {"constraint_configs": None},  # R2 over every configuration: the IX's 2 x 2 M is cheap
-           "benchmark": {"pgnn": {"collect": "physical", "filter_hz": 5.0},
-                         "rl": {"passes": 3.0, "num_envs": 8, "agent_rate": 50.0}}},
+           "benchmark": {"rl": {"passes": 3.0, "num_envs": 8, "agent_rate": 50.0}}},
     description="interventional X-ray C-arm of paper 000: propeller and roll, input in V",
     joint_axes=joint_axes,
     bench=BenchFactory(IXBench, envs={k: v for k, v in ENVS.items() if k.startswith("lcgym/IX-")},
