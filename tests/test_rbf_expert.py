@@ -28,6 +28,21 @@ def test_table1_rules_give_eq25_among_the_moving_joints():
     assert phi[0, 1] == 0 and phi[1, 0] == 0  # joint 1 vertical, joint 2 horizontal: perpendicular
 
 
+def test_parallel_joints_that_move_independently_do_not_influence_each_other():
+    """Beyond Table 1: the two-link arm's shoulder and elbow are parallel, but its random moves turn
+    them independently: Phi = I; joints turning in proportion keep the paper's entry."""
+    from lcgym import systems
+    from lcgym.methods.rbf_expert.influence import rotation_directions
+
+    machine = systems.resolve("two_link")
+    refs = machine.bench().references("train", 0, 2, 20.0)
+    np.testing.assert_array_equal(task_influence(refs, machine.system.joint_axes()), np.eye(2))
+    rng = np.random.default_rng(0)
+    a, b = rng.standard_normal(1000), rng.standard_normal(1000)
+    np.testing.assert_array_equal(rotation_directions([np.column_stack([a, b])]), [[1, 0], [0, 1]])
+    np.testing.assert_array_equal(rotation_directions([np.column_stack([a, -2 * a + 0.1 * b])]), [[1, -1], [-1, 1]])
+
+
 def test_table1_rules_on_hand_made_axes():
     axes = np.array([[0, 0, 1], [0, 0, -1], [1, 0, 0]], dtype=float)
     same = np.ones((3, 3))
@@ -98,8 +113,8 @@ def test_expert_logic_follows_table3_on_a_move_and_back():
 
 def test_predictor_learns_an_error_that_is_a_function_of_the_reference():
     """A made-up error e = f(velocity, acceleration) of 2-axis references: predicted on new
-    references where a network is active (not at long constant velocity: the paper predicts zero
-    there), and zero where the reference rests."""
+    references where one of Table 3's networks is active (not at long constant velocity: the paper
+    predicts zero there), and zero where the reference rests."""
     from lcgym.systems.ix.references import reference_set
 
     train, new = reference_set("train", 0, 6, 20.0, 1000.0), reference_set("validation", 0, 1, 20.0, 1000.0)
@@ -107,7 +122,8 @@ def test_predictor_learns_an_error_that_is_a_function_of_the_reference():
     def error(r):
         return np.tanh(3 * r.velocities) * 0.5 + 0.05 * r.accelerations
 
-    pred = RBFExpertPredictor(np.eye(2), (0, 1), RBFExpertConfig(lowpass_hz=50.0)).fit(train, [error(r) for r in train])
+    paper = RBFExpertConfig(lowpass_hz=50.0, cruise_and_rest=False)
+    pred = RBFExpertPredictor(np.eye(2), (0, 1), paper).fit(train, [error(r) for r in train])
     r = new[0]
     e, e_hat = error(r), pred.predict(r)
     for a in range(2):
@@ -117,6 +133,37 @@ def test_predictor_learns_an_error_that_is_a_function_of_the_reference():
     still = np.all(np.abs(r.velocities) < 1e-9, axis=1) & np.all(np.abs(r.accelerations) < 1e-9, axis=1)
     assert np.abs(pred.predict(r, filtered=False)[still]).max() == 0.0
     assert all(0 <= s < 0.2 for s in pred.outside_share_.values())
+
+
+def test_the_cruise_and_rest_experts_predict_where_table_3_does_not():
+    """Beyond the paper: a made-up tracking error that lasts at constant velocity (a friction) and
+    at rest (a spring over the position, the direction of the last move) is predicted there too, on
+    references it was not learned on; Table 3's four experts predict zero there."""
+    from lcgym.methods.rbf_expert.expert import CRUISE, REST
+    from lcgym.physics.kinematics import relay
+    from lcgym.systems.ix.references import reference_set
+
+    train, new = reference_set("train", 0, 6, 20.0, 1000.0), reference_set("validation", 0, 1, 20.0, 1000.0)
+
+    def error(r):  # a friction and a spring: at rest, over the position and the last move's direction
+        return np.tanh(3 * r.velocities) * 0.5 + 0.05 * r.accelerations + 0.2 * r.positions + 0.05 * relay(r.velocities)
+
+    config = RBFExpertConfig(lowpass_hz=50.0)
+    assert config.cruise_and_rest  # the rbf-expert method's default
+    pred = RBFExpertPredictor(np.eye(2), (0, 1), config).fit(train, [error(r) for r in train])
+    paper = RBFExpertPredictor(np.eye(2), (0, 1), RBFExpertConfig(lowpass_hz=50.0, cruise_and_rest=False))
+    paper.fit(train, [error(r) for r in train])
+    r = new[0]
+    e, e_hat, e_paper = error(r), pred.predict(r, filtered=False), paper.predict(r, filtered=False)
+    for a in range(2):
+        types = pred.inputs(r, a)[1]
+        for t in (CRUISE, REST):
+            sel = types == t
+            rel = np.sqrt(np.mean((e - e_hat)[sel, a] ** 2) / np.mean(e[sel, a] ** 2))
+            # at rest the six training references rest at a few dozen places: the new one's are between them
+            assert sel.mean() > 0.1 and rel < (0.35 if t == CRUISE else 0.6), (a, t, rel)
+            assert np.abs(e_paper[sel, a]).max() == 0.0  # the paper's experts: nothing there
+    assert pred.types == (1, 2, 3, 4, CRUISE, REST) and paper.types == (1, 2, 3, 4)
 
 
 @pytest.mark.bad_input

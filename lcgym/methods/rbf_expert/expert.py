@@ -24,6 +24,19 @@ Network t of Table 3 is active where chi_NN^t holds:
 
 The four sets are disjoint. Where no network is active (not viable, long constant velocity, or a
 fast zero crossing of v33 that is neither AZ, A nor D) the prediction is zero.
+
+Beyond the paper (``network_types(..., cruise_and_rest=True)``, the ``rbf-expert`` method's
+default): two more experts take the samples Table 3 leaves out,
+
+    t = 5 (cruise): VC, a long run at constant velocity;
+    t = 6 (rest): not viable, the reference at rest.
+
+Paper 002 predicts the model-following error, an acceleration, which is about zero there. A
+tracking error is not: a friction at constant speed and a spring or gravity at rest leave one as
+long as they last (on the IX, the EMPS and the two-link arm 31-80 % of the base's tracking-error
+energy lies where Table 3 activates no network; docs/methods/rbf-expert.md). Their inputs are the
+joint's position and velocity (cruise), and its position and the direction of its last motion
+(rest: a friction holds the error the last move left, ``CRUISE_REST_RANGES``).
 """
 
 from __future__ import annotations
@@ -40,6 +53,9 @@ TABLE5_RANGES = {
     4: ((-1.0, 1.0), (-1.0, 0.0), (-0.1, 1.0)),
 }
 NETWORK_TYPES = (1, 2, 3, 4)
+CRUISE, REST = 5, 6
+CRUISE_REST_RANGES = {CRUISE: ((-1.0, 1.0), (-1.0, 1.0)), REST: ((-1.0, 1.0), (-1.0, 1.0))}
+"""Neuron ranges of the two experts beyond Table 3: (v11, v21) at cruise, (v11, last direction) at rest."""
 
 
 @dataclass(frozen=True)
@@ -104,8 +120,9 @@ def boolean_functions(v22: np.ndarray, v33: np.ndarray, viable: np.ndarray, fs: 
 
 
 def network_types(v22: np.ndarray, v33: np.ndarray, viable: np.ndarray, fs: float,
-                  config: ExpertConfig | None = None) -> np.ndarray:
-    """Active network type per sample (T,) int: 1-4 (Table 3), 0 where none is."""
+                  config: ExpertConfig | None = None, cruise_and_rest: bool = False) -> np.ndarray:
+    """Active network type per sample (T,) int: 1-4 (Table 3), with ``cruise_and_rest`` also
+    ``CRUISE`` and ``REST`` (module docstring), 0 where none is."""
     c = boolean_functions(v22, v33, viable, fs, config)
     rise = (c["AS"] | c["A"]) & ~c["VC"]
     fall = (~c["AS"] & c["D"]) & ~c["VC"]
@@ -114,4 +131,7 @@ def network_types(v22: np.ndarray, v33: np.ndarray, viable: np.ndarray, fs: floa
     t[fall & c["Vp"]] = 2
     t[fall & c["Vn"]] = 3
     t[rise & c["Vn"]] = 4
+    if cruise_and_rest:
+        t[c["VC"] & (t == 0)] = CRUISE
+        t[~viable] = REST
     return t

@@ -14,6 +14,12 @@ from Table 1:
   two joints the same way for the task motion, -1 when exactly one of the two differs, +1 when both
   do. ("The same way" is read from the references: the sign of the correlation of the two joints'
   velocities. A joint that does not move in the references is taken as turning the same way.)
+* beyond the paper: two moving joints whose velocities do not move together in the references
+  (correlation coefficient below ``TOGETHER`` in magnitude) are not one task's motion, and phi_ij = 0
+  whatever their axes. The paper's task (TCP lines) turns its joints in proportion (|r| = 0.99-1 on
+  the FlexArm's moving joints); the two-link arm's random moves turn its parallel shoulder and elbow
+  independently (|r| = 0.01), and mixing them put the shoulder's motion into the elbow's friction
+  and the elbow's into the shoulder's spring (docs/methods/rbf-expert.md).
 
 The axes are those of the machine at its reference pose (``System.joint_axes``; the paper uses the
 arm's home pose, Fig. 4). For paper 002's robot and task (tool fixed, TCP along X) these rules give
@@ -30,6 +36,7 @@ from collections.abc import Sequence
 import numpy as np
 
 ALIGNED_DEG = 20.0  # axes within this angle (or of its opposite) count as aligned
+TOGETHER = 0.5  # two moving joints move together (one task) where their velocities correlate at least this much
 
 PAPER_PHI = np.array([  # eq. (25)
     [1, 0, 0, 1, 0, 1],
@@ -43,13 +50,18 @@ PAPER_PHI = np.array([  # eq. (25)
 
 def rotation_directions(velocities: Sequence[np.ndarray], moving_tol: float = 1e-6) -> np.ndarray:
     """(n, n) +-1: whether joints i and j turn the same way in the given motions (sign of the
-    correlation of their velocities, (T, n) [rad/s] each); +1 where either joint does not move."""
+    correlation of their velocities, (T, n) [rad/s] each); +1 where either joint does not move; 0
+    where both move but not together (|correlation coefficient| below ``TOGETHER``)."""
     v = np.concatenate([np.asarray(x, dtype=float) for x in velocities])
     moving = np.abs(v).max(axis=0) > moving_tol
-    s = np.sign(v.T @ v)
+    gram = v.T @ v
+    s = np.sign(gram)
+    norm = np.sqrt(np.maximum(np.diag(gram), 1e-300))
+    independent = np.abs(gram / np.outer(norm, norm)) < TOGETHER  # about zero: their velocities are mean-free
+    s[independent & np.outer(moving, moving)] = 0.0
     s[~moving, :] = 1.0
     s[:, ~moving] = 1.0
-    s[s == 0] = 1.0
+    np.fill_diagonal(s, 1.0)
     return s
 
 

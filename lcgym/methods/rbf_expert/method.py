@@ -164,10 +164,10 @@ class PaperNNP(RBFExpertFeedforward):
     Basic, eq. (17) applied as predicted, no safeguard."""
 
     name = "paper002-nnp"
-    base = "basic"  # fixed: the paper's
+    base = "basic"  # fixed: the paper's (and Table 3's four experts, ``RBFExpertConfig.cruise_and_rest`` off)
     systems = ("flexarm",)
     safeguard = False
 
     def __init__(self, config: RBFExpertConfig | None = None, learning: ILCConfig | None = None,
                  system: systems.System | str | None = None):
-        super().__init__(config, learning, system, base="basic")
+        super().__init__(config or RBFExpertConfig(cruise_and_rest=False), learning, system, base="basic")

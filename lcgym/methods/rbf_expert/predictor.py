@@ -7,10 +7,12 @@ reference alone:
 
 1. motion influence Q, Qd, Qdd of every joint (``influence``, eqs. 22-24);
 2. per joint the preprocessing of section 3.2 (``preprocess``), fitted on all training samples;
-3. per viable sample the active network (``expert``, Table 3);
+3. per viable sample the active network (``expert``, Table 3; with ``cruise_and_rest``, the
+   default, also the two experts at constant velocity and at rest);
 4. per joint and network type an ``RBFNetwork`` on (v11, v22, v33) (3D) or (v22, v33) (2D), neuron
-   ranges of Table 5, trained on the samples where it is active, with the safety rule of
-   ``network`` (prediction fading to zero outside the training data);
+   ranges of Table 5 (cruise: on (v11, v21); rest: on v11 and the direction of the last motion,
+   ``expert.CRUISE_REST_RANGES``), trained on the samples where it is active, with the safety rule
+   of ``network`` (prediction fading to zero outside the training data);
 5. the prediction, zero where no network is active, low-passed zero-phase at ``lowpass_hz``
    (section 3.5, 50 Hz: above Q_u's 20 Hz).
 
@@ -26,8 +28,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...physics.kinematics import lowpass_zero_phase
-from .expert import NETWORK_TYPES, TABLE5_RANGES, ExpertConfig, network_types
+from ...physics.kinematics import lowpass_zero_phase, relay
+from .expert import CRUISE, CRUISE_REST_RANGES, NETWORK_TYPES, REST, TABLE5_RANGES, ExpertConfig, network_types
 from .influence import motion_influence
 from .network import MomentumRules, RBFNetwork
 from .preprocess import PreprocessConfig, Preprocessor
@@ -39,7 +41,8 @@ class RBFExpertConfig:
     x 11; the last two for 2D); sigma: RBF width; method: "lstsq" (direct, default) or "momentum"
     (eqs. 36-38, Table 4); support, ridge: the safety rule's threshold and the ridge weight
     (``network``); lowpass_hz: postprocessing filter [Hz]; min_samples: a network with fewer
-    training samples is not trained (predicts zero).
+    training samples is not trained (predicts zero); cruise_and_rest: the two experts beyond Table 3
+    (``expert``; False: the paper's four, ``paper002-nnp``).
 
     Defaults differing from the paper's choice, measured on the FlexArm (``studies/rbf_expert_arm.py
     --tune``: 24 training lines, chosen on the validation lines of seed 0, which the study's report
@@ -57,6 +60,7 @@ class RBFExpertConfig:
     ridge: float = 10.0
     lowpass_hz: float = 50.0
     min_samples: int = 50
+    cruise_and_rest: bool = True
     preprocess: PreprocessConfig = field(default_factory=PreprocessConfig)
     expert: ExpertConfig = field(default_factory=ExpertConfig)
     rules: MomentumRules = field(default_factory=MomentumRules)
@@ -74,6 +78,13 @@ class RBFExpertConfig:
     @property
     def grid(self) -> tuple[int, ...]:
         return tuple(self.counts[-self.dims:])
+
+
+CRUISE_REST_WIDTH = 3.0
+"""The cruise and rest experts' RBF width, in units of ``sigma``: a new trajectory cruises at speeds
+and rests at places the training ones did not, between the lines their samples lie on (on a made-up
+error of the velocity, tests/test_rbf_expert.py, the error left at cruise fell from 0.19 at the
+paper's width to 0.03 of 0.26 at 3x; on the four machines 2-4x gave the same tracking)."""
 
 
 class RBFExpertPredictor:
@@ -94,15 +105,22 @@ class RBFExpertPredictor:
         return self.config or RBFExpertConfig()
 
     def inputs(self, reference, joint: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Network inputs X (T, dims), active network type (T,) and viability (T,) bool of one joint
-        for a reference."""
+        """Network inputs X (T, dims), active network type (T,) and where a prediction is made (T,)
+        bool (viable; and at rest with ``cruise_and_rest``) of one joint for a reference; at cruise
+        and rest the first two columns of X hold those experts' inputs."""
         cfg = self.config_
         Q, Qd, Qdd = (m[:, joint] for m in motion_influence(np.asarray(self.phi, dtype=float), reference.positions,
                                                               reference.velocities, reference.accelerations))
         v = self.preprocessors_[joint].transform(Q, Qd, Qdd)
-        types = network_types(v["v22"], v["v33"], v["viable"], reference.fs, cfg.expert)
-        cols = [v["v11"], v["v22"], v["v33"]][3 - cfg.dims:]
-        return np.column_stack(cols), types, v["viable"]
+        types = network_types(v["v22"], v["v33"], v["viable"], reference.fs, cfg.expert, cfg.cruise_and_rest)
+        X = np.column_stack([v["v11"], v["v22"], v["v33"]][3 - cfg.dims:])
+        if not cfg.cruise_and_rest:
+            return X, types, v["viable"]
+        last = relay(np.where(v["viable"], v["v21"], 0.0)[:, None])[:, 0]  # the direction of the last motion
+        for t, cols in ((CRUISE, (v["v11"], np.clip(v["v21"], -1.0, 1.0))), (REST, (v["v11"], last))):
+            sel = types == t
+            X[sel, :2] = np.column_stack(cols)[sel]
+        return X, types, v["viable"] | (types == REST)
 
     def fit(self, references: Sequence, errors: Sequence[np.ndarray]) -> RBFExpertPredictor:
         cfg = self.config_
@@ -122,15 +140,32 @@ class RBFExpertPredictor:
             X, types, _ = zip(*(self.inputs(r, j) for r in references), strict=True)
             X, types = np.concatenate(X), np.concatenate(types)
             self.networks_[j], self.train_samples_[j] = {}, {}
-            for t in NETWORK_TYPES:
+            for t in self.types:
                 sel = types == t
                 self.train_samples_[j][t] = int(sel.sum())
                 if sel.sum() < cfg.min_samples:
                     continue
-                net = RBFNetwork(TABLE5_RANGES[t][3 - cfg.dims:], cfg.grid, cfg.sigma, self.preprocessors_[j].beta0_,
-                                 cfg.method, cfg.rules, cfg.support, cfg.ridge)
-                self.networks_[j][t] = net.fit(X[sel], e_all[sel])
+                ranges, grid, sigma, x = self._network_inputs(t, X[sel])
+                net = RBFNetwork(ranges, grid, sigma, self.preprocessors_[j].beta0_, cfg.method, cfg.rules,
+                                 cfg.support, cfg.ridge)
+                self.networks_[j][t] = net.fit(x, e_all[sel])
         return self
+
+    @property
+    def types(self) -> tuple[int, ...]:
+        """The network types it trains: Table 3's, with the cruise and rest experts where configured."""
+        return (*NETWORK_TYPES, CRUISE, REST) if self.config_.cruise_and_rest else NETWORK_TYPES
+
+    def _network_inputs(self, t: int, X: np.ndarray) -> tuple[tuple, tuple[int, ...], float, np.ndarray]:
+        """(neuron ranges, neurons per dimension, width, inputs) of network type ``t`` for its rows of
+        X: Table 5's for types 1-4; the cruise and rest experts' two inputs with ``counts[0]`` and
+        ``counts[1]`` neurons at cruise (position, velocity), ``counts[0]`` and three at rest (the
+        last direction is -1, 0 or +1), twice as wide (``CRUISE_REST_WIDTH``)."""
+        cfg = self.config_
+        if t in NETWORK_TYPES:
+            return TABLE5_RANGES[t][3 - cfg.dims:], cfg.grid, cfg.sigma, X
+        return (CRUISE_REST_RANGES[t], (cfg.counts[0], cfg.counts[1] if t == CRUISE else 3),
+                CRUISE_REST_WIDTH * cfg.sigma, X[:, :2])
 
     def predict(self, reference, filtered: bool = True) -> np.ndarray:
         """e_hat (T, n): the predicted error, zero on joints without networks and where no network is
@@ -143,13 +178,14 @@ class RBFExpertPredictor:
         for j in self.joints:
             X, types, viable = self.inputs(reference, j)
             outside = viable & ~np.isfinite(X).all(axis=1)  # a v33 level without training data
-            for t in NETWORK_TYPES:
+            for t in self.types:
                 sel = types == t
                 if t not in self.networks_[j]:
                     outside |= sel  # too few training samples: no network
                 elif sel.any():
-                    out[sel, j] = self.networks_[j][t].predict(X[sel])
-                    outside[sel] = self.networks_[j][t].outside(X[sel])
+                    x = self._network_inputs(t, X[sel])[3]
+                    out[sel, j] = self.networks_[j][t].predict(x)
+                    outside[sel] = self.networks_[j][t].outside(x)
             n_viable = int(viable.sum())
             self.outside_share_[j] = float(outside.sum()) / n_viable if n_viable else 0.0
         if filtered:
