@@ -178,6 +178,37 @@ def test_env_residual_on_the_physical_model_and_bad_actions(machine_file):
         env.step(np.zeros(3))
 
 
+def test_env_takes_a_learners_residual_bound_and_balances_its_axes(machine_file):
+    """``residual_bound`` sets the action's scale per axis; ``axis_errors`` scales each axis's reward
+    so that those errors count alike, at the geometric mean of the default scale (one axis: the
+    default); ``methods.rl.env_scales`` reads both off the base's runs; bad values are refused."""
+    from lcgym.methods.loop import machine_loop
+    from lcgym.methods.rl import env_scales
+    from lcgym.systems.machine_env import REWARD_SCALE
+
+    kwargs = dict(machine=str(machine_file), references="validation", n_references=1, duration=2.0)
+    env = gym.make("lcgym/Machine-v0", base_feedforward="physical", residual_bound=[6.0, 2.0],
+                   axis_errors=[1e-3, 4e-3], **kwargs).unwrapped
+    np.testing.assert_allclose(env.action_scale, [6.0, 2.0])
+    scale = env.task.reward_scale
+    np.testing.assert_allclose(scale, [0.5 * REWARD_SCALE["rad"], 2.0 * REWARD_SCALE["rad"]])  # 1e-3 / s = 4e-3 / s'
+    plain = gym.make("lcgym/Machine-v0", base_feedforward="physical", **kwargs).unwrapped
+    np.testing.assert_allclose(plain.task.reward_scale, REWARD_SCALE["rad"])
+    for bad in ({"residual_bound": [1.0, -1.0]}, {"axis_errors": [0.0, 1.0]}, {"residual_bound": [1.0, 2.0, 3.0]}):
+        with pytest.raises(ValueError, match="must be one value or 2 values > 0"):
+            gym.make("lcgym/Machine-v0", base_feedforward="physical", **kwargs, **bad)
+    with pytest.raises(ValueError, match="needs a base feedforward"):
+        gym.make("lcgym/Machine-v0", residual_bound=1.0, **kwargs)
+    machine = systems.resolve(str(machine_file))
+    bench = machine.bench()
+    refs = bench.references("train", 0, 1, 2.0)
+    base = machine.system.physical_model(fs=1000.0).fit(bench.run(refs))
+    scales = env_scales(bench.plant, refs, base, machine_loop(machine.system))
+    run = bench.plant.run(refs[0], base.predict(refs[0]))
+    np.testing.assert_allclose(scales["residual_bound"], np.abs(run.u - run.ff).max(axis=0))
+    np.testing.assert_allclose(scales["axis_errors"], np.sqrt(np.mean(run.error**2, axis=0)))
+
+
 def test_vector_env_steps_its_sub_envs_as_single_envs(machine_file):
     refs = systems.resolve(str(machine_file)).bench().references("train", 0, 2, 1.0)
     venv = gym.make_vec("lcgym/Machine-v0", num_envs=2, machine=str(machine_file), references=refs,

@@ -19,3 +19,19 @@ def make_env(env_id: str, **kwargs) -> gym.Env:
 
         entry = load_env_creator(entry)
     return entry(**{**spec.kwargs, **kwargs})
+
+
+def env_takes(env_id: str, keyword: str) -> bool:
+    """Whether the registered env ``env_id``'s entry point names the keyword ``keyword`` (a setting
+    one machine's env has and another's has not: ``residual_bound`` on ``lcgym/Machine-v0``)."""
+    import inspect
+
+    entry = gym.spec(env_id).entry_point
+    if isinstance(entry, str):
+        from gymnasium.envs.registration import load_env_creator
+
+        entry = load_env_creator(entry)
+    try:
+        return keyword in inspect.signature(entry).parameters
+    except (TypeError, ValueError):
+        return False

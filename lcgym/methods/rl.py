@@ -27,6 +27,14 @@ IX, the two-link arm and the EMPS, ``envs.hold``; every sample on the FlexArm, w
   SHA-256); ``learn`` loads only that file, under its key, when the record's hash matches. A zip
   unpickles Python objects: ``RLFeedforward.load_model(path)`` loads another file only when asked;
   give it files from trusted sources only.
+* **Scales from the base** (``RLConfig.scaled``, on by default; where the env takes them, a machine
+  file's ``lcgym/Machine-v0``): the residual's bound per axis is the peak of what the feedback
+  supplied along the base's runs of the training references (what the base leaves the loop), and
+  the axes' rewards are balanced by the base's RMS tracking errors there, so that the axis with the
+  smaller error is learned too (``env_scales``; the base's runs are counted as plant trials). The
+  fixed bound, 0.2 x the input limit, was 5x the feedback's peak on the two-link arm's elbow, and its
+  exploration drowned what there is to learn; with one 0.1 deg for both axes the elbow's error,
+  three times the shoulder's, took the reward (docs/methods/rl.md).
 * **Safeguard** (``RLConfig.safeguard``, on by default): a residual policy is kept only where it
   lowers the tracking error on each of its training references (RMS per scored axis and reference,
   its deterministic rollouts against the base alone). An axis where it is worse on any reference
@@ -58,6 +66,7 @@ from tqdm.auto import tqdm
 from .. import systems
 from ..provenance import source_hash
 from .bases import base_controller
+from .loop import loop_feedforward, machine_loop
 from .protocol import DEFAULT_BASE, Controller, Cost, given_system, machine_settings
 from .safeguard import dropped_note, keep_axes, scored_axes
 
@@ -119,7 +128,9 @@ class RLConfig:
     the training (env steps, last episode's RMS tracking error); safeguard: keep a residual only
     where it lowers the training references' tracking error (module docstring); agent_rate [Hz]:
     how often the agent acts, each action held for the samples between (``envs.hold``; None: the
-    machine's, else every sample; 0: every sample). Budgets count control samples either way.
+    machine's, else every sample; 0: every sample); scaled: the residual's bound and the reward's
+    per-axis scale from the base's runs, where the env takes them (module docstring). Budgets count
+    control samples either way.
     """
 
     algorithm: str = "ppo"
@@ -135,6 +146,7 @@ class RLConfig:
     progress: bool = False
     safeguard: bool = True
     agent_rate: float | None = None
+    scaled: bool = True
 
     def __post_init__(self):
         if self.algorithm not in ALGORITHMS:
@@ -175,7 +187,24 @@ def ppo_rollout(n_steps: int, batch_size: int, agent_steps: int, num_envs: int) 
     return min(n_steps, -(-needed // step) * step)
 
 
-def _vec_env(system: systems.System, references, plant, base, config: RLConfig, hold: int):
+def env_scales(plant, references, base, loop) -> dict[str, np.ndarray]:
+    """The env's ``residual_bound`` [input unit] and ``axis_errors`` [rad or m] per axis from the
+    base's runs of ``references`` (its model ``base``, with ``loop``'s term): the peak of the
+    feedback's part of the input, u - f - C r, and the RMS of the tracking error; each at least a
+    small floor (1e-6 of the input limit; an encoder count), so that an axis with nothing left to
+    learn keeps a finite scale."""
+    peak, square, samples = 0.0, 0.0, 0
+    for r in references:
+        f = np.asarray(base.predict(r.positions), dtype=float) + loop_feedforward(loop, r)
+        trial = plant.run(r, f)
+        peak = np.maximum(peak, np.abs(trial.u - f - plant.reference_feedback(r.positions)).max(axis=0))
+        square, samples = square + np.square(trial.error).sum(axis=0), samples + trial.error.shape[0]
+    limit = np.where(np.isfinite(plant.u_max), plant.u_max, 1.0)
+    count = np.maximum(np.asarray(plant.encoder_resolution, dtype=float), 1e-9)
+    return {"residual_bound": np.maximum(peak, 1e-6 * limit), "axis_errors": np.maximum(np.sqrt(square / samples), count)}
+
+
+def _vec_env(system: systems.System, references, plant, base, config: RLConfig, hold: int, scales: dict):
     """The stable-baselines3 vector env of the training references: the env's own compiled batch
     where it has a vector entry point, else copies of the env in SB3's ``DummyVecEnv``; each action
     held for ``hold`` samples."""
@@ -188,7 +217,7 @@ def _vec_env(system: systems.System, references, plant, base, config: RLConfig, 
     from ..envs.sb3 import HideError, make_sb3_vec_env
 
     env_id, n = system.env_id, config.on(system).num_envs
-    kwargs = dict(references=references, base_feedforward=base, plant=plant, episode_steps=None)
+    kwargs = dict(references=references, base_feedforward=base, plant=plant, episode_steps=None, **scales)
     if gym.spec(env_id).vector_entry_point is not None:
         venv = make_sb3_vec_env(env_id, num_envs=n, **kwargs)
     else:
@@ -262,12 +291,25 @@ class RLFeedforward(Controller):
     def learn(self, plant, reference) -> RLFeedforward:
         if not hasattr(self, "training_"):
             raise RuntimeError("rl: call fit(trials) before learn()")
+        if not hasattr(self, "scales_"):
+            self.scales_ = self._scales(plant)
         if not hasattr(self, "model_"):
             self._train_or_load(plant)
         if not hasattr(self, "kept_"):  # also for a model of the user's (``load_model``)
             self._safeguard(plant)
         self.rollouts_[reference.name] = self._rollout(plant, reference, self.kept_)
         return self
+
+    def _scales(self, plant) -> dict[str, np.ndarray]:
+        """The env's scales from the base's runs (``env_scales``), where the config asks for them, the
+        residual acts on the fitted physical model and the env takes them; else none."""
+        from ..envs import env_takes
+
+        cfg = self._config()
+        if not (cfg.scaled and cfg.residual and self.base == "physical" and env_takes(self.system_.env_id, "residual_bound")):
+            return {}
+        self.cost_.plant_trials += len(self.training_)
+        return env_scales(plant, self.training_, self.base_, machine_loop(self.system_))
 
     def cache_key(self, plant) -> str:
         """Hash of everything the trained model depends on."""
@@ -314,7 +356,7 @@ class RLFeedforward(Controller):
         cfg = self._config()
         algorithm = _algorithm_class(cfg.algorithm)
         hold = self.hold()
-        venv = _vec_env(self.system_, self.training_, plant, self._base(), cfg, hold)
+        venv = _vec_env(self.system_, self.training_, plant, self._base(), cfg, hold, self.scales_)
         rows: list[dict] = []
         shown = [(f"rms_{self.training_[0].axes[i]}_{unit}", factor)
                  for i, (factor, unit) in zip(self._scored(), self._display(), strict=True)]
@@ -408,7 +450,7 @@ class RLFeedforward(Controller):
 
         cfg = self._config()
         env = HoldAction(make_env(self.system_.env_id, references=[reference], base_feedforward=self._base(),
-                                  plant=plant, episode_steps=None), self.hold())
+                                  plant=plant, episode_steps=None, **self.scales_), self.hold())
         hide = self.system_.bench.observation_error
         act = deterministic_actor(self.model_)
         obs, _ = env.reset(seed=cfg.seed, options={"reference": 0})

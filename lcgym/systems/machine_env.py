@@ -19,7 +19,9 @@ Action (float32, shape (n,), n the machine's axes): the feedforward of each axis
     of the training references), scale ``RESIDUAL_FRACTION`` x u_scale. A fitted model (anything with
     ``predict(positions) -> (T, n)``) may be given instead: residual learning on that model. Either
     base carries what the loop needs to track exactly (minus ``URDFPlant.reference_feedback``: a
-    velocity loop's velocity feedforward, ``methods.loop``).
+    velocity loop's velocity feedforward, ``methods.loop``). ``residual_bound`` [N m or N, one value or
+    one per axis] replaces the residual's scale (a learner's own, ``methods.rl``: the peak of what the
+    feedback supplied along its base's runs).
     Out-of-bound actions are clipped and counted (``info["clipped_actions"]``); NaN, inf, a wrong
     shape or non-numbers raise ``ValueError`` naming the step, before the plant moves.
 
@@ -32,9 +34,12 @@ Observation (float32, shape (3 n P + 3 n,)), all O(1); P = len(PREVIEW) preview 
     - base feedforward of the current sample / u_scale, per axis
     - tracking error e = reference - encoder reading / ``ERR_SCALE`` (0.5 deg or 0.5 mm), clipped to +-20
 
-Reward: -1/2 sum over axes (e_i / ``REWARD_SCALE``)^2 (0.1 deg or 0.1 mm), e the tracking error
-    measured at the next sample (the error the action helped to make); the step that leaves the
-    safe range gets -1/2 n ``ERR_CLIP``^2.
+Reward: -1/2 sum over axes (e_i / s_i)^2, s_i = ``REWARD_SCALE`` (0.1 deg or 0.1 mm), e the tracking
+    error measured at the next sample (the error the action helped to make); the step that leaves
+    the safe range gets -1/2 n ``ERR_CLIP``^2. ``axis_errors`` [rad or m, one per axis] (a learner's
+    base's tracking errors, ``methods.rl``) balances the axes: s_i = b_i / geomean_j(b_j /
+    REWARD_SCALE_j), so that each axis's error counts alike against those, at the same overall scale
+    (one axis: s = REWARD_SCALE).
 
 Episode end: ``truncated`` after ``episode_steps`` samples (default ``EPISODE_STEPS`` = 1000;
     the next reset goes on with the same run: ``envs.episodes``) or after the last sample of the
@@ -60,7 +65,8 @@ Arguments: ``machine`` (a machine file, a URDF, ``module:attr`` or a ``System``:
     ``systems.resolve`` takes; or give ``plant``), ``references`` ("train", "validation", "test",
     or a list of ``Reference`` / (T, n) position arrays), ``reference_seed``, ``n_references`` (8)
     and ``duration`` (20 s) of a generated set, ``base_feedforward``, ``plant`` (a ``URDFPlant``),
-    ``version`` ("v0", the only one), ``render_mode``, ``normalize_actions``, ``episode_steps``.
+    ``version`` ("v0", the only one), ``render_mode``, ``normalize_actions``, ``episode_steps``,
+    ``residual_bound``, ``axis_errors``.
 
 Version History:
     - v0: the first release.
@@ -102,7 +108,8 @@ class MachineTask:
     features and base feedforward, each reference's settled start, and the scales."""
 
     def __init__(self, machine, references, base_feedforward, plant: URDFPlant | None, reference_seed: int,
-                 n_references: int | None, duration: float, version: str = "v0", normalize_actions: bool = True):
+                 n_references: int | None, duration: float, version: str = "v0", normalize_actions: bool = True,
+                 residual_bound=None, axis_errors=None):
         from . import resolve
 
         if plant is None and machine is None:
@@ -128,6 +135,10 @@ class MachineTask:
         limits = self.plant.u_max
         self.u_scale = np.where(np.isfinite(limits), limits, 1.0)
         self.bound = RESIDUAL_FRACTION * self.u_scale if model is not None else self.u_scale
+        if residual_bound is not None:
+            if model is None:
+                raise ValueError("residual_bound: a bound of the residual needs a base feedforward (base_feedforward)")
+            self.bound = _per_axis("residual_bound", residual_bound, n)
         self.action_space, self.action_scale = action_space_of(self.bound, n, normalize_actions)
         robot, settings = self.plant.robot, bench.settings.references
         lo = np.where(np.isfinite(robot.lower), robot.lower, -math.pi)
@@ -138,6 +149,9 @@ class MachineTask:
         units = [a.unit for a in self.system.axes]
         self.err_scale = np.array([ERR_SCALE[u] for u in units])
         self.reward_scale = np.array([REWARD_SCALE[u] for u in units])
+        if axis_errors is not None:  # balanced: each axis's error counts alike against the given ones
+            relative = _per_axis("axis_errors", axis_errors, n) / self.reward_scale
+            self.reward_scale = self.reward_scale * relative / np.exp(np.mean(np.log(relative)))
         self.preview = np.array([int(round(t * fs)) for t in PREVIEW_SECONDS])
         # a base's feedforward carries what the loop needs to track exactly (``methods.loop``)
         self.base_ff = [np.zeros_like(x) if model is None else np.asarray(model.predict(x), dtype=float)
@@ -197,6 +211,14 @@ class MachineTask:
 
     def error_columns(self, e: np.ndarray) -> np.ndarray:
         return np.clip(e / self.err_scale, -ERR_CLIP, ERR_CLIP).astype(np.float32)
+
+
+def _per_axis(what: str, value, n: int) -> np.ndarray:
+    """``value`` as n positive finite values (one given for every axis), or a ValueError naming it."""
+    v = np.broadcast_to(np.asarray(value, dtype=float), (n,)) if np.ndim(value) == 0 else np.asarray(value, dtype=float)
+    if v.shape != (n,) or not np.all(np.isfinite(v) & (v > 0)):
+        raise ValueError(f"{what} must be one value or {n} values > 0, got {value!r}")
+    return v.copy()
 
 
 class Episode:
@@ -280,11 +302,11 @@ class MachineEnv(gym.Env):
     def __init__(self, machine=None, references="train", base_feedforward="none", reference_seed: int = 0,
                  n_references: int | None = None, duration: float = DEFAULT_DURATION, plant: URDFPlant | None = None,
                  render_mode: str | None = None, version: str = "v0", normalize_actions: bool = True,
-                 episode_steps: int | None = EPISODE_STEPS):
+                 episode_steps: int | None = EPISODE_STEPS, residual_bound=None, axis_errors=None):
         self.render_mode = checked_render_mode(render_mode)
         self._window = Window(checked_episode_steps(episode_steps))
         self.task = MachineTask(machine, references, base_feedforward, plant, reference_seed, n_references, duration,
-                                version, normalize_actions)
+                                version, normalize_actions, residual_bound, axis_errors)
         self.observation_space, self.action_space = self.task.spaces()
         self.action_scale = self.task.action_scale
         self._human = HumanWindow(self.metadata["render_fps"]) if render_mode == "human" else None
@@ -379,12 +401,13 @@ class MachineVectorEnv(BatchedVectorEnv):
                  reference_seed: int = 0, n_references: int | None = None, duration: float = DEFAULT_DURATION,
                  plant: URDFPlant | None = None, render_mode: str | None = None,
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, version: str = "v0",
-                 normalize_actions: bool = True, episode_steps: int | None = EPISODE_STEPS):
+                 normalize_actions: bool = True, episode_steps: int | None = EPISODE_STEPS, residual_bound=None,
+                 axis_errors=None):
         self._init_batch(num_envs, autoreset_mode, episode_steps)
         if render_mode is not None:
             raise ValueError("the machine's vector env does not render; use the single env")
         self.task = MachineTask(machine, references, base_feedforward, plant, reference_seed, n_references, duration,
-                                version, normalize_actions)
+                                version, normalize_actions, residual_bound, axis_errors)
         self.action_scale = self.task.action_scale
         self.label = f"{self.task.system.name} vector env"
         self.single_observation_space, self.single_action_space = self.task.spaces()
