@@ -172,7 +172,7 @@ def test_a_methods_machine_settings_are_typed_and_checked():
     assert RLConfig(passes=0.5).on(IX) == RLMachineSettings(passes=0.5, num_envs=8, agent_rate=50.0)
     assert RLMachineSettings.of(FLEXARM) == RLMachineSettings(passes=1.0, num_envs=4, agent_rate=0.0)
     assert PGNNProtocol.of(IX) == PGNNProtocol(collect="physical", filter_hz=None)  # u as measured
-    assert PGNNProtocol.of(FLEXARM) == PGNNProtocol(collect="physical", filter_hz=5.0)
+    assert PGNNProtocol.of(FLEXARM) == PGNNProtocol(collect="physical", filter_hz=10.0)
     bare = dataclasses.replace(FLEXARM, hints={})
     assert RLMachineSettings.of(bare) == RLMachineSettings(PASSES, NUM_ENVS, 0.0) and PGNNProtocol.of(bare).collect == COLLECT
     typo = dataclasses.replace(FLEXARM, hints={"benchmark": {"rl": {"pases": 2.0}, "pgnn": {"colect": "physical"}}})

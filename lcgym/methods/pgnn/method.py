@@ -15,8 +15,9 @@ The protocol, and where it departs from the paper's literal settings (the eviden
   dropped on 7 of 8 training references; unfiltered, recorded with the base on, it tracks 12x
   closer than the base. On data recorded with the base on, the feedback's share of u is small and
   zero-mean noise the fit averages out (the IX: the same tracking unfiltered as at 5 Hz). A
-  machine sets its own where its loop's reaction is not noise: the FlexArm 5 Hz (its measured
-  torque carries the loop's answer to its 10-15 Hz modes).
+  machine sets its own where its loop's reaction is not noise: the FlexArm 10 Hz (its measured
+  torque carries the loop's answer to its modes; run as the feedforward of its own reference, it
+  tracks as well low-passed at 10 Hz as unfiltered, and worse at 5 and 2 Hz).
 * **iterations**: ``PGNNConfig.steps_per_iteration`` (80 Adam steps, the paper's epoch at its N),
   so that the patience of five iterations means the same at the leaderboard's N as at the paper's;
   at most ``MAX_ITERATIONS`` on the benchmark's 8 training runs, in proportion to the runs otherwise
