@@ -126,6 +126,10 @@ def deadzone(e: np.ndarray, width) -> np.ndarray:
 
 
 FADE_IN = 0.25  # s: the tracking-error update's fade-in at the start of a trial (``_learn_tracking``)
+MIN_JUDGED = 2
+"""ILC transfer keeps its correction only where it lowers the error of at least this many training
+references it did not learn on: with the quick bench's one other, a correction that lowered it
+there ended 1.10-1.57x worse than the base on the FlexArm's validation references."""
 
 
 class IterativeLearningControl(Controller):
@@ -314,8 +318,8 @@ class ILCTransfer(IterativeLearningControl):
     that reference's length). What ILC learns belongs to one trajectory; this shows how little of it
     carries over (paper 002, section 1). It cannot measure a reference before it is scored on it:
     the training-reference safeguard (``safeguard``) keeps the correction only on the axes where it
-    lowers the error of every other training reference (its plant runs counted); ``note_`` says what
-    it dropped."""
+    lowers the error of every other training reference, and only where there are ``MIN_JUDGED`` of
+    them (its plant runs counted); ``note_`` says what it dropped."""
 
     name = "ilc-transfer"
     relative_cost = 3.0  # seconds of a quick cell (protocol.Controller)
@@ -344,6 +348,11 @@ class ILCTransfer(IterativeLearningControl):
             self.kept_ = guard.choose(plant, others, self._start, self._transferred)
             self.cost_.plant_trials += guard.trials_
             self.note_ = dropped_note(self.name, self.kept_, self.source_.axes, guard.references_worse_, len(others))
+            if len(self.training_) - 1 < MIN_JUDGED and self.kept_.any():
+                # one other reference cannot tell a correction that carries over from a coincidence
+                self.kept_ = np.zeros_like(self.kept_)
+                self.note_ = (f"{self.name}: correction dropped (judged on {len(self.training_) - 1} training reference(s) "
+                              f"it did not learn on; it needs {MIN_JUDGED}); the base acts alone")
         return self
 
     def _transferred(self, reference) -> tuple[np.ndarray, np.ndarray | None]:
