@@ -123,3 +123,31 @@ def test_the_pgnn_on_a_prismatic_machine_stays_near_its_physical_model(tmp_path)
     assert run_benchmark(config, out, progress=False)["cells_failed"] == 0
     rms = _validation(out)
     assert (rms.loc["pgnn"] <= 1.05 * rms.loc["physical"]).all(), rms
+
+
+def test_the_pgnns_network_goes_with_the_physical_part_it_was_learned_beside():
+    """On two short IX runs (``lcgym bench --quick``'s, seed 0) pgnn-ls's physical part does no better
+    than the least-squares model on the training references, and is dropped on both axes; its
+    network, learned beside that part, goes with it (the base acts), where the safeguard as it ran
+    (``paper000-pgnn``'s, ``network_needs_its_part`` off) kept the whole and the propeller ended
+    1.3x or more above the base on new references."""
+    from lcgym import systems
+    from lcgym.methods.pgnn.method import PGNNLSFeedforward
+    from lcgym.methods.protocol import evaluate
+
+    bench = systems.resolve("ix").bench()
+    refs = {s: bench.references(s, 0, 2, 20.0) for s in ("train", "validation")}
+    train = bench.run(refs["train"])
+
+    def validation_rms(method) -> np.ndarray:
+        _, out = evaluate(method, bench, train, {"validation": refs["validation"]})
+        return np.sqrt(np.mean(np.concatenate([t.error for t in out["validation"].trials]) ** 2, axis=0))
+
+    base = validation_rms(build_method("physical", "ix", CONTROLLERS))
+    paired = PGNNLSFeedforward(system="ix", budget=0.5)
+    np.testing.assert_allclose(validation_rms(paired), base)
+    assert not paired.part_kept_.any() and not paired.net_kept_.any()
+    assert "its physical part did no better than the least-squares model on propeller, roll" in paired.note_
+    as_it_ran = PGNNLSFeedforward(system="ix", budget=0.5)
+    as_it_ran.network_needs_its_part = False
+    assert validation_rms(as_it_ran)[0] > 1.3 * base[0] and as_it_ran.net_kept_.all()
