@@ -14,8 +14,9 @@ What it shows, top to bottom:
   log scale, green better, red worse (``ratio_colour``), the lowest RMS per column bold with a
   marker; the last columns are the geometric mean of the row's ratios, the learner's share of the
   learnable (``shares``: 1 all that per-reference ILC learns on its base, 0 its base; the mean over
-  the columns, each column's in the cell's tooltip) and the plant trials the method learned from; a method that learns on each reference it is scored on (ILC,
-  ``report.learned_on_scored``) is marked, and the marker explained under the legend. Clicking a
+  the columns, each column's in the cell's tooltip) and the plant trials the method learned from;
+  a method that learns on each reference it is scored on (ILC, ``report.learned_on_scored``) is
+  marked, and the marker explained under the legend. Clicking a
   column header sorts the rows by it (a few lines of inline JavaScript, no library);
 - the details per machine: a compact table per (signal, period) with MA, RMS +- std and Inf per
   axis (each axis headed with its unit), seeds, plant trials, env steps and fit seconds

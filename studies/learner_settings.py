@@ -1,0 +1,177 @@
+"""What each learner needs of a machine (issue 60): the experiments behind the settings of
+``methods/pgnn``, ``methods/rbf_expert``, ``methods/rl`` and ``methods/ilc`` on the benchmark's data
+(8 training references of 40 s, 4 validation references, one seed; a cell of ``lcgym bench`` but
+for the variant named). Each row prints the validation RMS tracking error per scored axis [deg,
+or mm on a prismatic axis; the FlexArm's TCP in mm last] and what the method's safeguard dropped.
+
+Parts (``--parts``, default all):
+
+* ``ilc``: the EMPS's ILC with Q on the whole feedforward (before issue 60) and on what it learns:
+  the base carries the velocity loop's term, whose steps a 5 Hz Q rounds off;
+* ``pgnn``: the PGNN on EMPS-v0 trained on feedback-only runs or on runs with the base on, u
+  low-passed at 1, 5 or 20 Hz or not at all;
+* ``oracle``: on the FlexArm, the base's measured input run as the feedforward of its own training
+  reference, as measured and low-passed at 10, 5 and 2 Hz (what a network that learned it exactly
+  would give; the load error of the moving joints [urad]);
+* ``flexarm``: pgnn and pgnn-ls on the FlexArm (R1 keeps pgnn's network out of the model's span);
+* ``rbf``: the RBF expert with Table 3's four experts and with the cruise and rest experts, and with
+  Table 1's motion influence as the paper has it (``influence.TOGETHER`` 0) or with independent
+  joints unmixed, on every machine;
+* ``rl``: RL with the env's fixed scales and with the scales from the base (``RLConfig.scaled``),
+  on the two-link arm and the EMPS.
+
+Run:  .venv/bin/python studies/learner_settings.py [--parts ilc,pgnn,oracle,flexarm,rbf,rl] [--seed 0]
+(about 25 minutes for all on a 2-core machine.)
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+from dataclasses import replace
+
+import numpy as np
+import pandas as pd
+
+from lcgym import systems
+from lcgym.methods import IterativeLearningControl, PhysicalFeedforward, RBFExpertFeedforward, RLFeedforward
+from lcgym.methods.bases import closed_loop
+from lcgym.methods.pgnn.method import PGNNFeedforward, PGNNLSFeedforward
+from lcgym.methods.protocol import evaluate
+from lcgym.methods.rbf_expert import influence
+from lcgym.methods.rbf_expert.predictor import RBFExpertConfig
+from lcgym.methods.rl import RLConfig
+from lcgym.physics.kinematics import lowpass_zero_phase
+from lcgym.systems.runs import remembered_runs
+
+PARTS = ("ilc", "pgnn", "oracle", "flexarm", "rbf", "rl")
+
+
+class Cell:
+    """One machine's benchmark data for a seed: its bench, training runs and references."""
+
+    def __init__(self, name: str, seed: int):
+        self.machine = systems.resolve(name)
+        self.bench = self.machine.system.make_bench()
+        self.refs = {s: self.bench.references(s, seed, n, 40.0) for s, n in (("train", 8), ("validation", 4))}
+        self.train = self.bench.run(self.refs["train"])
+
+    def score(self, label: str, method) -> None:
+        """Fit and apply ``method`` as a cell does; print its validation errors and its note."""
+        with remembered_runs():
+            _, out = evaluate(method, self.bench, copy.deepcopy(self.train), {"validation": self.refs["validation"]})
+        tables = pd.concat(out["validation"].tables)
+        rows = tables[tables["signal"].isin(["tracking_error", "tcp_position_error"]) & (tables["period"] == "all")]
+        axes = " ".join(f"{a} {v:.4g} {u}" for a, v, u in zip(rows["axis"], rows["RMS"], rows["unit"], strict=True))
+        note = getattr(method, "note_", "")
+        print(f"  {label:44s} {axes}" + (f"  [{note[:110]}]" if note else ""), flush=True)
+
+
+def part_ilc(seed: int) -> None:
+    """ILC's Q on the whole feedforward (the update before issue 60) against Q on the correction."""
+    print("ilc: EMPS-v0, 10 trials per validation reference, from the base with the velocity loop's term")
+    cell = Cell("emps_sim", seed)
+    cell.score("physical (the base)", PhysicalFeedforward(system=cell.machine.system))
+    cell.score("ilc, Q on what it learns", IterativeLearningControl(system=cell.machine.system))
+    from lcgym.methods.ilc import method as ilc
+
+    learned = ilc.frequency_update  # the update of what is learned, c_j+1 = Q (c_j + L e_j)
+    whole = IterativeLearningControl(system=cell.machine.system)
+    start = whole._learn_tracking
+
+    def on_whole(plant, reference):  # f_j+1 = Q (f_j + L e_j): Q filters the base's feedforward too
+        f0 = whole._start(reference)[0]
+        ilc.frequency_update = lambda c, e, inverse, q, gain, hold_edges=False: learned(c + f0, e, inverse, q, gain) - f0
+        try:
+            return start(plant, reference)
+        finally:
+            ilc.frequency_update = learned
+
+    whole._learn_tracking = on_whole
+    cell.score("ilc, Q on the whole feedforward (before)", whole)
+
+
+def part_pgnn(seed: int) -> None:
+    print("pgnn: EMPS-v0, the data it is trained on and the low-pass of u")
+    cell = Cell("emps_sim", seed)
+    cell.score("physical (the base)", PhysicalFeedforward(system=cell.machine.system))
+    for collect in ("feedback", "physical"):
+        for hz in (1.0, 5.0, 20.0, None):
+            method = PGNNFeedforward(system=cell.machine.system, collect=collect)
+            config = method.training_config
+            method.training_config = lambda n=8, config=config, hz=hz: replace(config(n), filter_hz=hz)
+            cell.score(f"pgnn, {collect} runs, u at {hz or 'full band'} Hz", method)
+
+
+def part_oracle(seed: int) -> None:
+    print("oracle: FlexArm-v1, the base's measured input run as the feedforward of its own training reference "
+          "(load error of j2, j3, j5 [urad])")
+    cell = Cell("flexarm", seed)
+    base = PhysicalFeedforward(system=cell.machine.system).fit(cell.train)
+    moving = list(cell.bench.scored)
+    for r in cell.refs["train"][:3]:
+        f, o = base.feedforward(r), base.reference_offset(r)
+        run = closed_loop(cell.bench.plant, r, f, o)
+
+        def load(trial) -> str:
+            e = cell.bench.tracking_error(trial)[:, moving]
+            return " ".join(f"{x:6.1f}" for x in 1e6 * np.sqrt(np.mean(e**2, axis=0)))
+
+        print(f"  {r.name}: base {load(run)}", flush=True)
+        for hz in (None, 10.0, 5.0, 2.0):
+            u = run.u if hz is None else lowpass_zero_phase(run.u, run.fs, hz)
+            print(f"    measured u as feedforward, {hz or 'full band'} Hz: {load(closed_loop(cell.bench.plant, r, u, o))}",
+                  flush=True)
+
+
+def part_flexarm(seed: int) -> None:
+    print("flexarm: FlexArm-v1, pgnn (J: R1 keeps the network out of the model's span) and pgnn-ls (J_LS)")
+    cell = Cell("flexarm", seed)
+    cell.score("physical (the base)", PhysicalFeedforward(system=cell.machine.system))
+    cell.score("ilc", IterativeLearningControl(system=cell.machine.system))
+    cell.score("pgnn", PGNNFeedforward(system=cell.machine.system))
+    cell.score("pgnn-ls", PGNNLSFeedforward(system=cell.machine.system))
+
+
+def part_rbf(seed: int) -> None:
+    print("rbf: the experts beyond Table 3 and the motion influence of joints that move independently")
+    together = influence.TOGETHER
+    for name in ("two_link", "emps_sim", "ix", "flexarm"):
+        cell = Cell(name, seed)
+        print(f" {cell.machine.name}")
+        cell.score("physical (the base)", PhysicalFeedforward(system=cell.machine.system))
+        for experts in (False, True):
+            for unmixed in (False, True):
+                influence.TOGETHER = together if unmixed else 0.0
+                label = (f"rbf-expert, {'+ cruise, rest' if experts else 'Table 3'}, "
+                         f"{'independent joints unmixed' if unmixed else 'Table 1'}")
+                cell.score(label, RBFExpertFeedforward(RBFExpertConfig(cruise_and_rest=experts), system=cell.machine.system))
+        influence.TOGETHER = together
+
+
+def part_rl(seed: int) -> None:
+    print("rl: the env's fixed scales against scales from the base (RLConfig.scaled)")
+    for name in ("two_link", "emps_sim"):
+        cell = Cell(name, seed)
+        print(f" {cell.machine.name}")
+        cell.score("physical (the base)", PhysicalFeedforward(system=cell.machine.system))
+        for scaled in (False, True):
+            cell.score(f"rl, {'scales from the base' if scaled else 'fixed scales'}",
+                       RLFeedforward(RLConfig(scaled=scaled, cache=False), system=cell.machine.system))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--parts", default=",".join(PARTS))
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args()
+    parts = args.parts.split(",")
+    unknown = [p for p in parts if p not in PARTS]
+    if unknown:
+        parser.error(f"unknown part {unknown[0]!r}; parts: {', '.join(PARTS)}")
+    for p in parts:
+        globals()[f"part_{p}"](args.seed)
+
+
+if __name__ == "__main__":
+    main()
