@@ -223,3 +223,13 @@ def test_ilc_transfer_carries_the_correction_to_other_references(ix_setup):
     assert f.shape == ref.positions.shape and transfer.reference_offset(ref) is None
     T = min(ref.n_samples, source.n_samples)
     np.testing.assert_allclose(f[:T] - transfer.base_.feedforward(ref)[:T], transfer.correction_[:T] * kept, atol=1e-12)
+
+
+def test_ilc_says_where_it_kept_its_base(ix_setup):
+    """Where no learning trial measured better than the base, ILC keeps trial 0 and its row says so
+    (with no learning trial at all, on every reference); where one did, it says nothing."""
+    plant, train, ref = ix_setup
+    none = IterativeLearningControl(ILCConfig(trials=0), system="ix").fit(train).learn(plant, ref)
+    assert none.best_[ref.name] == 0 and none.note_.startswith("ilc: on 1 of 1 references no learning trial")
+    some = IterativeLearningControl(ILCConfig(trials=2), system="ix").fit(train).learn(plant, ref)
+    assert some.best_[ref.name] > 0 and some.note_ == ""

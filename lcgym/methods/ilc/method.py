@@ -187,7 +187,17 @@ class IterativeLearningControl(Controller):
         self.learned_[reference.name] = learned
         self.history_[reference.name], self.true_history_[reference.name] = np.array(history), np.array(true_history)
         self.cost_.plant_trials += used
+        self.note_ = self._base_kept_note()
         return self
+
+    def _base_kept_note(self) -> str:
+        """The row's note where no learning trial beat the base on some references (trial 0 kept:
+        the base acts there, whatever the trials cost), else ""."""
+        kept = [name for name, best in self.best_.items() if best == 0]
+        if not kept:
+            return ""
+        return (f"{self.name}: on {len(kept)} of {len(self.best_)} references no learning trial measured better than its "
+                f"base on every scored axis; the base acts there")
 
     def _scored(self, n_axes: int) -> list[int]:
         return scored_axes(self.system_, n_axes)
