@@ -6,7 +6,9 @@
 
 Applied to the tracking error e = theta_d - theta (reported in deg, mm on a prismatic axis) and to
 the input residual eps = u - f (measured input minus feedforward, in each axis's input unit: V for
-the IX, N m on a revolute joint, N on a prismatic one).
+the IX, N m on a revolute joint, N on a prismatic one). A bench whose loop differentiates the
+measurement passes f + C r as the feedforward (C r: the loop's own output along the reference,
+``plant.reference_feedback``), so that eps is zero when a method tracks exactly (docs/benchmark.md).
 """
 
 from __future__ import annotations
@@ -61,7 +63,8 @@ def tracking_error_table(trials: Sequence, label: str = "") -> pd.DataFrame:
 
 
 def input_residual_table(trials: Sequence, feedforward: Sequence, label: str = "", unit: Units = "V") -> pd.DataFrame:
-    """Norms of eps = u - f of trials taken together, one row per axis. ``unit``: V for the IX, N m for
+    """Norms of eps = u - f of trials taken together, one row per axis (``feedforward``: f, or f + C r
+    where the loop differentiates the measurement). ``unit``: V for the IX, N m for
     the arm, or one per axis (``System.input_units``: N m on a revolute joint, N on a prismatic one)."""
     if not trials or len(trials) != len(feedforward):
         raise ValueError(f"input_residual_table: {len(trials)} trials but {len(feedforward)} feedforward signals")
