@@ -18,7 +18,10 @@ Parts (``--parts``, default all):
   Table 1's motion influence as the paper has it (``influence.TOGETHER`` 0) or with independent
   joints unmixed, on every machine;
 * ``rl``: RL with the env's fixed scales and with the scales from the base (``RLConfig.scaled``),
-  on the two-link arm and the EMPS.
+  on the two-link arm and the EMPS;
+* ``armlimits``: on the FlexArm, where the RBF expert and RL take little of the learnable: eq. (17)'s
+  one step with the validation line's own measured e_pl (a perfect predictor) against the
+  prediction, with how much of e_pl's energy the prediction explains; and RL with 1 and 5 passes.
 
 Run:  .venv/bin/python studies/learner_settings.py [--parts ilc,pgnn,oracle,flexarm,rbf,rl] [--seed 0]
 (about 25 minutes for all on a 2-core machine.)
@@ -44,7 +47,7 @@ from lcgym.methods.rl import RLConfig
 from lcgym.physics.kinematics import lowpass_zero_phase
 from lcgym.systems.runs import remembered_runs
 
-PARTS = ("ilc", "pgnn", "oracle", "flexarm", "rbf", "rl")
+PARTS = ("ilc", "pgnn", "oracle", "flexarm", "rbf", "rl", "armlimits")
 
 
 class Cell:
@@ -177,6 +180,41 @@ def part_rl(seed: int) -> None:
         for scaled in (False, True):
             cell.score(f"rl, {'scales from the base' if scaled else 'fixed scales'}",
                        RLFeedforward(RLConfig(scaled=scaled, cache=False), system=cell.machine.system))
+
+
+def part_armlimits(seed: int) -> None:
+    from lcgym.methods.ilc.flexarm import model_following_error, predicted_update
+
+    print("armlimits: FlexArm-v1, TCP error [mm] of the validation lines; the RBF expert's eq. (17) with e_pl "
+          "measured or predicted; RL's budget")
+    cell = Cell("flexarm", seed)
+    plant, bench = cell.bench.plant, cell.bench
+    cell.score("ilc (the bound)", IterativeLearningControl(system=cell.machine.system))
+    method = RBFExpertFeedforward(system=cell.machine.system).fit(cell.train)
+    method.plant_ = plant
+    method._train(plant)
+    moving = list(bench.scored)
+    tcp = {"base": [], "eq. (17), measured e_pl": [], "eq. (17), predicted e_pl": []}
+    explained = []
+    for r in cell.refs["validation"]:
+        f0, o0 = method._start(r)
+        base = closed_loop(plant, r, f0, o0)
+        e_pl = model_following_error(plant, base, r, method.nominal_, f0, o0)
+        e_hat = method.predict(r)
+        explained.append((np.sum((e_hat - e_pl)[:, moving] ** 2, axis=0), np.sum(e_pl[:, moving] ** 2, axis=0)))
+        for label, run in (("base", base),
+                           ("eq. (17), measured e_pl", closed_loop(plant, r, *predicted_update(
+                               method.nominal_, f0, o0, e_pl, r.fs, plant.gains))),
+                           ("eq. (17), predicted e_pl", closed_loop(plant, r, *predicted_update(
+                               method.nominal_, f0, o0, e_hat, r.fs, plant.gains)))):
+            tcp[label].append(bench.tcp_error(run))
+    for label, errors in tcp.items():
+        print(f"  {label:44s} tcp {np.sqrt(np.mean(np.concatenate(errors) ** 2)):.4g} mm", flush=True)
+    left, energy = (np.sum(x, axis=0) for x in zip(*explained, strict=True))
+    print("  share of e_pl's energy the prediction explains on the validation lines (j2 j3 j5): "
+          + " ".join(f"{1 - a / b:.2f}" for a, b in zip(left, energy, strict=True)), flush=True)
+    for passes in (1.0, 5.0):
+        cell.score(f"rl, {passes:g} passes", RLFeedforward(RLConfig(passes=passes, cache=False), system=cell.machine.system))
 
 
 def main() -> None:

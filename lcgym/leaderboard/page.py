@@ -454,8 +454,8 @@ tbody th{font-weight:500}
 td.top{font-weight:700}
 td.ratio,td.count,td.share{color:var(--muted)}
 td.ratio small{display:block;font-size:11px}
-table.overview{font-size:12px}
-table.overview th,table.overview td{padding:1px 4px}
+table.overview{font-size:11.5px}
+table.overview th,table.overview td{padding:1px 3px}
 table.details{font-size:12.5px;margin:4px 0 10px}
 details{margin:4px 0}
 summary{cursor:pointer;font-weight:600;padding:2px 0}
