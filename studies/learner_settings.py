@@ -4,7 +4,7 @@
 for the variant named). Each row prints the validation RMS tracking error per scored axis [deg,
 or mm on a prismatic axis; the FlexArm's TCP in mm last] and what the method's safeguard dropped.
 
-Parts (``--parts``, default all):
+Parts (``--parts``, default all but ``armseeds``):
 
 * ``ilc``: the EMPS's ILC with Q on the whole feedforward (before issue 60) and on what it learns:
   the base carries the velocity loop's term, whose steps a 5 Hz Q rounds off;
@@ -21,10 +21,13 @@ Parts (``--parts``, default all):
   on the two-link arm and the EMPS;
 * ``armlimits``: on the FlexArm, where the RBF expert and RL take little of the learnable: eq. (17)'s
   one step with the validation line's own measured e_pl (a perfect predictor) against the
-  prediction, with how much of e_pl's energy the prediction explains; and RL with 1 and 5 passes.
+  prediction, with how much of e_pl's energy the prediction explains; and RL with 1 and 5 passes;
+* ``armseeds``: on the FlexArm (run it with ``--seed 1`` and ``--seed 2``), the PGNN and the RBF
+  expert with their safeguards off: what the safeguard's every-training-line rule dropped.
 
-Run:  .venv/bin/python studies/learner_settings.py [--parts ilc,pgnn,oracle,flexarm,rbf,rl] [--seed 0]
-(about 25 minutes for all on a 2-core machine.)
+Run:  .venv/bin/python studies/learner_settings.py [--parts ilc,pgnn,oracle,flexarm,rbf,rl,armlimits] [--seed 0]
+      .venv/bin/python studies/learner_settings.py --parts armseeds --seed 1   (and --seed 2)
+(about 30 minutes for the default parts, 5 for armseeds with one seed, on a 2-core machine with other work beside it, 2026-12-07.)
 """
 
 from __future__ import annotations
@@ -47,7 +50,7 @@ from lcgym.methods.rl import RLConfig
 from lcgym.physics.kinematics import lowpass_zero_phase
 from lcgym.systems.runs import remembered_runs
 
-PARTS = ("ilc", "pgnn", "oracle", "flexarm", "rbf", "rl", "armlimits")
+PARTS = ("ilc", "pgnn", "oracle", "flexarm", "rbf", "rl", "armlimits", "armseeds")
 
 
 class Cell:
@@ -217,9 +220,22 @@ def part_armlimits(seed: int) -> None:
         cell.score(f"rl, {passes:g} passes", RLFeedforward(RLConfig(passes=passes, cache=False), system=cell.machine.system))
 
 
+def part_armseeds(seed: int) -> None:
+    print(f"armseeds: FlexArm-v1, seed {seed}, the PGNN and the RBF expert with and without their safeguards")
+    cell = Cell("flexarm", seed)
+    cell.score("physical (the base)", PhysicalFeedforward(system=cell.machine.system))
+    cell.score("ilc (the bound)", IterativeLearningControl(system=cell.machine.system))
+    for guarded in (True, False):
+        pgnn = PGNNFeedforward(system=cell.machine.system)
+        rbf = RBFExpertFeedforward(system=cell.machine.system)
+        pgnn.gate, rbf.safeguard = guarded, guarded
+        cell.score(f"pgnn, safeguard {'on' if guarded else 'off'}", pgnn)
+        cell.score(f"rbf-expert, safeguard {'on' if guarded else 'off'}", rbf)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--parts", default=",".join(PARTS))
+    parser.add_argument("--parts", default=",".join(p for p in PARTS if p != "armseeds"))
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
     parts = args.parts.split(",")

@@ -15,7 +15,7 @@ It prints the replay's tracking RMS per axis after the effects, the physical mod
 both files, and the ratios the issue asks of them: the physical model with the tables within 2x of
 the replay's figure on every axis, and ILC on it at or below ILC on the bare model.
 
-Run:  .venv/bin/python studies/user_loop.py [--folder DIR] [--seed 0]   (about 2 minutes)
+Run:  .venv/bin/python studies/user_loop.py [--folder DIR] [--seed 0]   (about 4 minutes on a 2-core machine)
 """
 
 from __future__ import annotations

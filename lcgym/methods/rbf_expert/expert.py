@@ -33,7 +33,7 @@ default): two more experts take the samples Table 3 leaves out,
 
 Paper 002 predicts the model-following error, an acceleration, which is about zero there. A
 tracking error is not: a friction at constant speed and a spring or gravity at rest leave one as
-long as they last (on the IX, the EMPS and the two-link arm 31-80 % of the base's tracking-error
+long as they last (on the IX, the EMPS and the two-link arm 50-77 % of the base's tracking-error
 energy lies where Table 3 activates no network; docs/methods/rbf-expert.md). Their inputs are the
 joint's position and velocity (cruise), and its position and the direction of its last motion
 (rest: a friction holds the error the last move left, ``CRUISE_REST_RANGES``).
