@@ -26,11 +26,17 @@ Parts (``--parts``, default all but ``armseeds`` and ``armrule``):
   expert with their safeguards off: what the safeguard's every-training-line rule dropped;
 * ``armrule``: on the FlexArm (any seed), every learner under a looser safeguard rule than the
   benchmark's: an axis is kept where its error over the training lines falls and no line's rises
-  above 1.05x the base's (``LOOSE``).
+  above 1.05x the base's (``LOOSE``);
+* ``armjerk``: on the FlexArm (any seed), the PGNN and the PGNN (J_LS) with the reference's jerk and
+  snap among the network's inputs (``PGNNConfig.derivatives = 4``);
+* ``armtorsion``: on the FlexArm (any seed), where the arm's learnable lies: the base on the
+  validation lines with a perfect torque (the base's own measured input on the line, as ``oracle``)
+  and with the true gear torsion as its reference offset (the true plant's load torque over its
+  true joint stiffness, where the base has its fitted model's over the nominal stiffness).
 
 Run:  .venv/bin/python studies/learner_settings.py [--parts ilc,pgnn,oracle,flexarm,rbf,rl,armlimits] [--seed 0]
       .venv/bin/python studies/learner_settings.py --parts armseeds --seed 1   (and --seed 2)
-      .venv/bin/python studies/learner_settings.py --parts armrule --seed 0   (and 1, 2)
+      .venv/bin/python studies/learner_settings.py --parts armrule --seed 0   (and 1, 2; armjerk, armtorsion too)
 (about 30 minutes for the default parts, 5 for armseeds with one seed, on a 2-core machine with other work beside it, 2026-12-07.)
 """
 
@@ -54,7 +60,8 @@ from lcgym.methods.rl import RLConfig
 from lcgym.physics.kinematics import lowpass_zero_phase
 from lcgym.systems.runs import remembered_runs
 
-PARTS = ("ilc", "pgnn", "oracle", "flexarm", "rbf", "rl", "armlimits", "armseeds", "armrule")
+PARTS = ("ilc", "pgnn", "oracle", "flexarm", "rbf", "rl", "armlimits", "armseeds", "armrule", "armjerk", "armtorsion")
+ARM_ONLY = ("armseeds", "armrule", "armjerk", "armtorsion")  # not run by default
 
 
 class Cell:
@@ -267,9 +274,56 @@ def part_armrule(seed: int) -> None:
         safeguard.keep_axes = rl_module.keep_axes = strict
 
 
+def part_armjerk(seed: int) -> None:
+    print(f"armjerk: FlexArm-v1, seed {seed}, the PGNN with the reference's jerk and snap among its network's inputs")
+    cell = Cell("flexarm", seed)
+    cell.score("physical (the base)", PhysicalFeedforward(system=cell.machine.system))
+    for cls in (PGNNFeedforward, PGNNLSFeedforward):
+        method = cls(system=cell.machine.system)
+        config = method.training_config
+        method.training_config = lambda n=8, config=config: replace(config(n), derivatives=4)
+        cell.score(f"{cls.name}, inputs with jerk and snap", method)
+
+
+def part_armtorsion(seed: int) -> None:
+    from lcgym.physics.kinematics import reference_kinematics
+    from lcgym.systems.flexarm import dynamics as arm
+
+    print(f"armtorsion: FlexArm-v1, seed {seed}, the base on the validation lines with a perfect torque and with the "
+          "true gear torsion (RMS over the lines: load error of j2, j3, j5 [urad], TCP [mm])")
+    cell = Cell("flexarm", seed)
+    plant, bench, moving = cell.bench.plant, cell.bench, list(cell.bench.scored)
+    base = PhysicalFeedforward(system=cell.machine.system).fit(cell.train)
+    jm = np.asarray(base._model().params_.Jm) / np.asarray(arm.DriveParameters().Jm)
+    print("  the base's fitted motor inertia over the nominal, j2 j3 j5: " + " ".join(f"{x:.2f}" for x in jm[moving]))
+
+    def true_torsion(r) -> np.ndarray:
+        q, qd, qdd = reference_kinematics(r.positions, r.fs, cell.machine.system.advance)
+        return arm.load_torque(plant.true_arm, plant.true_drive, q, qd, qdd, plant.friction_eps) / np.asarray(plant.true_drive.KJ)
+
+    rows: dict[str, list] = {}
+    for r in cell.refs["validation"]:
+        f, o = base.feedforward(r), base.reference_offset(r)
+        run = closed_loop(plant, r, f, o)
+        u = lowpass_zero_phase(run.u, run.fs, 10.0)
+        once = closed_loop(plant, r, u, o)
+        for label, trial in (("base", run),
+                             ("perfect torque (its measured u at 10 Hz)", once),
+                             ("the same, twice (the measured u of that run)",
+                              closed_loop(plant, r, lowpass_zero_phase(once.u, run.fs, 10.0), o)),
+                             ("true torsion offset", closed_loop(plant, r, f, true_torsion(r))),
+                             ("both", closed_loop(plant, r, u, true_torsion(r)))):
+            rows.setdefault(label, []).append((bench.tracking_error(trial)[:, moving], bench.tcp_error(trial)))
+    for label, parts in rows.items():
+        joints = np.sqrt(np.mean(np.concatenate([j for j, _ in parts]) ** 2, axis=0))
+        tcp = np.sqrt(np.mean(np.concatenate([t for _, t in parts]) ** 2))
+        print(f"  {label:44s} " + " ".join(f"{x:6.1f}" for x in 1e6 * joints) + f"  tcp {tcp:.4g} mm", flush=True)
+    cell.score("ilc (the bound)", IterativeLearningControl(system=cell.machine.system))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--parts", default=",".join(p for p in PARTS if p not in ("armseeds", "armrule")))
+    parser.add_argument("--parts", default=",".join(p for p in PARTS if p not in ARM_ONLY))
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
     parts = args.parts.split(",")

@@ -165,6 +165,26 @@ def test_network_inputs_and_options():
     np.testing.assert_allclose(y[:, 10:12], np.column_stack([np.sin(4 * np.pi * q[:, 1]), np.cos(4 * np.pi * q[:, 1])]))
 
 
+def test_jerk_and_snap_inputs_are_the_derivatives_of_a_known_motion():
+    """``derivatives = 4`` adds the reference's jerk and snap per axis; on q = t^4 (qdd = 12 t^2) they
+    are 24 t and 24 (checked away from the ends, where one-sided differences take over), and the
+    low-pass they share with u (``filter_hz``) leaves a constant snap as it is."""
+    fs = 100.0
+    t = np.arange(400) / fs
+    q = np.column_stack([t**4, -2 * t**4])
+    qd, qdd = 4 * t[:, None] ** 3 * [1, -2], 12 * t[:, None] ** 2 * [1, -2]
+    x = network_inputs(q, qd, qdd, PGNNConfig(derivatives=4, filter_hz=None), fs)
+    assert x.shape == (400, 12)
+    inner = slice(2, -2)
+    np.testing.assert_allclose(x[inner, 8:10], (24 * t[:, None] * [1, -2])[inner], rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(x[inner, 10:12], np.full((396, 2), [24.0, -48.0]), rtol=1e-9)
+    filtered = network_inputs(q, qd, qdd, PGNNConfig(derivatives=4, filter_hz=5.0), fs)
+    np.testing.assert_allclose(filtered[100:300, 10:12], np.full((200, 2), [24.0, -48.0]), rtol=1e-6)
+    assert network_inputs(q, qd, qdd, PGNNConfig(derivatives=3, filter_hz=None), fs).shape == (400, 10)
+    with pytest.raises(ValueError, match="derivatives must be 2"):
+        network_inputs(q, qd, qdd, PGNNConfig(derivatives=5), fs)
+
+
 class FastPGNN(PGNNFeedforward):
     """The leaderboard's ``pgnn`` with a short training (the cell's plumbing is what is tested)."""
 

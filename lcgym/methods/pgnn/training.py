@@ -76,7 +76,8 @@ class PGNNConfig:
     advance: float = 1.5  # samples; as the physical model (``System.advance``; the IX's 1.5 by default)
     threads: int | None = None  # torch threads while training (None: leave as is)
     max_seconds: float | None = None  # lcgym's wall-time budget of the whole fit (see ``train``)
-    # beyond the paper (both off by default): extra network inputs
+    # beyond the paper (off by default): extra network inputs
+    derivatives: int = 2  # highest time derivative of the reference among the inputs: 3 adds jerk, 4 jerk and snap
     history: tuple[float, ...] = ()  # delays [s]: add the reference velocity d seconds ago, per axis
     periods: tuple[tuple[int, float], ...] = ()  # (axis index, period [rad]): add sin, cos(2 pi q / period)
     constraint_configs: int | None = 16  # at most this many configurations of a batch enter R2's M(theta) term; None: all
@@ -105,10 +106,19 @@ class TrainingData:
 def network_inputs(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, config: PGNNConfig, fs: float) -> np.ndarray:
     """Network input of one run, (T, n_inputs): T(theta_d) of eq. (11) per axis, [theta, thetad,
     thetadd, relay(thetad)] (relay of eq. 12, carried across the run's samples), then the
-    optional inputs of ``config``: reference velocities ``history`` seconds ago (zero before the
-    run starts: the reference rests there) and sin, cos of positions over ``periods``."""
+    optional inputs of ``config``: the reference's jerk and snap per axis (``derivatives`` 3 or 4:
+    a flexible joint's motor torque follows them; differences of qdd, low-passed as u is),
+    reference velocities ``history`` seconds ago (zero before the run starts: the reference rests
+    there) and sin, cos of positions over ``periods``."""
+    if config.derivatives not in (2, 3, 4):
+        raise ValueError(f"PGNNConfig.derivatives must be 2 (the paper's inputs), 3 (+ jerk) or 4 (+ jerk and snap), "
+                         f"got {config.derivatives!r}")
     cols = np.stack([q, qd, qdd, relay(qd)], axis=2).reshape(q.shape[0], -1)
     extra = []
+    derivative = qdd
+    for _ in range(config.derivatives - 2):
+        derivative = np.gradient(derivative, 1.0 / fs, axis=0, edge_order=1)
+        extra.append(lowpass_zero_phase(derivative, fs, config.filter_hz) if config.filter_hz else derivative)
     for delay in config.history:
         d = int(round(delay * fs))
         extra.append(np.concatenate([np.zeros((min(d, len(qd)), qd.shape[1])), qd[: max(len(qd) - d, 0)]]))
