@@ -32,7 +32,11 @@ Parts (``--parts``, default all but ``armseeds`` and ``armrule``):
 * ``armtorsion``: on the FlexArm (any seed), where the arm's learnable lies: the base on the
   validation lines with a perfect torque (the base's own measured input on the line, as ``oracle``)
   and with the true gear torsion as its reference offset (the true plant's load torque over its
-  true joint stiffness, where the base has its fitted model's over the nominal stiffness).
+  true joint stiffness, where the base has its fitted model's over the nominal stiffness);
+* ``armquick``: on the quick bench's FlexArm cell (2 training and 2 validation lines), the RBF
+  expert's safeguard figures per training line (tracking error and input residual, base and
+  correction) against the validation lines': what a safeguard judging the input residual too would
+  have seen.
 
 Run:  .venv/bin/python studies/learner_settings.py [--parts ilc,pgnn,oracle,flexarm,rbf,rl,armlimits] [--seed 0]
       .venv/bin/python studies/learner_settings.py --parts armseeds --seed 1   (and --seed 2)
@@ -60,8 +64,9 @@ from lcgym.methods.rl import RLConfig
 from lcgym.physics.kinematics import lowpass_zero_phase
 from lcgym.systems.runs import remembered_runs
 
-PARTS = ("ilc", "pgnn", "oracle", "flexarm", "rbf", "rl", "armlimits", "armseeds", "armrule", "armjerk", "armtorsion")
-ARM_ONLY = ("armseeds", "armrule", "armjerk", "armtorsion")  # not run by default
+PARTS = ("ilc", "pgnn", "oracle", "flexarm", "rbf", "rl", "armlimits", "armseeds", "armrule", "armjerk", "armtorsion",
+         "armquick")
+ARM_ONLY = ("armseeds", "armrule", "armjerk", "armtorsion", "armquick")  # not run by default
 
 
 class Cell:
@@ -319,6 +324,43 @@ def part_armtorsion(seed: int) -> None:
         tcp = np.sqrt(np.mean(np.concatenate([t for _, t in parts]) ** 2))
         print(f"  {label:44s} " + " ".join(f"{x:6.1f}" for x in 1e6 * joints) + f"  tcp {tcp:.4g} mm", flush=True)
     cell.score("ilc (the bound)", IterativeLearningControl(system=cell.machine.system))
+
+
+def part_armquick(seed: int) -> None:
+    from lcgym.methods import safeguard
+
+    print(f"armquick: FlexArm-v1, the quick bench's cell (seed {seed}, 2 training lines), the RBF expert; RMS per "
+          "line of j2 j3 j5: load error [urad], input residual [N m]")
+    machine = systems.resolve("flexarm")
+    bench = machine.system.make_bench()
+    refs = {s: bench.references(s, seed, 2, 20.0) for s in ("train", "validation")}
+    judged = safeguard.Safeguard._rms
+
+    def rms(guard, plant, references, base, learned, kept, scored):
+        out = judged(guard, plant, references, base, learned, kept, scored)
+        for r, tracking in zip(references, out, strict=True):
+            f, o = safeguard.mixed(base(r), learned(r), kept)
+            residual = np.sqrt(np.mean((closed_loop(plant, r, f, o).u - f)[:, scored] ** 2, axis=0))
+            print(f"  training {r.name}, {'correction' if kept.any() else 'base'}: load error "
+                  + " ".join(f"{x:6.1f}" for x in 1e6 * tracking) + ", input residual "
+                  + " ".join(f"{x:.3f}" for x in residual), flush=True)
+        return out
+
+    safeguard.Safeguard._rms = rms
+    try:
+        results = {}
+        for label, method in (("base", PhysicalFeedforward(system=machine.system)),
+                              ("rbf-expert", RBFExpertFeedforward(system=machine.system))):
+            with remembered_runs():
+                _, out = evaluate(method, bench, bench.run(refs["train"]), {"validation": refs["validation"]})
+            tables = pd.concat(out["validation"].tables)
+            results[label] = tables[(tables["period"] == "all")
+                                    & tables["signal"].isin(["tracking_error", "input_residual"])].set_index(["signal", "axis"])["RMS"]
+    finally:
+        safeguard.Safeguard._rms = judged
+    ratio = results["rbf-expert"] / results["base"]
+    print("  validation, rbf-expert over its base: "
+          + ", ".join(f"{sig} {ax} {v:.2f}x" for (sig, ax), v in ratio.items()), flush=True)
 
 
 def main() -> None:
