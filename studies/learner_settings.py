@@ -32,7 +32,8 @@ Parts (``--parts``, default all but ``armseeds`` and ``armrule``):
 * ``armtorsion``: on the FlexArm (any seed), where the arm's learnable lies: the base on the
   validation lines with a perfect torque (the base's own measured input on the line, as ``oracle``)
   and with the true gear torsion as its reference offset (the true plant's load torque over its
-  true joint stiffness, where the base has its fitted model's over the nominal stiffness);
+  true joint stiffness, where the base has its fitted model's over the nominal stiffness), and the
+  base with its motor inertias held at the nominal (datasheet) values instead of fitted;
 * ``armquick``: on the quick bench's FlexArm cell (2 training and 2 validation lines), the RBF
   expert's safeguard figures per training line (tracking error and input residual, base and
   correction) against the validation lines': what a safeguard judging the input residual too would
@@ -324,6 +325,24 @@ def part_armtorsion(seed: int) -> None:
         tcp = np.sqrt(np.mean(np.concatenate([t for _, t in parts]) ** 2))
         print(f"  {label:44s} " + " ".join(f"{x:6.1f}" for x in 1e6 * joints) + f"  tcp {tcp:.4g} mm", flush=True)
     cell.score("ilc (the bound)", IterativeLearningControl(system=cell.machine.system))
+    cell.score("the base with its motor inertia held nominal", PhysicalFeedforward(model=nominal_jm(cell)))
+
+
+def nominal_jm(cell: Cell):
+    """The FlexArm's physical model with the motor inertias held at their nominal (datasheet) values."""
+    import dataclasses
+
+    from lcgym.systems.flexarm import motor
+    from lcgym.systems.flexarm.model import ArmModel
+
+    class NominalJm(ArmModel):
+        def free_mask(self) -> np.ndarray:
+            free = super().free_mask()
+            free[motor.N_PI : motor.N_PI + motor.N] = False
+            return free
+
+    model = cell.machine.system.physical_model(fs=cell.train[0].fs)
+    return NominalJm(**{f.name: getattr(model, f.name) for f in dataclasses.fields(model) if f.init})
 
 
 def part_armquick(seed: int) -> None:
@@ -354,8 +373,8 @@ def part_armquick(seed: int) -> None:
             with remembered_runs():
                 _, out = evaluate(method, bench, bench.run(refs["train"]), {"validation": refs["validation"]})
             tables = pd.concat(out["validation"].tables)
-            results[label] = tables[(tables["period"] == "all")
-                                    & tables["signal"].isin(["tracking_error", "input_residual"])].set_index(["signal", "axis"])["RMS"]
+            rows = tables[(tables["period"] == "all") & tables["signal"].isin(["tracking_error", "input_residual"])]
+            results[label] = rows.set_index(["signal", "axis"])["RMS"]
     finally:
         safeguard.Safeguard._rms = judged
     ratio = results["rbf-expert"] / results["base"]
