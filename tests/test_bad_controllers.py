@@ -137,7 +137,7 @@ def test_bad_user_controller_fails_its_cell_alone(tmp_path, monkeypatch, tally, 
     ok = df[df.method == "feedback"]
     assert len(ok) == 8 and (ok.status == "ok").all() and np.isfinite(ok[METRICS].to_numpy()).all()
     assert failed[METRICS].isna().all(axis=None)  # no number for the failed cell, not a NaN among numbers
-    assert not any((tmp_path / "r.csv.traces").glob("*my_ctrl*"))
+    assert not any((tmp_path / "r.csv.traces").rglob("*my_ctrl*"))
     tally("bad_input")
     tally("rows_checked", len(df))
 

@@ -52,7 +52,8 @@ def test_tiny_benchmark_rows_and_schema(tmp_path):
     assert (val.loc["physical", "RMS"] < val.loc["feedback", "RMS"]).all()
     assert (df.loc[df.method == "feedback", "fit_seconds"] < 0.1).all()
     assert (df["plant_trials"] == 1).all()
-    trace = pd.read_parquet(out.parent / "r.csv.traces" / "ix-v1_physical_0.parquet")
+    (trace_file,) = (out.parent / "r.csv.traces").glob("*/ix-v1_physical_0.parquet")  # in its configuration's folder
+    trace = pd.read_parquet(trace_file)
     assert list(trace.columns) == ["t", "ref_propeller", "error_propeller", "ref_roll", "error_roll"]
     assert len(trace) > 100 and np.isfinite(trace.to_numpy()).all()
 
@@ -109,7 +110,8 @@ def test_flexarm_cells_score_load_side_and_tcp_errors(tmp_path, capsys):
     assert rms.loc[("tcp_position_error", "tcp"), "physical"] < rms.loc[("tcp_position_error", "tcp"), "basic"]
     with pytest.raises(ValueError, match="runs on flexarm only"):
         BenchConfig(methods=("basic",), **TINY)
-    trace = pd.read_parquet(out.parent / "r.csv.traces" / "flexarm-v1_physical_0.parquet")
+    (trace_file,) = (out.parent / "r.csv.traces").glob("*/flexarm-v1_physical_0.parquet")
+    trace = pd.read_parquet(trace_file)
     assert list(trace.columns) == ["t", "ref_j2", "error_j2", "ref_j3", "error_j3", "ref_j5", "error_j5"]
 
 
@@ -251,7 +253,7 @@ def test_report_pages_escape_strings(tmp_path, monkeypatch):
     md = write_markdown(df, tmp_path / "board.md", source=str(out)).read_text()
     assert "| 1 | physical |" in md and (tmp_path / "board_figures" / "ix-v1_tracking_error.png").exists()
     assert "ix-v1_traces.png" in md and (tmp_path / "board_figures" / "ix-v1_traces.png").exists()
-    assert not (tmp_path / "r.csv.traces" / "ix-v1_evil_Evil_0.parquet").exists()  # failed cells leave no trace
+    assert not list((tmp_path / "r.csv.traces").rglob("ix-v1_evil_Evil_0.parquet"))  # failed cells leave no trace
     table = ranking(df)
     top = table[(table.signal == "tracking_error")].groupby("axis").first()["method"]
     assert (top == "physical").all()
@@ -369,8 +371,8 @@ def test_eight_concurrent_quick_benchmarks_share_one_csv(tmp_path, tally):
         if first is None:
             first = numbers
         pd.testing.assert_frame_equal(numbers, first, check_exact=True)
-    for trace in (tmp_path / "shared.csv.traces").glob("*.parquet"):
-        assert len(pd.read_parquet(trace)) > 0
+    traces = list((tmp_path / "shared.csv.traces").rglob("*.parquet"))
+    assert traces and all(len(pd.read_parquet(trace)) > 0 for trace in traces)
     tally("rows_checked", len(df))
 
 
@@ -419,7 +421,7 @@ def test_bench_from_another_folder_with_a_relative_machine_path(tmp_path):
     assert proc.returncode == 0, err
     df = read_results(work / "r.csv")
     assert set(df["system"]) == {"../mine/arm.toml"} and (df["status"] == "ok").all()
-    traces = list((work / "r.csv.traces").iterdir())
+    traces = list((work / "r.csv.traces").rglob("*.parquet"))
     assert len(traces) == 1 and traces[0].suffix == ".parquet" and traces[0].name.startswith("arm.toml-")
     assert sorted(p.name for p in mine.iterdir()) == ["arm.toml", "two_link.urdf"]  # nothing written beside it
     # the output ends with the summary and where the results and the page went

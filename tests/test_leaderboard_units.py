@@ -10,6 +10,7 @@ machine as well as the joined unit of files written before.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +19,9 @@ import pytest
 
 from lcgym import systems
 from lcgym.leaderboard.report import format_text
-from lcgym.leaderboard.runner import BenchConfig, run_benchmark, trace_path
+from lcgym.leaderboard import plots
+from lcgym.leaderboard.report import select, trace_figures
+from lcgym.leaderboard.runner import BenchConfig, run_benchmark, stored_trace, trace_path
 from lcgym.leaderboard.store import COLUMNS, ResultsFileError, append_rows, read_results
 
 RAIL_ARM = Path(__file__).parent / "data" / "rail_arm" / "rail_arm.toml"
@@ -38,7 +41,7 @@ def test_a_rail_arms_rows_carry_each_axis_unit(tmp_path):
         assert rows.loc[("tracking_error", axis), "unit"] == error_unit
         assert rows.loc[("input_residual", axis), "unit"] == input_unit
     # the trace in SI: its rail error in m is the row's mm figure / 1000 (one reference, decimated)
-    trace = pd.read_parquet(trace_path(out, str(RAIL_ARM), "feedback", 0))
+    trace = pd.read_parquet(trace_path(out, str(RAIL_ARM), "feedback", 0, config.config_hash()))
     for axis, factor in (("rail", 1000.0), ("shoulder", 180 / np.pi)):
         rms = factor * float(np.sqrt(np.mean(trace[f"error_{axis}"].to_numpy(dtype=float) ** 2)))
         assert rms == pytest.approx(rows.loc[("tracking_error", axis), "RMS"], rel=0.2), axis
@@ -46,6 +49,35 @@ def test_a_rail_arms_rows_carry_each_axis_unit(tmp_path):
     rail = text.split(f"{RAIL_ARM} / input_residual / rail\n")[1].splitlines()[1]
     assert rail.split()[1] == "feedback" and " N " in f" {rail} " and "N m" not in rail
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.csv", "r.csv.traces"]  # no lock file left
+
+
+def test_two_configurations_in_one_csv_keep_and_draw_their_own_traces(tmp_path, monkeypatch):
+    """A short and a longer run into one CSV: each configuration's trace is kept (they share system,
+    method and seed), and the figures of each configuration's rows draw its own; a trace written
+    before traces were kept per configuration is still found."""
+    out = tmp_path / "r.csv"
+    short = BenchConfig(systems=(str(RAIL_ARM),), methods=("feedback",), seeds=(0,), n_train=1, n_validation=1,
+                        duration=3.0)
+    longer = replace(short, duration=6.0)
+    for config in (short, longer):
+        assert run_benchmark(config, out, progress=False)["cells_failed"] == 0
+    lengths = {}
+    for config in (short, longer):
+        path = trace_path(out, str(RAIL_ARM), "feedback", 0, config.config_hash())
+        lengths[config.config_hash()] = len(pd.read_parquet(path))
+    assert len(set(lengths.values())) == 2  # two traces, not one overwritten
+    drawn = []
+    monkeypatch.setattr(plots, "trace_grid_figure", lambda traces, *a, **k: drawn.append(len(traces["feedback"])))
+    df = read_results(out)
+    for config_hash, length in lengths.items():
+        drawn.clear()
+        rows, _ = select(df, config_hash)
+        assert [s for s, *_ in trace_figures(rows, out)] == [str(RAIL_ARM)]
+        assert drawn == [length]
+    legacy = trace_path(out, "ix-v1", "feedback", 0)
+    legacy.write_bytes(b"")
+    assert stored_trace(out, "ix-v1", "feedback", 0, "0123abcd") == legacy
+    assert stored_trace(out, "ix-v1", "physical", 0, "0123abcd") is None
 
 
 def test_built_in_machines_keep_their_one_input_unit():

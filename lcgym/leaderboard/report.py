@@ -334,13 +334,13 @@ def bar_figures(df: pd.DataFrame, reference_set: str = "validation", colours: di
 
 def trace_figures(df: pd.DataFrame, csv_path: str | Path, colours: dict | None = None,
                   reference_set: str = "validation"):
-    """(system, file stem, caption, Figure) per system whose traces are beside the CSV
-    (``runner.trace_path``): the tracking error of each method on the first validation reference of
-    the lowest seed, one small panel per method and axis (``plots.trace_grid_figure``), methods
+    """(system, file stem, caption, Figure) per system whose traces are beside the CSV (each row's
+    own configuration's, ``runner.stored_trace``): the tracking error of each method on the first
+    validation reference of the lowest seed, one small panel per method and axis (``plots.trace_grid_figure``), methods
     best first by their tracking-error rank. Each axis is drawn in the unit of its tracking-error
     rows (deg or mm; the traces are stored in rad or m); an axis without such rows is left out."""
     from .plots import method_colours, trace_grid_figure
-    from .runner import trace_path
+    from .runner import stored_trace
 
     ok = df[df["status"] == "ok"]
     table = ranking(df, reference_set)
@@ -350,11 +350,12 @@ def trace_figures(df: pd.DataFrame, csv_path: str | Path, colours: dict | None =
         ranked = method_order(table[(table["system"] == system) & (table["signal"] == "tracking_error")
                                     & (table["period"] == "all")])
         methods = ranked + [m for m in dict.fromkeys(part["method"]) if m not in ranked]
-        traces = {m: trace_path(csv_path, system, m, seed) for m in methods}
+        configs = part[part["seed"] == seed].groupby("method")["config_hash"].last() if "config_hash" in part else {}
+        traces = {m: stored_trace(csv_path, system, m, seed, configs.get(m)) for m in methods}
         rows = part[part["signal"] == "tracking_error"]
         units = rows.groupby("axis", sort=False)["unit"].first().to_dict()
         keep = ["t", *(f"{kind}_{a}" for a in units for kind in ("ref", "error"))]
-        traces = {m: pd.read_parquet(p) for m, p in traces.items() if p.exists()}
+        traces = {m: pd.read_parquet(p) for m, p in traces.items() if p is not None}
         traces = {m: frame[[c for c in keep if c in frame.columns]] for m, frame in traces.items()}
         if not traces or not any(c.startswith("ref_") for c in next(iter(traces.values())).columns):
             continue

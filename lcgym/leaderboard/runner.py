@@ -284,7 +284,8 @@ def costliest_first(cells: Sequence[tuple[str, str, int]]) -> list[tuple[str, st
 
 
 def traces_dir(out: str | Path) -> Path:
-    """Folder of the traces of a results CSV: ``<csv>.traces/<system>_<method>_<seed>.parquet``."""
+    """Folder of the traces of a results CSV: ``<csv>.traces/<config_hash>/<system>_<method>_<seed>.parquet``
+    (files written before traces were kept per configuration lie in it without the hash folder)."""
     return Path(f"{out}.traces")
 
 
@@ -299,10 +300,21 @@ def _file_name_part(text: str) -> str:
     return f"{safe}-{hashlib.sha256(text.encode()).hexdigest()[:8]}"
 
 
-def trace_path(out: str | Path, system: str, method: str, seed: int) -> Path:
-    """Where the trace of a cell is stored: in the results CSV's traces folder, whatever the system's
-    or the method's name (a machine file's relative path, ``module:Class``) holds."""
-    return traces_dir(out) / f"{_file_name_part(system)}_{_file_name_part(method)}_{seed}.parquet"
+def trace_path(out: str | Path, system: str, method: str, seed: int, config_hash: str | None = None) -> Path:
+    """Where the trace of a cell is stored: in the results CSV's traces folder, in a folder of its
+    configuration (what makes a row unique: configuration, system, method, seed; two runs of other
+    budgets into one CSV keep their own traces), whatever the system's or the method's name (a
+    machine file's relative path, ``module:Class``) holds. ``config_hash`` None: the path before traces
+    were kept per configuration, where older files lie."""
+    folder = traces_dir(out) if config_hash is None else traces_dir(out) / _file_name_part(str(config_hash))
+    return folder / f"{_file_name_part(system)}_{_file_name_part(method)}_{seed}.parquet"
+
+
+def stored_trace(out: str | Path, system: str, method: str, seed: int, config_hash: str | None) -> Path | None:
+    """The trace file of a stored row: its configuration's, else one written before traces were kept
+    per configuration (None: neither exists)."""
+    paths = [trace_path(out, system, method, seed, config_hash)] if config_hash else []
+    return next((p for p in [*paths, trace_path(out, system, method, seed)] if p.exists()), None)
 
 
 def usable_cores() -> int:
@@ -341,8 +353,8 @@ def run_benchmark(config: BenchConfig, out: str | Path, jobs: int | None = 1, da
         stamp = datetime.now(UTC).isoformat(timespec="seconds")
         failed += any(r["status"] == "failed" for r in rows)
         if trace is not None:  # the trace first: a stored row always has its trace
-            path = trace_path(out, rows[0]["system"], rows[0]["method"], rows[0]["seed"])
-            path.parent.mkdir(exist_ok=True)
+            path = trace_path(out, rows[0]["system"], rows[0]["method"], rows[0]["seed"], rows[0]["config_hash"])
+            path.parent.mkdir(parents=True, exist_ok=True)
             atomic_write(path, lambda tmp: trace.to_parquet(tmp, index=False))
         append_rows(out, [{**r, **provenance, "timestamp": stamp} for r in rows],
                     derive=lambda table: table.assign(share=row_shares(table)))
