@@ -411,17 +411,21 @@ def cmd_simulate(args) -> int:
 def cmd_bench(args) -> int:
     from .leaderboard.page import write_html
     from .leaderboard.report import format_summary, format_text, select
-    from .leaderboard.runner import BenchConfig, run_benchmark
+    from .leaderboard.runner import BenchConfig, BenchStopped, run_benchmark, stop_on_sigterm
     from .leaderboard.store import read_results
 
     start = time.perf_counter()
     chosen = {k: v for k, v in (("systems", args.systems), ("methods", args.methods), ("seeds", args.seeds)) if v}
     config = BenchConfig.quick(**chosen) if args.quick else BenchConfig(**chosen)
     try:
-        summary = run_benchmark(config, args.out, jobs=args.jobs, dask=args.dask, resume=args.resume,
-                                timeout=args.timeout)
+        with stop_on_sigterm():
+            summary = run_benchmark(config, args.out, jobs=args.jobs, dask=args.dask, resume=args.resume,
+                                    timeout=args.timeout)
+    except BenchStopped as stop:
+        print(f"\nlcgym bench: {stop}", file=sys.stderr)
+        return 130
     except KeyboardInterrupt:
-        print(f"\nlcgym bench: interrupted; every finished cell is in {args.out}; add --resume to run the rest",
+        print(f"\nlcgym bench: stopped; every finished cell is in {args.out}; add --resume to run the rest",
               file=sys.stderr)
         return 130
     df, _ = select(read_results(args.out), config.config_hash())

@@ -174,6 +174,54 @@ def _cells_in(path: Path) -> int:
     return df.groupby(["method", "seed"]).ngroups
 
 
+def _session(sid: int) -> list[int]:
+    """The live (not zombie) processes of session ``sid`` (Linux's /proc)."""
+    pids = []
+    for entry in os.listdir("/proc"):
+        try:
+            if entry.isdigit() and os.getsid(int(entry)) == sid:
+                state = Path(f"/proc/{entry}/stat").read_text().rsplit(")", 1)[1].split()[0]
+                pids += [int(entry)] if state != "Z" else []
+        except (OSError, ProcessLookupError):
+            continue
+    return pids
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads the processes of a session from /proc")
+def test_sigterm_stops_the_workers_names_the_cells_in_flight_and_resume_runs_them(tmp_path, tally):
+    """SIGTERM to a parallel bench after its first finished cell: the finished cell is kept, the cells
+    in flight are named, no process of the bench is left 10 s later (its workers are killed, not
+    orphaned), no leaked-semaphore warning, and --resume runs what was in flight and the rest."""
+    out = tmp_path / "r.csv"
+    args = ["bench", "--quick", "--systems", "ix", "--methods", "feedback,physical,ilc,pgnn", "--out", str(out),
+            "--jobs", "2", "--no-html"]
+    proc = cli(*args, start_new_session=True)
+    deadline = time.time() + 120
+    while _cells_in(out) < 1 and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+    workers = [p for p in _session(proc.pid) if p != proc.pid]
+    assert len(workers) >= 2, "the bench should have its workers"
+    proc.send_signal(signal.SIGTERM)
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130, stderr
+    assert "semaphore" not in stderr, stderr
+    in_flight = stderr.split("in flight, not stored: ")[1].split(";")[0].split(", ")
+    done = _cells_in(out)
+    assert done >= 1 and in_flight and all(c.startswith("ix-v1/") for c in in_flight), stderr
+    stored = {f"ix-v1/{m}/0" for m in read_results(out)["method"]}
+    assert not stored & set(in_flight)
+    deadline = time.time() + 10
+    while _session(proc.pid) and time.time() < deadline:
+        time.sleep(0.1)
+    assert not _session(proc.pid), "a process of the stopped bench is left"
+    finish = cli(*args, "--resume")
+    stdout, stderr = finish.communicate(timeout=300)
+    assert finish.returncode == 0, stderr
+    assert f"{4 - done} cells run, {done} skipped" in stdout
+    assert set(read_results(out)["method"]) == {"feedback", "physical", "ilc", "pgnn"}
+    tally("fault")
+
+
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL], ids=["SIGINT", "SIGKILL"])
 def test_killed_bench_leaves_valid_csv_and_resume_completes(tmp_path, tally, sig):
     out = tmp_path / "r.csv"

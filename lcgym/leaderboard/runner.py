@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import copy
 import hashlib
+import itertools
 import json
 import os
 import signal
@@ -132,13 +133,17 @@ def _runs_on(method: str) -> tuple[str, ...] | None:
 
 def _worker_setup() -> None:
     """A parallel cell's worker: one numba and one torch thread (two threads each slow 10-100x when
-    the other worker is busy), and loky's leak guard widened (``_widen_leak_guard``)."""
+    the other worker is busy), loky's leak guard widened (``_widen_leak_guard``), and tqdm's lock a
+    thread lock (its default is a process lock, a named semaphore that a worker killed by a stopped
+    bench leaves registered: Python then warns of a leaked semaphore)."""
     import numba
     import torch
+    from tqdm import std
 
     numba.set_num_threads(1)
     torch.set_num_threads(1)
     _widen_leak_guard()
+    std.tqdm.set_lock(threading.RLock())
 
 
 LOKY_MEMORY_GROWTH = int(2e9)
@@ -360,32 +365,127 @@ def run_benchmark(config: BenchConfig, out: str | Path, jobs: int | None = 1, da
                     derive=lambda table: table.assign(share=row_shares(table)))
 
     bar = tqdm(total=len(todo), desc="lcgym bench", unit="cell", disable=not progress)
-    if dask is None and jobs == 1:
-        for cell in todo:
-            bar.set_postfix_str("/".join(map(str, cell)))
-            store(run_cell(*cell, config, timeout=timeout))
-            bar.update()
-    else:
-        from joblib import Parallel, delayed, parallel_config
+    running: list[tuple] = []  # the cells started and not stored: what a stop names
+    finished = 0
 
-        backend = {}
-        client = None
-        if dask is not None:
-            try:
-                from dask.distributed import Client
-            except ImportError:
-                raise ValueError("--dask needs the 'distributed' package: pip install distributed") from None
-            client = Client(dask)
-            backend = {"backend": "dask"}
-        try:
-            with parallel_config(**backend):
-                tasks = (delayed(run_cell)(*cell, config, True, timeout) for cell in costliest_first(todo))
-                for result in Parallel(n_jobs=jobs if dask is None else -1, batch_size=1,
-                                       return_as="generator_unordered")(tasks):
-                    store(result)
-                    bar.update()
-        finally:
-            if client is not None:
-                client.close()
-    bar.close()
+    def stored(result) -> None:
+        nonlocal finished
+        store(result)
+        finished += 1
+        bar.update()
+
+    try:
+        if dask is None and jobs == 1:
+            for cell in todo:
+                bar.set_postfix_str("/".join(map(str, cell)))
+                running[:] = [cell]
+                stored(run_cell(*cell, config, timeout=timeout))
+                running.clear()
+        elif dask is None:
+            _run_in_workers(todo, config, jobs, timeout, stored, running)
+        else:
+            running[:] = todo  # Dask does not say which have started
+            _run_on_dask(todo, config, dask, timeout, stored)
+    except KeyboardInterrupt as exc:
+        raise BenchStopped(finished, [c for c in todo if c in running], out) from exc
+    finally:
+        bar.close()
     return {"run_id": run_id, "cells_run": len(todo), "cells_skipped": skipped, "cells_failed": failed}
+
+
+class BenchStopped(KeyboardInterrupt):
+    """``lcgym bench`` was stopped (Ctrl-C, or SIGTERM through ``stop_on_sigterm``): ``finished``
+    cells were stored, ``in_flight`` (system, method, seed) were running and are not; their workers
+    are gone. ``--resume`` runs them and the rest."""
+
+    def __init__(self, finished: int, in_flight: list[tuple], out: Path):
+        self.finished, self.in_flight, self.out = finished, in_flight, out
+        names = ", ".join("/".join(map(str, c)) for c in in_flight) or "none"
+        super().__init__(f"stopped: {finished} finished cell{'s' * (finished != 1)} stored in {out}; "
+                         f"in flight, not stored: {names}; add --resume to run them and the rest")
+
+
+def _run_in_workers(todo: list[tuple], config: BenchConfig, jobs: int, timeout: float | None, stored, running: list) -> None:
+    """Run the cells in ``jobs`` worker processes (loky's, as joblib's), the costliest first; as
+    joblib does, twice as many cells as workers are handed out at a time, so that a worker starts its
+    next cell while the main process stores the last one. On a stop ``running`` gets the cells the
+    workers had started. The workers are this run's own: they end with it, and on any other exit (a
+    stop, an error) they are killed, so that none computes on, or holds its memory, after the bench
+    has ended."""
+    from concurrent.futures import FIRST_COMPLETED, wait
+
+    from joblib.externals.loky import ProcessPoolExecutor
+
+    executor = ProcessPoolExecutor(max_workers=jobs, env=_worker_env(jobs))
+    waiting = iter(costliest_first(todo))
+    futures = {}
+
+    def start(cell) -> None:
+        futures[executor.submit(run_cell, *cell, config, True, timeout)] = cell
+
+    try:
+        for cell in itertools.islice(waiting, 2 * jobs):
+            start(cell)
+        while futures:
+            done, _ = wait(futures, return_when=FIRST_COMPLETED)
+            for future in done:
+                futures.pop(future)
+                stored(future.result())
+                if (following := next(waiting, None)) is not None:
+                    start(following)
+    except BaseException:
+        running[:] = [cell for future, cell in futures.items() if future.running()]
+        executor.shutdown(wait=True, kill_workers=True)
+        raise
+    executor.shutdown(wait=True)
+
+
+THREAD_LIMITS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS",
+                 "VECLIB_MAXIMUM_THREADS", "NUMBA_NUM_THREADS", "NUMEXPR_NUM_THREADS")
+
+
+def _worker_env(jobs: int) -> dict[str, str]:
+    """The environment joblib gives its process workers, which the benchmark's rows were made with:
+    each thread pool (BLAS, OpenMP, numba) limited to the cores over the workers, unless the user's
+    environment sets it; TBB told to share its threads between processes. A BLAS of two threads sums
+    in another order than one: the RBF expert's rows moved in their 4th digit."""
+    from joblib import cpu_count
+
+    threads = str(max(cpu_count() // jobs, 1))
+    env = {var: os.environ.get(var, threads) for var in THREAD_LIMITS}
+    return env if "ENABLE_IPC" in os.environ else {**env, "ENABLE_IPC": "1"}
+
+
+def _run_on_dask(todo: list[tuple], config: BenchConfig, address: str, timeout: float | None, stored) -> None:
+    """Run the cells on the Dask cluster at ``address`` (joblib's Dask backend)."""
+    from joblib import Parallel, delayed, parallel_config
+
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        raise ValueError("--dask needs the 'distributed' package: pip install distributed") from None
+    client = Client(address)
+    try:
+        with parallel_config(backend="dask"):
+            tasks = (delayed(run_cell)(*cell, config, True, timeout) for cell in costliest_first(todo))
+            for result in Parallel(n_jobs=-1, batch_size=1, return_as="generator_unordered")(tasks):
+                stored(result)
+    finally:
+        client.close()
+
+
+@contextmanager
+def stop_on_sigterm():
+    """Within: SIGTERM stops as Ctrl-C does (a ``KeyboardInterrupt`` in the main thread), so that a
+    stopped bench stores what finished and kills its workers (``run_benchmark``)."""
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt(f"signal {signal.Signals(signum).name}")
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
