@@ -138,6 +138,17 @@ def test_reference_sets_are_seeded_disjoint_and_within_limits(machine_file):
     ("urdf = 'yaw_pitch.urdf'\n[sensors]\nencoder_resolution = [1e-4, 1e-4, 1e-4]\n", "encoder_resolution"),
     ("urdf = 'missing.urdf'\n", "missing.urdf"),
     ("urdf = 'yaw_pitch.urdf\n", "not a readable TOML file"),
+    # values no machine has: the table, the key and the rule
+    (MACHINE_FILE.replace("Fc = 1.5", "Fc = -20.0"), "hidden[0] (coulomb_friction@yaw): Fc = -20: must be >= 0"),
+    (MACHINE_FILE.replace("eps = 0.02", "eps = 0.0"), "hidden[0] (coulomb_friction@yaw): eps = 0: must be > 0"),
+    (MACHINE_FILE.replace("k = 20.0", "k = -20.0"), "hidden[1] (cable_spring@pitch): k = -20: must be >= 0"),
+    (MACHINE_FILE.replace("width = 0.2", "width = 0.0"), "hidden[1] (cable_spring@pitch): width = 0: must be > 0"),
+    (MACHINE_FILE + "side = 0.5\n", "hidden[1] (cable_spring@pitch): side = 0.5: must be +1 or -1"),
+    (MACHINE_FILE + "[[hidden]]\neffect = 'viscous_friction'\naxis = 'yaw'\nd = -1.0\n", "d = -1: must be >= 0"),
+    (MACHINE_FILE.replace("bandwidth = 8.0", "kp = [-50.0, 20.0]"), "feedback.kp = (-50.0, 20.0): must be > 0"),
+    (MACHINE_FILE.replace("bandwidth = 8.0", "kp = [50.0, 20.0]\nkd = [1.0, -1.0]"), "feedback.kd"),
+    (MACHINE_FILE.replace("bandwidth = 8.0", "bandwidth = 0.0"), "feedback.bandwidth = 0.0: must be > 0"),
+    (MACHINE_FILE + "[references]\nvelocity_fallback = [0.0, 0.1]\n", "references.velocity_fallback"),
 ])
 def test_a_bad_machine_file_says_what_and_where(tmp_path, text, key):
     path = write_machine(tmp_path, text)
@@ -145,6 +156,35 @@ def test_a_bad_machine_file_says_what_and_where(tmp_path, text, key):
         load_machine(path)
     message = str(info.value)
     assert str(path) in message and key in message and "\n" not in message
+
+
+@pytest.mark.parametrize("old, new, key", [
+    ('<mass value="2.0"/>', '<mass value="-2.0"/>', "link boom (moved by joint pitch): mass -2 kg: a mass must be >= 0"),
+    ('iyy="0.045"', 'iyy="-0.045"', "link boom (moved by joint pitch): its <inertia> has a negative principal moment"),
+    ('ixx="0.002"', 'ixx="0.2"', "link boom (moved by joint pitch): its <inertia>'s principal moments"),
+    ('lower="-1.2" upper="1.2"', 'lower="1.2" upper="-1.2"', "joint pitch: <limit lower=1.2 upper=-1.2>"),
+    ('effort="40"', 'effort="-40"', "joint pitch: <limit effort=-40>: a limit [N m or N] must be >= 0"),
+    # a link without <inertial>: the joint that moves it is named
+    ('<inertial><origin xyz="0.25 0 0"/><mass value="2.0"/>\n      <inertia ixx="0.002" ixy="0" ixz="0" iyy="0.045" '
+     'iyz="0" izz="0.045"/></inertial>', "", "joint pitch moves no mass"),
+])
+def test_a_urdf_a_machine_cannot_have_names_the_link_or_joint(tmp_path, old, new, key):
+    path = write_machine(tmp_path)
+    urdf = tmp_path / "yaw_pitch.urdf"
+    assert old in urdf.read_text()
+    urdf.write_text(urdf.read_text().replace(old, new))
+    with pytest.raises(MachineFileError) as info:
+        load_machine(path)
+    assert key in str(info.value) and "\n" not in str(info.value), str(info.value)
+
+
+def test_hidden_effects_of_python_are_checked_as_a_files_are():
+    from lcgym.physics.effects import CoulombFriction
+    from lcgym.systems.machine import MachineSettings
+
+    with pytest.raises(ValueError, match=r"hidden effect coulomb_friction@yaw: Fc = -1: must be >= 0"):
+        MachineSettings(hidden=(CoulombFriction("yaw", Fc=-1.0),))
+    assert CoulombFriction("yaw", Fc=0.0).impossible() == ""  # no friction is a machine too
 
 
 def test_env_episode_is_the_plants_run(machine_file):

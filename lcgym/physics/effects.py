@@ -202,6 +202,7 @@ class Effect:
     name: ClassVar[str] = ""
     linear: ClassVar[tuple[str, ...]] = ()  # coefficient attribute names (linear parameters)
     positive: ClassVar[tuple[str, ...]] = ()  # the coefficients that are positive physically (a level, a stiffness)
+    bounds: ClassVar[dict[str, str]] = {}  # what a machine can have beyond ``positive`` (``impossible``)
     nonlinear: ClassVar[tuple[str, ...]] = ()  # nonlinear parameter attribute names
     plant_only: ClassVar[bool] = False
     reads: ClassVar[tuple[str, ...]] = ()  # the model torques the formula reads (``Loads``): "torque", "gravity"
@@ -222,6 +223,20 @@ class Effect:
     def key(self) -> str:
         """Canonical ``name@axis`` label."""
         return f"{self.name}@{self.axis}"
+
+    def impossible(self) -> str:
+        """The first of its values no machine can have, as "name = value: must be RULE" ("" if none).
+        The rules: each coefficient in ``positive`` (a friction level, a stiffness, an inertia) >= 0
+        (zero: the machine has none), and the class's ``bounds``: ``"> 0"`` (a smoothing speed, a
+        width, a period), ``">= 0"``, ``"+1 or -1"`` (a side). A fit may pass through such values on
+        its way (``physical`` judges what it ends with); a machine's hidden effects may not
+        (``systems.machine``)."""
+        rules = {**{n: ">= 0" for n in self.positive}, **self.bounds}
+        for n, rule in rules.items():
+            v = float(getattr(self, n))
+            if not {">= 0": v >= 0, "> 0": v > 0, "+1 or -1": v in (-1.0, 1.0)}[rule]:
+                return f"{n} = {v:g}: must be {rule}"
+        return ""
 
     def bound(self, axis_names: Sequence[str]) -> Effect:
         """This effect with ``index`` set to its axis's position among ``axis_names``."""
@@ -332,6 +347,7 @@ class CoulombFriction(Effect):
     linear: ClassVar[tuple[str, ...]] = ("Fc",)
     positive: ClassVar[tuple[str, ...]] = ("Fc",)
     nonlinear: ClassVar[tuple[str, ...]] = ("eps",)
+    bounds: ClassVar[dict[str, str]] = {"eps": "> 0"}
 
     def slopes(self, load: float = 0.0) -> tuple[float, float]:
         return (abs(self.Fc) / self.eps if self.Fc else 0.0), 0.0
@@ -360,6 +376,7 @@ class StribeckFriction(Effect):
     linear: ClassVar[tuple[str, ...]] = ("dF",)
     positive: ClassVar[tuple[str, ...]] = ("dF",)
     nonlinear: ClassVar[tuple[str, ...]] = ("vs", "eps")
+    bounds: ClassVar[dict[str, str]] = {"vs": "> 0", "eps": "> 0"}
 
     def slopes(self, load: float = 0.0) -> tuple[float, float]:
         """dF / eps from the sign, at most 0.86 dF / vs from the bump."""
@@ -394,6 +411,7 @@ class AsymmetricFriction(Effect):
     linear: ClassVar[tuple[str, ...]] = ("Fc_pos", "Fc_neg", "dFv")
     positive: ClassVar[tuple[str, ...]] = ("Fc_pos", "Fc_neg")
     nonlinear: ClassVar[tuple[str, ...]] = ("eps",)
+    bounds: ClassVar[dict[str, str]] = {"eps": "> 0"}
 
     def slopes(self, load: float = 0.0) -> tuple[float, float]:
         """(Fc_pos + Fc_neg) / (2 eps) from the step, |dFv| from the |qd| term."""
@@ -425,6 +443,7 @@ class LoadFriction(Effect):
     linear: ClassVar[tuple[str, ...]] = ("Fc", "mu")
     positive: ClassVar[tuple[str, ...]] = ("mu",)
     nonlinear: ClassVar[tuple[str, ...]] = ("eps",)
+    bounds: ClassVar[dict[str, str]] = {"Fc": ">= 0", "eps": "> 0"}
     reads: ClassVar[tuple[str, ...]] = ("gravity",)
 
     def slopes(self, load: float = 0.0) -> tuple[float, float]:
@@ -499,6 +518,7 @@ class FrictionCurve(Effect):
     linear: ClassVar[tuple[str, ...]] = ("p0", "p1", "p2", "p3", "p4", "p5", "n0", "n1", "n2", "n3", "n4", "n5")
     positive: ClassVar[tuple[str, ...]] = ("p0", "n0")
     nonlinear: ClassVar[tuple[str, ...]] = ("eps", "v_top")
+    bounds: ClassVar[dict[str, str]] = {"eps": "> 0", "v_top": "> 0"}
 
     @classmethod
     def roughness(cls) -> np.ndarray:
@@ -603,6 +623,7 @@ class Stiction(Effect):
     name: ClassVar[str] = "stiction"
     no_plant_kind: ClassVar[str] = "has internal state (LuGre bristles)"
     nonlinear: ClassVar[tuple[str, ...]] = ("sigma0", "sigma1")
+    bounds: ClassVar[dict[str, str]] = {"sigma0": "> 0", "sigma1": ">= 0"}
     plant_only: ClassVar[bool] = True
 
 
@@ -625,6 +646,7 @@ class CableSpring(Effect):
     linear: ClassVar[tuple[str, ...]] = ("k",)
     positive: ClassVar[tuple[str, ...]] = ("k",)
     nonlinear: ClassVar[tuple[str, ...]] = ("q0", "width", "side")
+    bounds: ClassVar[dict[str, str]] = {"width": "> 0", "side": "+1 or -1"}
 
     def slopes(self, load: float = 0.0) -> tuple[float, float]:
         return 0.0, abs(self.k)
@@ -651,6 +673,7 @@ class CableInertia(Effect):
     linear: ClassVar[tuple[str, ...]] = ("dJ",)
     positive: ClassVar[tuple[str, ...]] = ("dJ",)
     nonlinear: ClassVar[tuple[str, ...]] = ("q0", "width")
+    bounds: ClassVar[dict[str, str]] = {"width": "> 0"}
 
     def _columns(self, q, qd, qdd, loads):
         i = self._i()
@@ -694,6 +717,7 @@ class TorqueRipple(Effect):
     no_plant_kind: ClassVar[str] = "scales the input (it needs the drive torque)"
     linear: ClassVar[tuple[str, ...]] = ("a_sin", "a_cos")
     nonlinear: ClassVar[tuple[str, ...]] = ("period",)
+    bounds: ClassVar[dict[str, str]] = {"period": "> 0"}
     reads: ClassVar[tuple[str, ...]] = ("torque",)
 
     @classmethod
@@ -729,6 +753,7 @@ class GearHarmonic(Effect):
     plant_kind: ClassVar[int] = 3
     linear: ClassVar[tuple[str, ...]] = ("s1", "c1", "s1v", "c1v", "s2", "c2")
     nonlinear: ClassVar[tuple[str, ...]] = ("period", "v_ref")
+    bounds: ClassVar[dict[str, str]] = {"period": "> 0", "v_ref": "> 0"}
 
     @classmethod
     def from_amplitudes(
@@ -793,6 +818,7 @@ class DrivetrainFlexibility(Effect):
     name: ClassVar[str] = "drivetrain_flexibility"
     no_plant_kind: ClassVar[str] = "adds states (a motor inertia behind a spring)"
     nonlinear: ClassVar[tuple[str, ...]] = ("k", "c", "Jm")
+    bounds: ClassVar[dict[str, str]] = {"k": "> 0", "c": ">= 0", "Jm": "> 0"}
     plant_only: ClassVar[bool] = True
 
     def __post_init__(self):

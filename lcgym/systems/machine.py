@@ -52,6 +52,10 @@ class ReferenceSettings:
     def __post_init__(self):
         if not (self.speed > 0 and self.accel_time > 0 and self.jerk_time > 0 and 0 <= self.margin < 0.5):
             raise ValueError(f"references: need speed, accel_time, jerk_time > 0 and 0 <= margin < 0.5, got {self}")
+        fallback = np.asarray(self.velocity_fallback, dtype=float)
+        if fallback.shape != (2,) or not np.all(fallback > 0):
+            raise ValueError(f"references.velocity_fallback = {self.velocity_fallback}: must be two speeds > 0 "
+                             "(revolute [rad/s], prismatic [m/s])")
 
 
 @dataclass(frozen=True)
@@ -69,6 +73,17 @@ class FeedbackSettings:
     ki: tuple[float, ...] | None = None
     f_lp: float | None = None
     derivative: str = "error"
+
+    def __post_init__(self):
+        """Values no loop has are refused, naming the key: a gain of the wrong sign makes an unstable
+        loop or one that pushes the error on, a zero corner frequency no filter."""
+        rules = {"bandwidth": (self.bandwidth, "> 0"), "damping": (self.damping, "> 0"),
+                 "integral_time": (self.integral_time, "> 0"), "kp": (self.kp, "> 0"), "kd": (self.kd, ">= 0"),
+                 "ki": (self.ki, ">= 0"), "f_lp": (self.f_lp, "> 0")}
+        for key, (value, rule) in rules.items():
+            values = np.atleast_1d(np.asarray(value if value is not None else 1.0, dtype=float))
+            if not (np.all(np.isfinite(values)) and np.all(values > 0 if rule == "> 0" else values >= 0)):
+                raise ValueError(f"feedback.{key} = {value}: must be {rule}{' on every axis' if values.size > 1 else ''}")
 
     def gains(self, system: System, fs: float) -> FeedbackGains:
         if self.kp is None:
@@ -104,6 +119,9 @@ class MachineSettings:
     def __post_init__(self):
         if not (np.isfinite(self.fs) and self.fs > 0):
             raise ValueError(f"fs must be > 0 Hz, got {self.fs}")
+        for effect in self.hidden:
+            if why := effect.impossible():
+                raise ValueError(f"hidden effect {effect.key}: {why}: no machine has that")
 
     def plant(self, system: System, seed: int = 0):
         """The simulated plant of ``system`` with these settings (``URDFPlant``)."""
@@ -293,7 +311,10 @@ def _hidden_effect(system: System, i: int, entry: Mapping):
     if bad:
         raise ValueError(f"hidden[{i}] ({name}): unknown parameter {bad[0]!r}; it has {', '.join(sorted(fields))}")
     params = {k: tuple(v) if isinstance(v, list) else v for k, v in entry.items()}
-    return system.effect(f"{name}@{axis}", **params)
+    effect = system.effect(f"{name}@{axis}", **params)
+    if why := effect.impossible():
+        raise ValueError(f"hidden[{i}] ({effect.key}): {why}: no machine has that")
+    return effect
 
 
 def model_effects(system: System, tables: Sequence[Mapping]) -> tuple[str, ...]:

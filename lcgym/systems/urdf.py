@@ -296,13 +296,69 @@ def _read_joint_table(path: Path) -> tuple[str, dict[str, tuple[str, str | None]
     if root.tag != "robot":
         raise ValueError(f"URDF {path} does not parse: its root element is <{root.tag}>, not <robot>")
     table = {}
+    moved_by = {}  # link -> the joint whose child it is
     for joint in root.iter("joint"):
         name = joint.get("name")
         if name is None or joint.get("type") is None:
             continue  # <joint> elements inside <transmission> carry no type; urdfdom rejects broken ones below
         mimic = joint.find("mimic")
         table[name] = (joint.get("type"), mimic.get("joint") if mimic is not None else None)
+        child = joint.find("child")
+        if child is not None:
+            moved_by[child.get("link")] = name
+        _check_limits(path, name, joint.find("limit"))
+    for link in root.findall("link"):
+        _check_inertial(path, link.get("name", "?"), moved_by.get(link.get("name")), link.find("inertial"))
     return root.get("name", ""), table
+
+
+def _check_limits(path: Path, joint: str, limit) -> None:
+    """A joint's <limit>: lower <= upper, effort and velocity >= 0 (a ValueError naming the joint otherwise)."""
+    if limit is None:
+        return
+    try:
+        lower, upper = float(limit.get("lower", 0.0)), float(limit.get("upper", 0.0))
+    except ValueError:
+        return  # urdfdom names a malformed number
+    if lower > upper:
+        raise ValueError(f"URDF {path}: joint {joint}: <limit lower={lower:g} upper={upper:g}>: lower must not exceed "
+                         "upper")
+    for key, unit in (("effort", "N m or N"), ("velocity", "rad/s or m/s")):
+        try:
+            value = float(limit.get(key, 0.0))
+        except ValueError:
+            continue
+        if value < 0:
+            raise ValueError(f"URDF {path}: joint {joint}: <limit {key}={value:g}>: a limit [{unit}] must be >= 0")
+
+
+def _check_inertial(path: Path, link: str, joint: str | None, inertial) -> None:
+    """A link's <inertial>: a mass >= 0 and an inertia tensor no body has refused, naming the link and
+    the joint that moves it. A rigid body's inertia about its centre of mass is positive semidefinite,
+    and each principal moment is at most the sum of the other two (the triangle inequality)."""
+    if inertial is None:
+        return
+    where = f"URDF {path}: link {link}" + (f" (moved by joint {joint})" if joint else "")
+    mass, tensor = inertial.find("mass"), inertial.find("inertia")
+    try:
+        m = float(mass.get("value")) if mass is not None else 0.0
+        keys = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+        i = {k: float(tensor.get(k, 0.0)) for k in keys} if tensor is not None else dict.fromkeys(keys, 0.0)
+    except (TypeError, ValueError):
+        return  # urdfdom names a malformed number
+    if not (np.isfinite(m) and m >= 0):
+        raise ValueError(f"{where}: mass {m:g} kg: a mass must be >= 0")
+    inertia = np.array([[i["ixx"], i["ixy"], i["ixz"]], [i["ixy"], i["iyy"], i["iyz"]], [i["ixz"], i["iyz"], i["izz"]]])
+    if not np.all(np.isfinite(inertia)):
+        raise ValueError(f"{where}: its <inertia> holds a value that is not finite")
+    moments = np.linalg.eigvalsh(inertia)
+    tolerance = 1e-9 * max(float(np.abs(moments).max()), 1e-12)
+    if moments[0] < -tolerance:
+        raise ValueError(f"{where}: its <inertia> has a negative principal moment ({moments[0]:.3g} kg m^2): "
+                         "no body has one")
+    if moments[2] > moments[0] + moments[1] + tolerance:
+        raise ValueError(f"{where}: its <inertia>'s principal moments {', '.join(f'{x:.3g}' for x in moments)} kg m^2 "
+                         "break the triangle inequality (each at most the sum of the other two): no body has them")
 
 
 def _build_model(path: Path):

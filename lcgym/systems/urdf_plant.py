@@ -288,8 +288,11 @@ def inertia_range(robot: URDFRobot, model=None, seed: int = 0) -> tuple[np.ndarr
         M = pin.crba(model, data, cfg)
         M = np.triu(M) + np.triu(M, 1).T  # crba fills the upper triangle
         if np.linalg.cond(M) > 1e12:
-            raise ValueError(f"{robot.name}: the mass matrix is singular at q = {np.round(cfg, 3).tolist()} (pinocchio's "
-                             "configuration): an axis moves no mass, and the plant cannot integrate it")
+            still = np.abs(np.linalg.eigh(M)[1][:, 0])[robot.v_index]  # the motion that takes no force
+            joint = robot.names[int(np.argmax(still))]
+            raise ValueError(f"{robot.name}: joint {joint} moves no mass (the mass matrix is singular at q = "
+                             f"{np.round(cfg, 3).tolist()}, pinocchio's configuration), and the plant cannot integrate "
+                             f"it: give the links it moves an <inertial> with a mass and an inertia")
         big = np.maximum(big, np.diag(M)[robot.v_index])
         inverse = np.maximum(inverse, np.diag(np.linalg.inv(M))[robot.v_index])
     return 1.0 / inverse, big
