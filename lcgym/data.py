@@ -24,6 +24,7 @@ from __future__ import annotations
 import difflib
 import json
 import os
+import re
 import tempfile
 import warnings
 from collections.abc import Iterator, Sequence
@@ -455,6 +456,31 @@ def another_machine(found: Sequence[str], expected: Sequence[str]) -> bool:
     return not any(difflib.get_close_matches(ax.lower(), lower, n=1, cutoff=0.75) for ax in expected)
 
 
+ROLES = {"t": ("t", "time", "timestamp", "times", "sec", "seconds", "s"),
+         "pos": ("pos", "position", "q", "angle", "theta", "enc", "encoder", "x", "meas", "measured", "actual", "act"),
+         "u": ("u", "input", "tau", "torque", "force", "effort", "cmd", "command", "current", "voltage", "trq")}
+"""The column prefixes that hold each required column's quantity (a log's own names for them):
+a missing column is suggested among the columns of its role, never another role's (``ref_``, ``ff_``)."""
+
+
+def _same_role(col: str, names: list[str]) -> list[str]:
+    """The file's columns that may hold ``col``'s quantity under another name (at most three): those
+    of the same axis whose prefix names the same role (``tau_elbow`` for ``u_elbow``), or that read
+    as a misspelling of ``col`` itself (``pos_elbw``, ``U_elbow``); another axis's column is not one
+    (it says the log is of another machine)."""
+    role, _, axis = col.partition("_")
+    aliases = ROLES[role]
+
+    def prefix(name: str) -> str:
+        return re.split(r"[_\s\[(.]", name.strip().lower(), maxsplit=1)[0]
+
+    same = [n for n in names if prefix(n) in aliases and prefix(n) != role
+            and (not axis or n.lower().endswith(axis.lower()))]
+    misspelled = difflib.get_close_matches(col, [n for n in names if prefix(n) == role or prefix(n) not in
+                                                 ("ref", "ff", *ROLES["pos"], *ROLES["u"])], n=3, cutoff=0.8)
+    return list(dict.fromkeys(same + misspelled))[:3]
+
+
 def _check_header(names: list[str], axes: tuple[str, ...], where: str) -> tuple[str, ...]:
     """The axes of a file with these column names, after checking that every required column is
     there. A missing column is named, with the file's nearest column names when one looks like a
@@ -478,7 +504,7 @@ def _check_header(names: list[str], axes: tuple[str, ...], where: str) -> tuple[
     required = ["t"] + [f"{p}_{ax}" for p in ("pos", "u") for ax in axes]
     for col in required:
         if col not in names:
-            near = difflib.get_close_matches(col, [n for n in names if n not in required], n=3, cutoff=0.6)
+            near = _same_role(col, [n for n in names if n not in required])
             hint = f"; did you mean {' or '.join(map(repr, near))}?" if near else ""
             others = [n[4:] for n in names if n.startswith("pos_") and n[4:] not in axes]
             if others and not near:

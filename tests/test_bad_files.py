@@ -344,8 +344,22 @@ def test_two_trials_error_names_trial_and_file_row(tmp_path):
 def test_renamed_column_is_named_with_the_near_miss(tmp_path, renamed, to):
     path = write_csv(tmp_path, rows_csv(good_rows()).replace(renamed, to, 1))
     message = refused(path, renamed, axes=IX)
-    if renamed != "t":  # "time" is too far from "t" to be suggested
-        assert f"did you mean '{to}'" in message
+    assert f"did you mean '{to}'" in message  # "time": a name of the same role, not a near spelling
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize(("extra", "suggested"), [("ff_roll,ref_roll", None), ("tau_roll,ref_roll", "tau_roll"),
+                                                  ("torque_roll", "torque_roll")])
+def test_a_missing_column_is_suggested_among_the_columns_of_its_role(tmp_path, extra, suggested):
+    """A missing input column is looked for among the file's inputs under other names (tau_, torque_),
+    never among its references or feedforwards, though ff_roll is nearer to u_roll in spelling."""
+    text = rows_csv(good_rows()).replace("u_roll", "dropped", 1)
+    header, *rows = text.splitlines()
+    n = len(extra.split(","))
+    text = "\n".join([f"{header},{extra}"] + [f"{r}{',0.5' * n}" for r in rows]) + "\n"
+    message = refused(write_csv(tmp_path, text), "u_roll", axes=IX)
+    assert "ff_roll" not in message and "ref_roll" not in message
+    assert (f"did you mean '{suggested}'" in message) if suggested else "did you mean" not in message
 
 
 def test_extra_columns_are_kept(tmp_path):
