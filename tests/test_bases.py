@@ -16,7 +16,7 @@ from lcgym.leaderboard.store import read_results
 from lcgym.methods import CONTROLLERS
 from lcgym.methods.ilc.method import best_trial
 from lcgym.methods.protocol import build_method, display_name, load_method, method_base, split_spec
-from lcgym.methods.safeguard import keep_axes, mixed
+from lcgym.methods.safeguard import dropped_note, keep_axes, mixed
 
 RAIL_ARM = Path(__file__).parent / "data" / "rail_arm" / "rail_arm.toml"
 
@@ -80,6 +80,27 @@ def test_the_safeguard_rule_falls_back_per_axis_then_whole():
     assert kept.tolist() == [True, True, True]
     f, o = mixed((np.zeros((2, 2)), None), (np.ones((2, 2)), np.ones((2, 2))), np.array([True, False]))
     assert f.tolist() == [[1, 0], [1, 0]] and o.tolist() == [[1, 0], [1, 0]]
+
+
+def test_a_learned_signal_that_drives_the_plant_out_is_dropped_not_the_cells_failure():
+    """The safeguard's run of a learned feedforward that leaves the plant's safe range is the method's
+    failed trial: counted infinitely worse, dropped, and said; the base's own failing run is raised."""
+    from lcgym import systems
+    from lcgym.methods.safeguard import Safeguard
+    from lcgym.systems import SimulationDiverged
+
+    machine = systems.resolve("flexarm")
+    bench = machine.system.make_bench()
+    refs = bench.references("train", 0, 2, 6.0)
+    quiet = lambda r: (np.zeros_like(r.positions), None)  # noqa: E731
+    wild = lambda r: (np.zeros_like(r.positions), np.full_like(r.positions, 2.0))  # noqa: E731  the motors 2 rad away
+    guard = Safeguard(machine.system)
+    kept = guard.choose(bench.plant, refs, quiet, wild)
+    assert not kept.any() and guard.diverged_ >= len(refs)
+    note = dropped_note("x", kept, refs[0].axes, guard.references_worse_, len(refs), diverged=guard.diverged_)
+    assert "of its runs left the plant's safe range" in note
+    with pytest.raises(SimulationDiverged):
+        Safeguard(machine.system).choose(bench.plant, refs, wild, quiet)
 
 
 def _bare(tmp_path: Path) -> Path:

@@ -201,6 +201,17 @@ def test_counts_read_as_integers_or_their_range_and_provenance_is_the_csvs(tmp_p
     assert "| 4 |" in beta_row
 
 
+def test_a_mean_over_fewer_seeds_says_so_in_the_overview(tmp_path):
+    """A method whose cell failed on one seed: its overview cells say over how many of the machine's
+    seeds their mean is taken; the others' cells say nothing."""
+    csv = _synthetic_csv(tmp_path / "results")
+    df = read_results(csv)
+    df = df[~((df["method"] == "alpha") & (df["seed"] == 1))]
+    page = write_html(df, tmp_path / "page.html", source=str(csv)).read_text()
+    assert page.count(">1 of 2 seeds</small>") == sum(1 for k in SYNTHETIC if "alpha" in SYNTHETIC[k])
+    assert "of 2 seeds</small>" not in page.replace(">1 of 2 seeds</small>", "")
+
+
 def test_a_methods_note_reaches_the_text_the_markdown_and_the_page(tmp_path):
     """A note a method left on its cell (the rl safeguard's) is listed once per cell everywhere."""
     from lcgym.leaderboard.report import format_text, write_markdown

@@ -18,9 +18,8 @@ import pandas as pd
 import pytest
 
 from lcgym import systems
-from lcgym.leaderboard.report import format_text
 from lcgym.leaderboard import plots
-from lcgym.leaderboard.report import select, trace_figures
+from lcgym.leaderboard.report import format_text, select, trace_figures
 from lcgym.leaderboard.runner import BenchConfig, run_benchmark, stored_trace, trace_path
 from lcgym.leaderboard.store import COLUMNS, ResultsFileError, append_rows, read_results
 

@@ -223,6 +223,7 @@ def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str, scored: set
     head.append(f"<th data-col='{n + 3}' scope='col' title='closed-loop plant runs the method learned from, over "
                 f"seeds (their range where seeds differ)'>trials<small>plant</small></th>")
     body = []
+    most = int(part["seeds"].max()) if len(part) else 0  # the seeds the machine ran; a cell's mean may have fewer
     for m, ratios, summary, trials, (gain, base), learnable in rows:
         tds = [_method(str(m), scored)]
         for col, ratio in zip(columns, ratios, strict=True):
@@ -236,8 +237,10 @@ def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str, scored: set
             style = f" style='background:{colour}'" if colour else ""
             tip = f"{ratio:.3g} × {ref_name}; {int(r['seeds'])} seed(s)" if np.isfinite(ratio) else f"{int(r['seeds'])} seed(s)"
             mark = "<span class='best' aria-label='lowest RMS'>★</span>" if best else ""
+            fewer = (f"<small class='fewer' title='a mean over fewer seeds than the machine ran: a cell failed'>"
+                     f"{int(r['seeds'])} of {most} seeds</small>" if int(r["seeds"]) < most else "")
             tds.append(f"<td data-value='{_value(r[RANKED_BY])}'{style} title='{e(tip)}' class='{'top' if best else ''}'>"
-                       f"{mark}{e(_pm(r[RANKED_BY], r[SPREAD], int(r['seeds'])))}</td>")
+                       f"{mark}{e(_pm(r[RANKED_BY], r[SPREAD], int(r['seeds'])))}{fewer}</td>")
         times = "×" if np.isfinite(summary) else ""
         other_base = (f"<small title='geometric mean of RMS / RMS of its base, {e(base)}'>{e(_num(gain))}× {e(base)}"
                       f"</small>" if base and base != REFERENCE_METHOD and np.isfinite(gain) else "")
@@ -454,6 +457,7 @@ tbody th{font-weight:500}
 td.top{font-weight:700}
 td.ratio,td.count,td.share{color:var(--muted)}
 td.ratio small{display:block;font-size:11px}
+td small.fewer{display:block;font-size:10px;color:var(--muted)}
 table.overview{font-size:11.5px}
 table.overview th,table.overview td{padding:1px 3px}
 table.details{font-size:12.5px;margin:4px 0 10px}

@@ -65,6 +65,7 @@ from tqdm.auto import tqdm
 
 from .. import systems
 from ..provenance import source_hash
+from ..systems import SimulationDiverged
 from .bases import base_controller
 from .loop import loop_feedforward, machine_loop
 from .protocol import DEFAULT_BASE, Controller, Cost, given_system, machine_settings
@@ -409,6 +410,7 @@ class RLFeedforward(Controller):
         if not (self._config().safeguard and self._config().residual):
             return
         scored = self._scored()
+        self.diverged_ = 0
         base = self._training_rms(plant, np.zeros(n, dtype=bool))
         full = self._training_rms(plant, self.kept_)
         self.kept_, figures = keep_axes(base, full, lambda kept: self._training_rms(plant, kept), scored, n,
@@ -419,7 +421,7 @@ class RLFeedforward(Controller):
                            for k, v in figures.items()}  # RMS over all training samples [deg or mm]
         self.safeguard_["references_worse"] = int((full > base).any(axis=1).sum())
         self.note_ = dropped_note("rl", self.kept_, list(self.training_[0].axes), self.safeguard_["references_worse"],
-                                  len(self.training_), what="residual")
+                                  len(self.training_), what="residual", diverged=self.diverged_)
 
     def _scored(self) -> list[int]:
         """The axes (indices) the machine's benchmark scores: the safeguard compares those."""
@@ -434,7 +436,15 @@ class RLFeedforward(Controller):
         references with the residual acting on the axes ``kept`` (none: the base alone)."""
         rms = []
         for reference in self.training_:
-            error = self.system_.bench.tracking_error(self._rollout(plant, reference, kept))
+            try:
+                trial = self._rollout(plant, reference, kept)
+            except SimulationDiverged:  # the residual's failed rollout counts as infinitely worse; the base's fails the cell
+                if not np.any(kept):
+                    raise
+                self.diverged_ += 1
+                rms.append(np.full(len(self._scored()), np.inf))
+                continue
+            error = self.system_.bench.tracking_error(trial)
             rms.append(np.sqrt(np.mean(np.square(error[:, self._scored()]), axis=0)))
         return np.array(rms)
 
@@ -464,7 +474,7 @@ class RLFeedforward(Controller):
                 obs[hide] = 0.0
             action = act(obs) * mask
         if terminated:
-            raise RuntimeError(f"rl: the plant left its safe range in the rollout on {reference.name}")
+            raise SimulationDiverged(f"rl: the plant left its safe range in the rollout on {reference.name}")
         if cfg.observe_error:
             self.cost_.plant_trials += 1
             self.cost_.env_steps += reference.n_samples

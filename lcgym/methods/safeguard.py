@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..systems import SimulationDiverged
 from .bases import closed_loop
 
 Signals = Callable[[object], tuple[np.ndarray, np.ndarray | None]]
@@ -62,14 +63,16 @@ def keep_axes(base: np.ndarray, learned: np.ndarray, masked_rms: Callable[[np.nd
 
 
 def dropped_note(method: str, kept: np.ndarray, axes: Sequence[str], references_worse: int, n_references: int,
-                 what: str = "correction") -> str:
-    """The results row's note of a safeguard that dropped ``what`` on some axes ("" if none)."""
+                 what: str = "correction", diverged: int = 0) -> str:
+    """The results row's note of a safeguard that dropped ``what`` on some axes ("" if none);
+    ``diverged``: its runs that left the plant's safe range."""
     dropped = [a for a, k in zip(axes, kept, strict=True) if not k]
     if not dropped:
         return ""
     kept_names = [a for a, k in zip(axes, kept, strict=True) if k]
+    failed = f"; {diverged} of its runs left the plant's safe range" if diverged else ""
     return (f"{method}: {what} dropped on {', '.join(dropped)} (it raised the tracking error on {references_worse} "
-            f"of {n_references} training references); the base acts alone there"
+            f"of {n_references} training references{failed}); the base acts alone there"
             + (f", the {what} on {', '.join(kept_names)}" if kept_names else ""))
 
 
@@ -77,13 +80,15 @@ def dropped_note(method: str, kept: np.ndarray, axes: Sequence[str], references_
 class Safeguard:
     """The rule on feedforward signals: ``choose(plant, references, base, learned)`` runs both on the
     training ``references`` and sets ``kept_`` (per axis), ``figures_`` (RMS [rad or m] per
-    reference and scored axis), ``references_worse_`` and ``trials_`` (plant trials it ran)."""
+    reference and scored axis), ``references_worse_``, ``trials_`` (plant trials it ran) and
+    ``diverged_`` (runs with learned signals that left the plant's safe range)."""
 
     system: object
     kept_: np.ndarray = field(init=False)
     figures_: dict = field(init=False, default_factory=dict)
     references_worse_: int = field(init=False, default=0)
     trials_: int = field(init=False, default=0)
+    diverged_: int = field(init=False, default=0)
 
     def choose(self, plant, references: Sequence, base: Signals, learned: Signals) -> np.ndarray:
         n = references[0].positions.shape[1]
@@ -97,12 +102,23 @@ class Safeguard:
         return self.kept_
 
     def _rms(self, plant, references, base: Signals, learned: Signals, kept: np.ndarray, scored) -> np.ndarray:
+        """RMS tracking error (references, scored axes) with the learned signal on the axes ``kept``. A
+        run with learned signals that leaves the plant's safe range counts as infinitely worse (the
+        method's failed trial: ``diverged_``); the base's own run failing is raised as it is."""
         rms = []
         for r in references:
             f, o = mixed(base(r), learned(r), kept)
-            error = self.system.bench.tracking_error(closed_loop(plant, r, f, o))
-            rms.append(np.sqrt(np.mean(np.square(error[:, scored]), axis=0)))
             self.trials_ += 1
+            try:
+                trial = closed_loop(plant, r, f, o)
+            except SimulationDiverged:
+                if not kept.any():
+                    raise
+                self.diverged_ += 1
+                rms.append(np.full(len(scored), np.inf))
+                continue
+            error = self.system.bench.tracking_error(trial)
+            rms.append(np.sqrt(np.mean(np.square(error[:, scored]), axis=0)))
         return np.array(rms)
 
 

@@ -132,6 +132,16 @@ references it did not learn on: with the quick bench's one other, a correction t
 there ended 1.10-1.57x worse than the base on the FlexArm's validation references."""
 
 
+class _FailedTrial(Exception):
+    """A learning trial left the plant's safe range (``IterativeLearningControl._run_trial``)."""
+
+
+def short(exc: Exception, limit: int = 160) -> str:
+    """An exception's message on one line of at most ``limit`` characters."""
+    text = " ".join(str(exc).split())
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 class IterativeLearningControl(Controller):
     """Method ``ilc``: learns on each evaluation reference itself (``learn``), starting from its base
     (``base``, ``bases``: the machine's physical model fitted on the training trials, the default;
@@ -171,6 +181,7 @@ class IterativeLearningControl(Controller):
         self.memo_ = ReferenceMemo()
         self.nominal_ = self.system_.nominal
         self.learned_, self.history_, self.true_history_, self.best_ = {}, {}, {}, {}
+        self.failed_: dict[str, str] = {}  # reference -> why its learning stopped early (``_run_trial``)
         self.cost_ = Cost()
         return self
 
@@ -192,12 +203,17 @@ class IterativeLearningControl(Controller):
 
     def _base_kept_note(self) -> str:
         """The row's note where no learning trial beat the base on some references (trial 0 kept:
-        the base acts there, whatever the trials cost), else ""."""
+        the base acts there, whatever the trials cost), and where a learning trial failed, else ""."""
         kept = [name for name, best in self.best_.items() if best == 0]
-        if not kept:
-            return ""
-        return (f"{self.name}: on {len(kept)} of {len(self.best_)} references no learning trial measured better than its "
-                f"base on every scored axis; the base acts there")
+        notes = []
+        if kept:
+            notes.append(f"{self.name}: on {len(kept)} of {len(self.best_)} references no learning trial measured better "
+                         f"than its base on every scored axis; the base acts there")
+        if self.failed_:
+            first = next(iter(self.failed_.items()))
+            notes.append(f"{self.name}: on {len(self.failed_)} of {len(self.best_)} references the learning stopped early "
+                         f"and its best safe trial acts ({first[0]}: {first[1]})")
+        return "; ".join(notes)
 
     def _scored(self, n_axes: int) -> list[int]:
         return scored_axes(self.system_, n_axes)
@@ -218,30 +234,51 @@ class IterativeLearningControl(Controller):
         # start then alternates from trial to trial); the update fades in over FADE_IN seconds
         inverse, q, fade = learning_filters(plant, reference, cfg)
         history, true_history, tried = [], [], []
+        used = 0
         for j in range(cfg.trials + 1):  # the last trial measures the last update
+            used += 1
             try:
-                trial = plant.run(reference, f)
-            except SimulationDiverged as exc:
-                raise ILCDiverged(f"ILC on {reference.name}: trial {j}'s feedforward drove the plant out of its safe "
-                                  f"range ({exc})") from None
+                trial = self._run_trial(plant, reference, f, j)
+            except _FailedTrial:
+                break
             tried.append(f)
             history.append(rms(trial.error))
             true_history.append(rms(trial.ref - np.column_stack([trial.extra[f"load_{a}"] for a in trial.axes])))
-            check_divergence(history, reference.name)
+            try:
+                check_divergence(history, reference.name)
+            except ILCDiverged:
+                self.failed_[reference.name] = f"the error grew three trials in a row (to trial {j})"
+                break
             if j < cfg.trials:
                 e = deadzone(trial.error, 0.5 * np.asarray(plant.encoder_resolution))
                 f = f0 + fade * frequency_update(f - f0, e, inverse, q, cfg.gain)
         scored = self._scored(f0.shape[1])
-        used = cfg.trials + 1
         mixed = _per_axis_best(tried, history)
         if mixed is not None:  # each axis's column from the trial it did best in, measured once more
-            trial = plant.run(reference, mixed)
-            tried.append(mixed)
-            history.append(rms(trial.error))
-            true_history.append(rms(trial.ref - np.column_stack([trial.extra[f"load_{a}"] for a in trial.axes])))
             used += 1
+            try:
+                trial = self._run_trial(plant, reference, mixed, "mixing each axis's best")
+            except _FailedTrial:
+                pass
+            else:
+                tried.append(mixed)
+                history.append(rms(trial.error))
+                true_history.append(rms(trial.ref - np.column_stack([trial.extra[f"load_{a}"] for a in trial.axes])))
         best = self.best_[reference.name] = best_trial(history, scored)
         return {"feedforward": tried[best]}, history, true_history, used
+
+    def _run_trial(self, plant, reference, f: np.ndarray, trial) -> object:
+        """A learning trial's run. One that leaves the plant's safe range is the method's failed trial:
+        recorded in ``failed_`` (the row's note says so) and raised as ``_FailedTrial``, so that the
+        learning stops there and keeps its best safe trial. The base's own run (trial 0) failing is
+        the cell's failure: raised as it is."""
+        try:
+            return plant.run(reference, f)
+        except SimulationDiverged as exc:
+            if trial == 0:
+                raise
+            self.failed_[reference.name] = f"trial {trial} left the plant's safe range ({short(exc)})"
+            raise _FailedTrial from None
 
     def _learn_model_following(self, plant, reference):
         """Paper 002's LCS iterated on Basic: its tau_nl updated with the model-following error
@@ -357,7 +394,8 @@ class ILCTransfer(IterativeLearningControl):
             guard = Safeguard(self.system_)
             self.kept_ = guard.choose(plant, others, self._start, self._transferred)
             self.cost_.plant_trials += guard.trials_
-            self.note_ = dropped_note(self.name, self.kept_, self.source_.axes, guard.references_worse_, len(others))
+            self.note_ = dropped_note(self.name, self.kept_, self.source_.axes, guard.references_worse_, len(others),
+                                      diverged=guard.diverged_)
             if len(self.training_) - 1 < MIN_JUDGED and self.kept_.any():
                 # one other reference cannot tell a correction that carries over from a coincidence
                 self.kept_ = np.zeros_like(self.kept_)

@@ -193,8 +193,10 @@ class PGNNFeedforward(Controller):
         if dropped:
             acts = {"its physical part": [axes[i] for i in dropped if self.part_kept_[i]],
                     "the least-squares physical model": [axes[i] for i in dropped if not self.part_kept_[i]]}
+            failed = guard.diverged_ + guard_net.diverged_
             self.note_ = (f"{self.name}: network dropped on {', '.join(axes[i] for i in dropped)} (it raised the tracking "
-                          f"error on {guard_net.references_worse_} of {len(refs)} training references); there acts "
+                          f"error on {guard_net.references_worse_} of {len(refs)} training references"
+                          + (f"; {failed} of its runs left the plant's safe range" if failed else "") + "); there acts "
                           + ", ".join(f"{what} on {', '.join(on)}" for what, on in acts.items() if on))
 
     def _protocol(self) -> PGNNProtocol:

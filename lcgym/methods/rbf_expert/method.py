@@ -92,7 +92,7 @@ class RBFExpertFeedforward(Controller):
                 self.kept_ = guard.choose(plant, self.training_, self._start, self._predicted)
                 self.cost_.plant_trials += guard.trials_
                 self.note_ = dropped_note(self.name, self.kept_, self.training_[0].axes, guard.references_worse_,
-                                          len(self.training_))
+                                          len(self.training_), diverged=guard.diverged_)
         return self
 
     def _start(self, reference) -> tuple[np.ndarray, np.ndarray | None]:
