@@ -201,6 +201,27 @@ def test_counts_read_as_integers_or_their_range_and_provenance_is_the_csvs(tmp_p
     assert "| 4 |" in beta_row
 
 
+def test_the_page_and_the_summary_name_both_winners(tmp_path):
+    """Where the best method learns on the references it is scored on (ILC, marked †), the page's
+    overview and the summary also name the best that predicts for a reference it has not run."""
+    from lcgym.leaderboard.report import format_summary, summary
+
+    csv = _synthetic_csv(tmp_path / "results")
+    df = read_results(csv)
+    df.loc[df["method"] == "beta", "method"] = "ilc"  # beta, the best, becomes ILC
+    table = summary(df).set_index("system")
+    table = table[table["best"] == "ilc"]
+    assert len(table) and not table["predicting"].isin(["ilc", ""]).any()
+    page = write_html(df, tmp_path / "page.html", source=str(csv)).read_text()
+    text = format_summary(df)
+    for system, r in table.iterrows():
+        assert "best <b>ilc†</b>" in page and f"best for an unseen reference <b>{r['predicting']}</b>" in page
+        assert any(line.split()[0] == system and f"best for a reference it has not run: {r['predicting']}," in line
+                   for line in text.splitlines()[1:])
+    df = df[df["method"] != "ilc"]  # the best predicts: one winner, no second line
+    assert "best for" not in format_summary(df) and "best for" not in write_html(df, tmp_path / "p2.html").read_text()
+
+
 def test_a_mean_over_fewer_seeds_says_so_in_the_overview(tmp_path):
     """A method whose cell failed on one seed: its overview cells say over how many of the machine's
     seeds their mean is taken; the others' cells say nothing."""

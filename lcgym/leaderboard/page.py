@@ -6,10 +6,13 @@ What it shows, top to bottom:
 - provenance in one line: the CSV's file name (never a path of the machine that made it), the
   configuration hash(es), lcgym version(s), git commit(s), the number of runs, the reference set and
   how the numbers are aggregated (mean over seeds, +- the sample standard deviation over seeds);
-- the overview, one table per machine (system): a row per method, a column per axis of the
-  tracking error (and of the TCP position error where the CSV has it), period ``all``; each cell
-  "RMS +- std" (the RMS alone for one seed) in the column's own unit (its axis's: deg on a revolute
-  axis, mm on a prismatic one), its background coloured by the ratio RMS / RMS of
+- the overview, one table per machine (system), under a line naming its best method (the
+  geometric mean of its tracking-error ratios, ``report.summary``) and, where that one learns on
+  the references it is scored on, the best that predicts for a reference it has not run: a row
+  per method, a column per axis of the tracking error (and of the TCP position error where the CSV
+  has it), period ``all``; each cell "RMS +- std" (the RMS alone for one seed; "2 of 3 seeds"
+  where a cell failed) in the column's own unit (its axis's: deg on a revolute axis, mm on a
+  prismatic one), its background coloured by the ratio RMS / RMS of
   ``report.REFERENCE_METHOD`` (the physical model; each column's best where the CSV lacks it) on a
   log scale, green better, red worse (``ratio_colour``), the lowest RMS per column bold with a
   marker; the last columns are the geometric mean of the row's ratios, the learner's share of the
@@ -53,11 +56,13 @@ from .report import (
     bar_figures,
     count_text,
     failures,
+    gain_text,
     learned_on_scored,
     method_order,
     notes,
     provenance,
     ranking,
+    summary,
     trace_figures,
 )
 
@@ -171,9 +176,33 @@ def _labels(df: pd.DataFrame) -> dict[str, str]:
     return dict(zip(df["signal"].astype(str), df["signal_label"].astype(str), strict=True))
 
 
-def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str, scored: set, labels: dict[str, str]) -> str:
+def _winners(winners: pd.DataFrame | None, system: str, scored: set) -> str:
+    """The line naming a machine's best method (its tracking error's geometric mean over the axes,
+    ``report.summary``) and, where that one learns on the references it is scored on, the best that
+    predicts for a reference it has not run."""
+    if winners is None or system not in winners.index:
+        return ""
+    r = winners.loc[system]
+    dagger = "†" if r["best"] in scored else ""
+
+    def gain(ratio: float) -> str:
+        return f" {1 / ratio:.1f}× below {e(r['against'])}" if r["against"] and np.isfinite(ratio) and ratio < 1 else ""
+
+    text = f"best <b>{e(r['best'])}{dagger}</b>{gain(r['ratio'])}"
+    tip = f"best: {r['best']}, {gain_text(r['best'], r['ratio'], r['against'])}"
+    if r["predicting"] and r["predicting"] != r["best"]:
+        text += f" · best for an unseen reference <b>{e(r['predicting'])}</b>{gain(r['predicting_ratio'])}"
+        tip += (f"; the best that predicts for a reference it has not run: {r['predicting']}, "
+                f"{gain_text(r['predicting'], r['predicting_ratio'], r['against'])}")
+    return f"<p class='winners' title='{e(tip)}'>{text}</p>"
+
+
+def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str, scored: set, labels: dict[str, str],
+              winners: pd.DataFrame | None = None) -> str:
     """One machine's overview table (or a note where it has no tracking rows); ``scored``: the methods
-    to mark as learned on the references they are scored on; ``labels``: the signals' labels."""
+    to mark as learned on the references they are scored on; ``labels``: the signals' labels;
+    ``winners``: ``report.summary``'s rows, by system (its line names the best method, and the best
+    that predicts for a reference it has not run)."""
     tracked = _tracked(table, system)
     part = table[(table["system"] == system) & (table["period"] == "all") & table["signal"].isin(tracked)]
     if part.empty:
@@ -260,7 +289,7 @@ def _overview(table: pd.DataFrame, fails: pd.DataFrame, system: str, scored: set
         note = f"<p class='failnote'>failed cells, not ranked: {e(listed)} (see <a href='#failed'>below</a>)</p>"
     shown = " and ".join(f"{labels.get(s, s)} [{_joined_units(part[part['signal'] == s])}]" for s in tracked)
     return (f"<section class='machine' id='overview-{_slug(system)}'><h3>{e(str(system))} "
-            f"<span class='muted'>· {e(shown)} per axis, RMS ± std</span></h3>"
+            f"<span class='muted'>· {e(shown)} per axis, RMS ± std</span></h3>{_winners(winners, system, scored)}"
             f"<table class='sortable overview' data-system='{e(system)}'><thead><tr>{''.join(head)}</tr></thead>"
             f"<tbody>{''.join(body)}</tbody></table>{note}</section>")
 
@@ -359,6 +388,7 @@ def render(df: pd.DataFrame, reference_set: str = "validation", source: str = ""
                                                        if s not in set(table["system"])]
     colours = method_colours(sorted({str(m) for m in df["method"]}))
     scored = learned_on_scored(table["method"])
+    winners = summary(df, reference_set).set_index("system")
     labels = _labels(df)
     out = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'>"
            f"<meta name='viewport' content='width=device-width, initial-scale=1'>"
@@ -371,7 +401,8 @@ def render(df: pd.DataFrame, reference_set: str = "validation", source: str = ""
         out.append(f"<p class='muted'>No ranked rows: no cell with status ok on the {e(reference_set)} references.</p>")
     else:
         out.append("<section id='overview'>" + _legend(REFERENCE_METHOD in set(table["method"]), scored)
-                   + "<div class='machines'>" + "".join(_overview(table, fails, s, set(scored), labels) for s in systems)
+                   + "<div class='machines'>" + "".join(_overview(table, fails, s, set(scored), labels, winners)
+                                                        for s in systems)
                    + "</div></section>")
     trace_of = {system: _figure(stem, caption, fig)
                 for system, stem, caption, fig in (trace_figures(df, source, colours, reference_set) if source else ())}
@@ -458,6 +489,7 @@ td.top{font-weight:700}
 td.ratio,td.count,td.share{color:var(--muted)}
 td.ratio small{display:block;font-size:11px}
 td small.fewer{display:block;font-size:10px;color:var(--muted)}
+p.winners{margin:0 0 2px;font-size:11px;white-space:nowrap;overflow:hidden;text-overflow:ellipsis}
 table.overview{font-size:11.5px}
 table.overview th,table.overview td{padding:1px 3px}
 table.details{font-size:12.5px;margin:4px 0 10px}

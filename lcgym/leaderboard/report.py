@@ -244,7 +244,9 @@ def summary(df: pd.DataFrame, reference_set: str = "validation") -> pd.DataFrame
     ``REFERENCE_METHOD`` (per axis, so that deg and mm axes weigh alike). ``best``: the lowest ratio
     (the lowest mean rank where the machine has no physical-model row: ``against`` empty, ratio
     NaN); ``runner_up`` and ``runner_up_ratio``: the next; ``axes``: the best's RMS per axis as
-    "axis RMS unit" text. Machines in the leaderboard's order."""
+    "axis RMS unit" text; ``predicting``, ``predicting_ratio``, ``predicting_axes``: the same of the
+    best method that predicts for a reference it has not run (not ``learned_on_scored``: the best
+    itself where it is one). Machines in the leaderboard's order."""
     table = ranking(df, reference_set)
     table = table[(table["signal"] == "tracking_error") & (table["period"] == "all")]
     rows = []
@@ -257,15 +259,36 @@ def summary(df: pd.DataFrame, reference_set: str = "validation") -> pd.DataFrame
             ratio = pd.Series(np.nan, index=method_order(part))
         units = part.drop_duplicates("axis").set_index("axis")["unit"]
         best = str(ratio.index[0])
+        scored = set(learned_on_scored(ratio.index))
+        predicting = next((str(m) for m in ratio.index if str(m) not in scored), "")
+
         rows.append({"system": system, "best": best, "ratio": float(ratio.iloc[0]), "against": against,
                      "runner_up": str(ratio.index[1]) if len(ratio) > 1 else "",
-                     "runner_up_ratio": float(ratio.iloc[1]) if len(ratio) > 1 else np.nan,
-                     "axes": ", ".join(f"{a} {rms.loc[best, a]:.3g} {units[a]}" for a in rms.columns)})
-    return pd.DataFrame(rows, columns=["system", "best", "ratio", "against", "runner_up", "runner_up_ratio", "axes"])
+                     "runner_up_ratio": float(ratio.iloc[1]) if len(ratio) > 1 else np.nan, "axes": _axes_text(rms, units, best),
+                     "predicting": predicting, "predicting_ratio": float(ratio[predicting]) if predicting else np.nan,
+                     "predicting_axes": _axes_text(rms, units, predicting)})
+    return pd.DataFrame(rows, columns=["system", "best", "ratio", "against", "runner_up", "runner_up_ratio", "axes",
+                                       "predicting", "predicting_ratio", "predicting_axes"])
+
+
+def _axes_text(rms: pd.DataFrame, units: pd.Series, method: str) -> str:
+    """A method's RMS per axis as "axis RMS unit" text ("" for no method)."""
+    return ", ".join(f"{a} {rms.loc[method, a]:.3g} {units[a]}" for a in rms.columns) if method else ""
+
+
+def gain_text(method: str, ratio: float, against: str) -> str:
+    """A method's gain over the physical model as the summary says it."""
+    if not against:
+        return "(no physical-model row to compare with)"
+    if method == against:
+        return "the physical model itself"
+    return f"{1 / ratio:.1f}x lower than the physical model's" if ratio <= 1 else f"{ratio:.2f}x the physical model's RMS"
 
 
 def format_summary(df: pd.DataFrame, reference_set: str = "validation") -> str:
-    """``summary`` as one line per machine: the best method, its gain over the physical model, its RMS."""
+    """``summary`` as one line per machine: the best method, its gain over the physical model, its RMS;
+    where that method learns on the references it is scored on, a second line names the best that
+    predicts for a reference it has not run."""
     table = summary(df, reference_set)
     if table.empty:
         return f"no {reference_set} tracking errors to summarize"
@@ -283,6 +306,9 @@ def format_summary(df: pd.DataFrame, reference_set: str = "validation") -> str:
         if learned_on_scored([r["best"]]):
             gain += " (learned on the references it is scored on)"
         lines.append(f"  {r['system']:<{width}}  {r['best']:<{name}}  {gain}; {r['axes']}")
+        if r["predicting"] and r["predicting"] != r["best"]:
+            lines.append(f"  {r['system']:<{width}}  best for a reference it has not run: {r['predicting']}, "
+                         f"{gain_text(r['predicting'], r['predicting_ratio'], r['against'])}; {r['predicting_axes']}")
     return "\n".join(lines)
 
 
