@@ -8,7 +8,7 @@
     lcgym simulate [--system ix|two_link|ix-v0|my_arm.toml|...] [--controller feedback,physical] [--out run.csv]
                    [--plot run.png]
     lcgym diagnose DATA --system MACHINE [--add EFFECT@AXIS ...] [--kinematics reference|measured]
-                   [--validate OTHER] [--resample HZ] [--json OUT.json] [--plots DIR] [--replay]
+                   [--validate OTHER] [--resample HZ] [--units UNITS] [--system-wins] [--json OUT.json] [--plots DIR] [--replay]
     lcgym effects [--system MACHINE] [--data DATA]
     lcgym import emps FILE.mat --out OUT.csv
 
@@ -251,7 +251,15 @@ def build_parser() -> argparse.ArgumentParser:
                       help="the rate of the uniform grid a log with non-uniform time stamps is put on (linear "
                            "interpolation; default the log's own: its mean step between gaps)")
     diag.add_argument("--validate", type=Path, metavar="OTHER",
-                      help="another measurement file of the machine: residuals there, not fitted, before and after")
+                      help="another measurement file of the machine: residuals there, not fitted, before and after "
+                           "(read as the data are: resampled to their rate where its time stamps are not uniform at it)")
+    diag.add_argument("--units", metavar="UNITS",
+                      help="the unit of the logs' positions (pos_, ref_) where they are not rad and m: deg (revolute "
+                           "axes), mm (prismatic axes of a machine file or URDF), or both as deg,mm; rad or m confirm "
+                           "SI for a log that looks otherwise (default: its JSON sidecar's \"units\", else rad and m)")
+    diag.add_argument("--system-wins", action="store_true",
+                      help="read a log whose sidecar names another machine as a log of --system (its other columns "
+                           "are left out)")
     imp = sub.add_parser("import", help="convert a public benchmark's files into a measurement file")
     imp.add_argument("dataset", choices=DATASETS, help="emps: the EMPS benchmark's DATA_EMPS*.mat files")
     imp.add_argument("file", type=Path, help="the data set's file")
@@ -280,11 +288,14 @@ def cmd_diagnose(args) -> int:
             raise ValueError(f"--plots {args.plots}: cannot make a folder in {existing} ({exc.strerror})") from None
     system = _machine(args.system, args.data)
     for path in (args.data, *([args.validate] if args.validate is not None else [])):
-        check_log_axes(path, system, args.system)  # a log of another machine: say whose axes these are
+        check_log_axes(path, system, args.system, system_wins=args.system_wins)  # a log of another machine
     rate = args.resample or "auto"  # a log with jitter or dropouts is put on uniform grids (its own rate by default)
-    trials = read_trials(args.data, axes=system, min_samples=100, resample=rate, max_gap=bridged_gap())
+    trials = read_trials(args.data, axes=system, min_samples=100, resample=rate, max_gap=bridged_gap(),
+                         units=args.units)
+    # the validation log is read as the data were: on their grid's rate where it is not uniform at it
     other = None if args.validate is None else read_trials(args.validate, axes=system, min_samples=100,
-                                                           resample=rate, max_gap=bridged_gap())
+                                                           resample=args.resample or trials[0].fs,
+                                                           max_gap=bridged_gap(), units=args.units)
     try:
         options = DiagnoseOptions(add=args.add, replay=args.replay, kinematics=args.kinematics,
                                   min_explained=args.min_explained)

@@ -158,12 +158,42 @@ def _jsonable(obj):
     return obj
 
 
+UNITS = {"rad": ("revolute", 1.0), "deg": ("revolute", np.pi / 180.0), "m": ("prismatic", 1.0),
+         "mm": ("prismatic", 1e-3)}
+"""The position units a log may be written in (``read_trials(units=...)``, ``--units``, a sidecar's
+"units"): the axes they apply to and their factor to SI."""
+LOOKS_WRONG = {"revolute": (2 * np.pi, "angles", "degrees", "deg", "rad"),
+               "prismatic": (10.0, "lengths", "millimetres", "mm", "m")}
+"""Per axis kind: the position [rad, m] beyond which a log's positions look like another unit, the
+words for the message, the unit they look like and the SI unit a user can confirm instead."""
+
+
+def parse_units(units: str | None) -> dict[str, float]:
+    """``"deg"``, ``"mm"``, ``"deg,mm"``, ``"rad"``... as {axis kind: factor to SI}; a kind named is a
+    kind settled (its look-alike check is off: a continuous joint's many turns in rad)."""
+    if units is None:
+        return {}
+    out = {}
+    for name in str(units).replace(" ", "").split(","):
+        if name not in UNITS:
+            raise ValueError(f"units: {name!r} is none of {', '.join(UNITS)} (a list like 'deg,mm' for both kinds)")
+        kind, factor = UNITS[name]
+        if kind in out:
+            raise ValueError(f"units: {units!r} names the {kind} axes' unit twice")
+        out[kind] = factor
+    return out
+
+
 def read_trials(path: str | Path, axes=None, min_samples: int = 3, resample: float | str | None = None,
-                max_gap: float = 0.0) -> list[Trial]:
+                max_gap: float = 0.0, units: str | None = None) -> list[Trial]:
     """Read a measurement file (CSV or Parquet) into trials, enforcing the reading rules.
 
     ``axes``: the expected axis names (a sequence, or a machine: anything with ``axis_names``);
-    without them the axes are taken from the ``pos_<axis>`` columns present. ``resample``: [Hz] or
+    without them the axes are taken from the ``pos_<axis>`` columns present. ``units``: the unit of
+    the positions (``pos_``, ``ref_``) in the file, ``parse_units`` (else the sidecar's "units",
+    else rad and m), converted to rad and m on reading. Given a machine (its axes' kinds known), a
+    file whose angles go beyond 2 pi (they look like degrees) or whose lengths go beyond 10 m (mm)
+    in a unit not settled is refused, with the fix; without one, it is warned of. ``resample``: [Hz] or
     "auto" (the log's own rate): put a trial whose time column is not uniform on a uniform grid
     instead of refusing it (``regularize``: gaps up to ``max_gap`` [s] or ``MAX_GAP_STEPS`` steps
     bridged, longer ones split the trial, segments shorter than ``min_samples`` left out; each
@@ -176,6 +206,7 @@ def read_trials(path: str | Path, axes=None, min_samples: int = 3, resample: flo
     where = str(path)
     if not path.exists():
         raise MeasurementFileError(f"{where}: file not found")
+    kinds = {a.name: a.kind for a in getattr(axes, "axes", ()) if hasattr(a, "kind")}  # a machine's axes
     axes = tuple(getattr(axes, "axis_names", axes) or ())
     if resample is not None and resample != "auto" and not (np.isfinite(resample) and resample > 0):
         raise ValueError(f"resample must be a sample rate > 0 Hz or 'auto', got {resample}")
@@ -194,6 +225,11 @@ def read_trials(path: str | Path, axes=None, min_samples: int = 3, resample: flo
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise MeasurementFileError(f"{sidecar}: the JSON sidecar cannot be parsed: {exc}") from None
     trial_meta = meta.pop("trials", []) if isinstance(meta, dict) else []
+    given = units if units is not None else (meta.get("units") if isinstance(meta, dict) else None)
+    try:
+        settled = parse_units(given)
+    except ValueError as exc:
+        raise MeasurementFileError(f"{where if units is not None else sidecar}: {exc}") from None
 
     trials = []
     extras = table.extras()
@@ -212,13 +248,11 @@ def read_trials(path: str | Path, axes=None, min_samples: int = 3, resample: flo
         sig = {p: table.signals[p][rows] if p in table.signals else None for p in ("ref", "pos", "u")}
         for p in ("ref", "pos"):
             for i, ax in enumerate(table.axes if sig[p] is not None else ()):
-                peak = float(np.max(np.abs(sig[p][:, i])))
-                if peak > 2 * np.pi:
-                    warnings.warn(
-                        f"{trial_where}: column '{p}_{ax}' reaches {peak:.3g}, beyond 2 pi: "
-                        "the file's angles look like degrees; lcgym reads them as rad",
-                        stacklevel=2,
-                    )
+                kind = kinds.get(ax)  # None: no machine given (its axes read as angles, as before)
+                if (kind or "revolute") in settled:
+                    sig[p][:, i] *= settled[kind or "revolute"]
+                    continue
+                _check_unit(sig[p][:, i], f"{p}_{ax}", kind, trial_where)
         ff = table.signals["ff"][rows] if "ff" in table.signals else None
         tm = dict(meta) if isinstance(meta, dict) else {}
         if gi < len(trial_meta) and isinstance(trial_meta[gi], dict):
@@ -240,6 +274,23 @@ def read_trials(path: str | Path, axes=None, min_samples: int = 3, resample: flo
                 p.meta["resampled"]["short_segments_left_out"] = len(parts) - len(kept)
         out.extend(kept)
     return out
+
+
+def _check_unit(x: np.ndarray, column: str, kind: str | None, where: str) -> None:
+    """Refuse a position column whose values look like another unit than rad or m (``LOOKS_WRONG``;
+    a known axis kind), with the fix; warn of one whose kind is not known (angles beyond 2 pi)."""
+    peak = float(np.max(np.abs(x))) if len(x) else 0.0
+    limit, words, looks, short, si = LOOKS_WRONG[kind or "revolute"]
+    if peak <= limit:
+        return
+    if kind is None:
+        warnings.warn(f"{where}: column '{column}' reaches {peak:.3g}, beyond 2 pi: the file's angles look like "
+                      "degrees; lcgym reads them as rad (give the machine, and --units deg where they are)", stacklevel=3)
+        return
+    raise MeasurementFileError(
+        f"{where}: column '{column}' reaches {peak:.3g}, beyond {'2 pi rad' if kind == 'revolute' else '10 m'}: the "
+        f"file's {words} look like {looks}; give --units {short} (or \"units\": \"{short}\" in the log's JSON "
+        f"sidecar) to convert them on reading, or --units {si} where they are in {si}")
 
 
 def log_step(dt: np.ndarray) -> float:

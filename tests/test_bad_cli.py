@@ -101,8 +101,10 @@ CASES = [
     (["diagnose", "{bad}", "--system", "ix"], "column 'pos_roll', row 5"),
     (["diagnose", "{data}", "--system", "ix", "--json", "{tmp}/missing/report.json"], "does not exist"),
     (["diagnose", "{data}", "--system", "ix", "--plots", "{tmp}/out.csv"], "exists and is not a folder"),
-    (["diagnose", "{degrees}", "--system", "ix"], "lcgym diagnose: warning: {degrees} (trial 0): column 'ref_roll' "
-                                                   "reaches 57.3, beyond 2 pi"),
+    (["diagnose", "{degrees}", "--system", "ix"], "lcgym diagnose: {degrees} (trial 0): column 'ref_propeller' "
+                                                   "reaches 22.2, beyond 2 pi rad: the file's angles look like degrees; "
+                                                   "give --units deg"),
+    (["diagnose", "{degrees}", "--system", "ix", "--units", "inch"], "units: 'inch' is none of rad, deg, m, mm"),
     (["effects", "--system", "crane"], "unknown machine 'crane'"),
 ]
 if Path("/proc").is_dir():  # a place where no folder can be made, even by root

@@ -173,3 +173,56 @@ def test_write_into_missing_folder(tmp_path):
     with pytest.raises(FileNotFoundError):
         write_trials(path, [make_trial(0)])
     assert not (tmp_path / "missing").exists()
+
+
+RAIL_ARM = Path(__file__).parent / "data" / "rail_arm" / "rail_arm.toml"
+
+
+def _rail_arm_log(path: Path, rail_scale: float = 1.0, angle_scale: float = 1.0, sidecar: dict | None = None) -> Path:
+    t = np.arange(300) / 100.0
+    pos = np.column_stack([0.3 * np.sin(t) * rail_scale, 0.8 * np.sin(t) * angle_scale, 1.2 * np.cos(t) * angle_scale])
+    write_trials(path, [Trial(t=t, ref=pos, pos=pos, u=np.zeros_like(pos), axes=("rail", "shoulder", "elbow"))],
+                 meta=sidecar)
+    return path
+
+
+def test_units_are_settled_before_the_data_are_read(tmp_path):
+    """A log in degrees or mm is refused, naming the column and the fix (a prismatic axis speaks of
+    lengths); --units, or a sidecar's "units", converts on reading to what the SI log reads."""
+    from lcgym import systems
+    from lcgym.data import MeasurementFileError
+
+    machine = systems.get(str(RAIL_ARM))
+    si = read_trials(_rail_arm_log(tmp_path / "si.csv"), axes=machine)[0].pos
+    degrees = _rail_arm_log(tmp_path / "deg.csv", angle_scale=180 / np.pi)
+    with pytest.raises(MeasurementFileError, match=r"column 'ref_shoulder' reaches 45.8, beyond 2 pi rad: the file's "
+                                                   r"angles look like degrees; give --units deg"):
+        read_trials(degrees, axes=machine)
+    millimetres = _rail_arm_log(tmp_path / "mm.csv", rail_scale=1000.0)
+    with pytest.raises(MeasurementFileError, match=r"column 'ref_rail' reaches 300, beyond 10 m: the file's lengths "
+                                                   r"look like millimetres; give --units mm"):
+        read_trials(millimetres, axes=machine)
+    np.testing.assert_allclose(read_trials(degrees, axes=machine, units="deg")[0].pos, si, rtol=1e-9)
+    np.testing.assert_allclose(read_trials(millimetres, axes=machine, units="mm")[0].pos, si, rtol=1e-9)
+    both = _rail_arm_log(tmp_path / "both.csv", 1000.0, 180 / np.pi, sidecar={"units": "deg,mm"})
+    np.testing.assert_allclose(read_trials(both, axes=machine)[0].pos, si, rtol=1e-9)
+    assert read_trials(degrees, axes=machine, units="rad")[0].pos.max() > 40  # rad confirmed: read as it is
+    with pytest.raises(ValueError, match="names the revolute axes' unit twice"):
+        read_trials(degrees, axes=machine, units="deg,rad")
+
+
+def test_a_log_whose_sidecar_names_another_machine_is_refused_naming_both(tmp_path):
+    """The rail arm's log read as the two-link arm's (its shoulder and elbow columns are there): the
+    sidecar's machine and --system are named, unless --system wins."""
+    from lcgym import systems
+    from lcgym.data import MeasurementFileError
+    from lcgym.diagnose.machines import check_log_axes
+
+    log = _rail_arm_log(tmp_path / "run.csv", sidecar={"system": str(RAIL_ARM)})
+    two_link = systems.get("two_link")
+    with pytest.raises(MeasurementFileError, match=r"its sidecar says it is a log of machine .*rail_arm.toml \(axes rail, "
+                                                   r"shoulder, elbow\), not of two_link \(axes shoulder, elbow\); give "
+                                                   r"--system .*, or --system-wins"):
+        check_log_axes(log, two_link, "two_link")
+    check_log_axes(log, two_link, "two_link", system_wins=True)
+    check_log_axes(log, systems.get(str(RAIL_ARM)), str(RAIL_ARM))  # its own machine

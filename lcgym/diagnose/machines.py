@@ -26,17 +26,27 @@ MAX_FILES = 50  # URDF and machine files looked at per folder, at most (sorted b
 MAX_SHOWN = 3  # machines suggested in the message, at most (the sidecar's first)
 
 
-def check_log_axes(path: str | Path, system: systems.System, spec: str | None = None) -> None:
+def check_log_axes(path: str | Path, system: systems.System, spec: str | None = None, system_wins: bool = False) -> None:
     """Refuse the measurement file ``path`` when it is a log of another machine than ``system``
     (module docstring), with the machines whose axes its are; ``spec``: the machine as the user
-    named it."""
+    named it. A log whose sidecar names a machine of other axes is refused too, naming both, unless
+    ``system_wins`` (the user's word that it is a log of ``system``: its other columns left out)."""
     try:
         found = file_axes(path)
     except MeasurementFileError:  # a broken header: reading the file says what is wrong with it
         return
-    if not another_machine(found, system.axis_names):
-        return
     named = spec or system.name
+    if not another_machine(found, system.axis_names):
+        # the log names the machine's axes, but its sidecar may name another machine (the rail arm's
+        # log read as the two-link arm's: the rail's columns would be left out without a word)
+        sidecar = _sidecar_machine(path)
+        theirs = None if sidecar is None or system_wins else _axes_of(sidecar)
+        if theirs is not None and tuple(theirs) != tuple(system.axis_names):
+            raise MeasurementFileError(
+                f"{path}: its sidecar says it is a log of machine {sidecar} (axes {', '.join(theirs)}), not of {named} "
+                f"(axes {', '.join(system.axis_names)}); give --system {sidecar}, or --system-wins to read it as a log "
+                f"of {named}")
+        return
     which = machines_with_axes(found, path)
     if not which:
         hint = "give --system the URDF or machine file (.toml) whose joints these are"

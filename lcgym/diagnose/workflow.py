@@ -282,7 +282,7 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", options: Dia
                                    "ref_velocity": _velocity(trials, fs)[prep.rows], **extra_series},
                            kinematics=_kinematics_note(trials, prep.model), identified=(info["rank"], info["n_free"]),
                            displays={a.name: a.display for a in system.axes},
-                           resampled=_resampled_note(trials), spec=spec, steps=steps, stop=ranking.stop,
+                           resampled=_resampled_notes(trials, validate), spec=spec, steps=steps, stop=ranking.stop,
                            options="--kinematics measured" if kinematics == "measured" else "",
                            samples={**_samples_record(lay, axes, system.axes, trials, fs),
                                     "bandwidth": {k: dict(zip(axes, map(float, bandwidths(x, lengths, fs)), strict=True))
@@ -471,6 +471,14 @@ def _kinematics_note(trials, model: PhysicalModel) -> str:
     if model.positions == "measured":
         return "reference corrected by the measured tracking error (low-passed), differentiated"
     return "reference, differentiated"
+
+
+def _resampled_notes(trials, validate) -> str | None:
+    """What ``data.regularize`` did to the data and to the validation log, in one line (None: nothing)."""
+    notes = [_resampled_note(trials)]
+    if validate is not None and (note := _resampled_note(validate)):
+        notes.append(f"the validation log, read as the data: {note}")
+    return "; ".join(n for n in notes if n) or None
 
 
 def _resampled_note(trials) -> str | None:
