@@ -226,3 +226,20 @@ def test_a_log_whose_sidecar_names_another_machine_is_refused_naming_both(tmp_pa
         check_log_axes(log, two_link, "two_link")
     check_log_axes(log, two_link, "two_link", system_wins=True)
     check_log_axes(log, systems.get(str(RAIL_ARM)), str(RAIL_ARM))  # its own machine
+
+
+def test_a_validation_log_is_read_on_the_datas_grid_and_the_report_says_so(tmp_path):
+    """A validation log with jittered stamps read at the rate of the data (``lcgym diagnose
+    --validate``): it lands on the data's grid, and the report's line names both resamplings."""
+    from lcgym.diagnose.workflow import _resampled_notes
+
+    rng = np.random.default_rng(0)
+    t = np.arange(400) / 94.7 + rng.uniform(-2e-4, 2e-4, 400)
+    pos = np.column_stack([np.sin(t), np.cos(t)])
+    write_trials(tmp_path / "other.csv", [Trial(t=t, ref=pos, pos=pos, u=0 * pos, axes=("propeller", "roll"))])
+    data = read_trials(tmp_path / "other.csv", resample="auto")  # as the data were read: their own rate
+    other = read_trials(tmp_path / "other.csv", resample=100.0)  # the validation log, on the data's rate
+    assert data[0].fs == pytest.approx(94.7) and other[0].fs == pytest.approx(100.0)
+    note = _resampled_notes(data, other)
+    assert "resampled to 94.7 Hz" in note and "the validation log, read as the data: 1 trial(s)" in note
+    assert "resampled to 100 Hz" in note and _resampled_notes(data, None).count("resampled") == 1
