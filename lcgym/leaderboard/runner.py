@@ -373,6 +373,9 @@ def run_benchmark(config: BenchConfig, out: str | Path, jobs: int | None = 1, da
         store(result)
         finished += 1
         bar.update()
+        rows = result[0]
+        if rows and (cell := (rows[0]["system"], rows[0]["method"], rows[0]["seed"])) in running:
+            running.remove(cell)  # on Dask, where ``running`` holds every cell not yet stored
 
     try:
         if dask is None and jobs == 1:
@@ -384,7 +387,7 @@ def run_benchmark(config: BenchConfig, out: str | Path, jobs: int | None = 1, da
         elif dask is None:
             _run_in_workers(todo, config, jobs, timeout, stored, running)
         else:
-            running[:] = todo  # Dask does not say which have started
+            running[:] = todo  # Dask does not say which have started: the cells not stored are named
             _run_on_dask(todo, config, dask, timeout, stored)
     except KeyboardInterrupt as exc:
         raise BenchStopped(finished, [c for c in todo if c in running], out) from exc
