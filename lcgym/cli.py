@@ -199,8 +199,9 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--html", type=_page_target, metavar="DIR|OUT.html",
                        help="the leaderboard page of the run's rows (default: the results CSV's name with .html)")
     bench.add_argument("--no-html", action="store_true", help="write no page")
-    bench.add_argument("--jobs", type=_positive, help="parallel cells (joblib processes; default: one per CPU core "
-                       "this process may use, at most one per cell)")
+    bench.add_argument("--jobs", type=_positive, help="parallel cells (the run's own worker processes, one thread "
+                       "each, stopped with it on Ctrl-C or SIGTERM; default: one per CPU core this process may use, "
+                       "at most one per cell)")
     bench.add_argument("--dask", metavar="ADDRESS", help="run the cells on this Dask scheduler (tcp://host:port)")
     bench.add_argument("--resume", action="store_true", help="skip cells already stored with the same configuration")
     bench.add_argument("--timeout", type=_seconds, metavar="SECONDS",
