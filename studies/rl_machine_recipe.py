@@ -1,19 +1,22 @@
 """The docs' PPO recipe (docs/environments.md) on a machine file: the return of every episode over
 20,000 agent steps, per seed (issue 61, item 7).
 
-PPO with SB3's defaults, a residual on the physical model acting at 50 Hz, 4 references of 20 s
-(the env's defaults: the residual's bound 0.2 x the input limit, the reward's scale 0.1 deg or
-0.1 mm); this prints each seed's mean return over the first and the last fifth of its episodes and
-their ratio (below 1: the return rose; it is negative). Default machine: the rail carrying a
-two-link arm of ``tests/data/rail_arm`` (a hidden Coulomb friction on the elbow).
+PPO with SB3's defaults, a residual on the physical model acting at 50 Hz, 4 references of 20 s,
+the env's scales (``lcgym.systems.machine_env``: from the machine unless given); this prints each
+seed's mean return over the first and the last fifth of its episodes and their ratio (below 1: the
+return rose; it is negative). ``--machine``: a machine file; ``rail`` (the default) is the user's
+machine of ``studies/user_loop.py`` (a rail with a 20 N Coulomb friction carrying a two-link arm
+with a cable spring on the elbow), ``rail_arm`` the one of ``tests/data/rail_arm``.
 
-Run:  .venv/bin/python studies/rl_machine_recipe.py [--seeds 0,1,2] [--steps 20000] [--machine FILE]
+Run:  .venv/bin/python studies/rl_machine_recipe.py [--seeds 0,1,2] [--steps 20000] [--machine rail|rail_arm|FILE]
 (about 1 min per seed on a 2-core machine, 2026-12-07.)
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -44,9 +47,19 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", default="0,1,2")
     parser.add_argument("--steps", type=int, default=20_000)
-    parser.add_argument("--machine", default=str(RAIL_ARM))
+    parser.add_argument("--machine", default="rail")
     args = parser.parse_args()
     torch.set_num_threads(1)
+    if args.machine == "rail":  # the user's machine of studies/user_loop.py, written to a temporary folder
+        sys.path.insert(0, str(Path(__file__).parent))
+        import user_loop
+
+        folder = Path(tempfile.mkdtemp(prefix="lcgym-rl-rail-"))
+        (folder / "rail.urdf").write_text(user_loop.URDF)
+        (folder / "rail.toml").write_text(user_loop.MACHINE)
+        args.machine = str(folder / "rail.toml")
+    elif args.machine == "rail_arm":
+        args.machine = str(RAIL_ARM)
     for seed in map(int, args.seeds.split(",")):
         start = time.perf_counter()
         venv = make_sb3_vec_env("lcgym/Machine-v0", machine=args.machine, agent_rate=AGENT_RATE,

@@ -206,10 +206,23 @@ def test_env_episode_is_the_plants_run(machine_file):
 
 
 def test_env_residual_on_the_physical_model_and_bad_actions(machine_file):
+    import copy
+
+    from lcgym.systems.machine_env import REWARD_SCALE, base_scales
+
     env = gym.make("lcgym/Machine-v0", machine=str(machine_file), references="validation", n_references=1,
                    duration=2.0, base_feedforward="physical")
     env.reset(seed=0)
-    np.testing.assert_allclose(env.unwrapped.action_scale, 0.2 * np.array([60.0, 40.0]))
+    # the residual's scale by default: the peak of what the feedback supplies along the base's runs of
+    # the env's references (``machine_env.base_scales``, as a learner takes it), far below 0.2 x the limits
+    task = env.unwrapped.task
+    scales = base_scales(copy.deepcopy(task.plant), task.positions, task.base_ff)
+    np.testing.assert_allclose(env.unwrapped.action_scale, scales["residual_bound"])
+    assert np.all(env.unwrapped.action_scale < 0.2 * np.array([60.0, 40.0]))
+    # the reward's scale per axis: the base's own RMS error there (the base scores -1/2 per axis and sample)
+    np.testing.assert_allclose(task.reward_scale, scales["axis_errors"])
+    np.testing.assert_allclose(task.err_scale, 5.0 * scales["axis_errors"])
+    assert not np.allclose(task.reward_scale, REWARD_SCALE["rad"])
     _, _, _, _, info = env.step(np.array([1.5, 0.0], dtype=np.float32))
     assert info["clipped_actions"] == 1 and info["ff"][0] != 0.0
     with pytest.raises(ValueError, match="NaN or inf"):
@@ -232,7 +245,7 @@ def test_env_takes_a_learners_residual_bound_and_balances_its_axes(machine_file)
     np.testing.assert_allclose(env.action_scale, [6.0, 2.0])
     scale = env.task.reward_scale
     np.testing.assert_allclose(scale, [0.5 * REWARD_SCALE["rad"], 2.0 * REWARD_SCALE["rad"]])  # 1e-3 / s = 4e-3 / s'
-    plain = gym.make("lcgym/Machine-v0", base_feedforward="physical", **kwargs).unwrapped
+    plain = gym.make("lcgym/Machine-v0", base_feedforward="none", **kwargs).unwrapped  # no base: the fixed scale
     np.testing.assert_allclose(plain.task.reward_scale, REWARD_SCALE["rad"])
     for bad in ({"residual_bound": [1.0, -1.0]}, {"axis_errors": [0.0, 1.0]}, {"residual_bound": [1.0, 2.0, 3.0]}):
         with pytest.raises(ValueError, match="must be one value or 2 values > 0"):

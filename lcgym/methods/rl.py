@@ -190,19 +190,12 @@ def ppo_rollout(n_steps: int, batch_size: int, agent_steps: int, num_envs: int) 
 
 def env_scales(plant, references, base, loop) -> dict[str, np.ndarray]:
     """The env's ``residual_bound`` [input unit] and ``axis_errors`` [rad or m] per axis from the
-    base's runs of ``references`` (its model ``base``, with ``loop``'s term): the peak of the
-    feedback's part of the input, u - f - C r, and the RMS of the tracking error; each at least a
-    small floor (1e-6 of the input limit; an encoder count), so that an axis with nothing left to
-    learn keeps a finite scale."""
-    peak, square, samples = 0.0, 0.0, 0
-    for r in references:
-        f = np.asarray(base.predict(r.positions), dtype=float) + loop_feedforward(loop, r)
-        trial = plant.run(r, f)
-        peak = np.maximum(peak, np.abs(trial.u - f - plant.reference_feedback(r.positions)).max(axis=0))
-        square, samples = square + np.square(trial.error).sum(axis=0), samples + trial.error.shape[0]
-    limit = np.where(np.isfinite(plant.u_max), plant.u_max, 1.0)
-    count = np.maximum(np.asarray(plant.encoder_resolution, dtype=float), 1e-9)
-    return {"residual_bound": np.maximum(peak, 1e-6 * limit), "axis_errors": np.maximum(np.sqrt(square / samples), count)}
+    base's runs of ``references`` (its model ``base``, with ``loop``'s term): the machine env's own
+    defaults (``systems.machine_env.base_scales``), on the learner's training references."""
+    from ..systems.machine_env import base_scales
+
+    feedforward = [np.asarray(base.predict(r.positions), dtype=float) + loop_feedforward(loop, r) for r in references]
+    return base_scales(plant, references, feedforward)
 
 
 def _vec_env(system: systems.System, references, plant, base, config: RLConfig, hold: int, scales: dict):

@@ -16,12 +16,14 @@ Action (float32, shape (n,), n the machine's axes): the feedforward of each axis
     bounds +-``action_scale``; ``envs.actions``). ``base_feedforward="none"``: the action is the
     feedforward, scale u_scale (the input limit; 1 where the machine has none). ``"physical"``: the
     action is added to the rigid-model feedforward (``PhysicalModel`` fitted on feedback-only runs
-    of the training references), scale ``RESIDUAL_FRACTION`` x u_scale. A fitted model (anything with
+    of the training references), scale: the peak of what the feedback supplies along the base's runs
+    of the env's references (``base_scales``: what the base leaves the loop; a fixed 0.2 x the input
+    limit drowned what there was to learn in its exploration). A fitted model (anything with
     ``predict(positions) -> (T, n)``) may be given instead: residual learning on that model. Either
     base carries what the loop needs to track exactly (minus ``URDFPlant.reference_feedback``: a
     velocity loop's velocity feedforward, ``methods.loop``). ``residual_bound`` [N m or N, one value or
-    one per axis] replaces the residual's scale (a learner's own, ``methods.rl``: the peak of what the
-    feedback supplied along its base's runs).
+    one per axis] replaces the residual's scale (a learner's own, ``methods.rl``: the same peak along
+    its training references).
     Out-of-bound actions are clipped and counted (``info["clipped_actions"]``); NaN, inf, a wrong
     shape or non-numbers raise ``ValueError`` naming the step, before the plant moves.
 
@@ -32,14 +34,18 @@ Observation (float32, shape (3 n P + 3 n,)), all O(1); P = len(PREVIEW) preview 
     - reference acceleration, same layout / (that speed / ``ReferenceSettings.accel_time``)
     - relay of the reference velocity, paper 000 eq. (12) (+1, -1, or 0 before motion), per axis
     - base feedforward of the current sample / u_scale, per axis
-    - tracking error e = reference - encoder reading / ``ERR_SCALE`` (0.5 deg or 0.5 mm), clipped to +-20
+    - tracking error e = reference - encoder reading / ``ERR_SCALE`` (0.5 deg or 0.5 mm; with a base and
+      no scales given, 5x the base's RMS error on the axis: Reward), clipped to +-20
 
 Reward: -1/2 sum over axes (e_i / s_i)^2, s_i = ``REWARD_SCALE`` (0.1 deg or 0.1 mm), e the tracking
     error measured at the next sample (the error the action helped to make); the step that leaves
-    the safe range gets -1/2 n ``ERR_CLIP``^2. ``axis_errors`` [rad or m, one per axis] (a learner's
-    base's tracking errors, ``methods.rl``) balances the axes: s_i = b_i / geomean_j(b_j /
-    REWARD_SCALE_j), so that each axis's error counts alike against those, at the same overall scale
-    (one axis: s = REWARD_SCALE).
+    the safe range gets -1/2 n ``ERR_CLIP``^2. ``axis_errors`` b [rad or m, one per axis] balances
+    the axes: s_i = b_i / geomean_j(b_j / REWARD_SCALE_j), so that each axis's error counts alike
+    against those, at the same overall scale (one axis: s = REWARD_SCALE). With a base and neither
+    ``axis_errors`` nor ``residual_bound`` given, the machine sets the scales: s_i is the base's own
+    RMS tracking error on axis i over the env's references (``base_scales``: the base scores -1/2 per
+    axis and sample, as the IX's 0.1 deg is about its physical model's error), and the observed
+    error's scale is 5 s_i (the IX's 0.5 deg); without a base, s = REWARD_SCALE.
 
 Episode end: ``truncated`` after ``episode_steps`` samples (default ``EPISODE_STEPS`` = 1000;
     the next reset goes on with the same run: ``envs.episodes``) or after the last sample of the
@@ -76,6 +82,7 @@ Version History:
 
 from __future__ import annotations
 
+import copy
 import math
 
 import gymnasium as gym
@@ -98,9 +105,29 @@ PREVIEW_SECONDS = (0.0, 0.010, 0.025, 0.050, 0.100)
 ERR_SCALE = {"rad": 0.5 * DEG, "m": 0.5e-3}
 ERR_CLIP = 20.0
 REWARD_SCALE = {"rad": 0.1 * DEG, "m": 0.1e-3}
-RESIDUAL_FRACTION = 0.2  # the residual action's bound, a fraction of the input scale
+RESIDUAL_FRACTION = 0.2  # the residual action's bound, a fraction of the input scale (no base: the whole input's)
+ERR_OVER_REWARD = 5.0  # the observed error's scale over the reward's, as the IX's 0.5 deg over 0.1 deg
 OBS_BOUND = 25.0
 DEFAULT_REFERENCES, DEFAULT_DURATION = 8, 20.0
+
+
+def base_scales(plant, references, base_ff) -> dict[str, np.ndarray]:
+    """A residual's ``residual_bound`` [input unit] and the reward's ``axis_errors`` [rad or m] per
+    axis from the base's runs of ``references`` (``Reference`` objects or position arrays) with the
+    feedforward ``base_ff`` (the
+    base's model with the loop's term): the peak of the feedback's part of the input, u - f - C r,
+    and the RMS of the tracking error; each at least a small floor (1e-6 of the input limit; an
+    encoder count), so that an axis with nothing left to learn keeps a finite scale. A fixed bound
+    (0.2 x the input limit) was 5x the feedback's peak on the two-link arm's elbow, and its
+    exploration drowned what there is to learn (docs/methods/rl.md)."""
+    peak, square, samples = 0.0, 0.0, 0
+    for r, f in zip(references, base_ff, strict=True):
+        trial = plant.run(r, f)
+        peak = np.maximum(peak, np.abs(trial.u - f - plant.reference_feedback(reference_positions(r))).max(axis=0))
+        square, samples = square + np.square(trial.error).sum(axis=0), samples + trial.error.shape[0]
+    limit = np.where(np.isfinite(plant.u_max), plant.u_max, 1.0)
+    count = np.maximum(np.asarray(plant.encoder_resolution, dtype=float), 1e-9)
+    return {"residual_bound": np.maximum(peak, 1e-6 * limit), "axis_errors": np.maximum(np.sqrt(square / samples), count)}
 
 
 class MachineTask:
@@ -149,13 +176,22 @@ class MachineTask:
         units = [a.unit for a in self.system.axes]
         self.err_scale = np.array([ERR_SCALE[u] for u in units])
         self.reward_scale = np.array([REWARD_SCALE[u] for u in units])
-        if axis_errors is not None:  # balanced: each axis's error counts alike against the given ones
-            relative = _per_axis("axis_errors", axis_errors, n) / self.reward_scale
-            self.reward_scale = self.reward_scale * relative / np.exp(np.mean(np.log(relative)))
         self.preview = np.array([int(round(t * fs)) for t in PREVIEW_SECONDS])
         # a base's feedforward carries what the loop needs to track exactly (``methods.loop``)
         self.base_ff = [np.zeros_like(x) if model is None else np.asarray(model.predict(x), dtype=float)
                         - self.plant.reference_feedback(x) for x in self.positions]
+        if model is not None and residual_bound is None and axis_errors is None:
+            # the machine's own scales, as a learner takes them (``methods.rl``): what the loop with the base leaves
+            defaults = base_scales(copy.deepcopy(self.plant), self.positions, self.base_ff)
+            self.bound = defaults["residual_bound"]
+            self.action_space, self.action_scale = action_space_of(self.bound, n, normalize_actions)
+            # the reward's scale per axis: the base's own error (the base scores -1/2 per axis and sample);
+            # on a rail arm's machine file the recipe's return fell with the IX's fixed 0.1 deg and rises with it
+            self.reward_scale = defaults["axis_errors"]
+            self.err_scale = ERR_OVER_REWARD * self.reward_scale
+        elif axis_errors is not None:  # balanced: each axis's error counts alike against the given ones
+            relative = _per_axis("axis_errors", axis_errors, n) / self.reward_scale
+            self.reward_scale = self.reward_scale * relative / np.exp(np.mean(np.log(relative)))
         self.feats = [self._features(x, f) for x, f in zip(self.positions, self.base_ff, strict=True)]
         self.n_obs = self.feats[0].shape[1] + n
         self._settled: dict[int, np.ndarray] = {}
