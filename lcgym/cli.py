@@ -218,15 +218,18 @@ def build_parser() -> argparse.ArgumentParser:
     board.add_argument("--base", metavar="METHOD", default="basic", help="the start the shares are taken from (basic)")
     sim = sub.add_parser("simulate", help="fit controllers on training runs and simulate validation references")
     sim.add_argument("--system", type=_bench_system, default="ix", metavar="MACHINE",
-                     help=f"a benchmark machine: {', '.join(_simulate_systems())}, or a machine file (.toml) or URDF")
+                     help=f"a benchmark machine: {', '.join(_simulate_systems())}, or a machine file (.toml: its plant "
+                          "with its [[hidden]] effects, feedback and sensors) or URDF (its rigid body, default loop)")
     sim.add_argument("--controller", type=_controllers, default=["feedback", "physical"],
-                     help="controller name or comma-separated list (feedback, physical, pgnn, pgnn-ls; basic on flexarm)")
-    sim.add_argument("--seed", type=_nonnegative, default=0)
-    sim.add_argument("--n-train", type=_positive, default=8, help="training references")
+                     help="controller name or comma-separated list (feedback, physical, pgnn, pgnn-ls; basic on flexarm; "
+                          "physical on a machine file: its model with its [[model]] tables)")
+    sim.add_argument("--seed", type=_nonnegative, default=0, help="seed of the reference sets (default 0)")
+    sim.add_argument("--n-train", type=_positive, default=8, help="training references (the runs the controllers fit)")
     sim.add_argument("--n-validation", type=_positive, default=4, help="validation references")
     sim.add_argument("--duration", type=_duration, default=40.0,
-                     help="moving time of each IX reference [s]; a final rest of a few seconds follows (an arm "
-                          "reference is one TCP line out and back)")
+                     help="moving time of each reference [s] (the IX's; a machine file's: random point-to-point moves "
+                          "of its [references] table within the URDF's joint limits); a final rest of a few seconds "
+                          "follows (an arm reference is one TCP line out and back)")
     sim.add_argument("--out", type=_file_of(".csv", ".parquet", ".pq"),
                      help="measurement file (.csv or .parquet) of the validation runs")
     sim.add_argument("--plot", type=_file_of(".png", ".pdf", ".svg"),
