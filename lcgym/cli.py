@@ -192,10 +192,19 @@ def build_parser() -> argparse.ArgumentParser:
                        "two_link-v0,emps_sim-v0); a machine file (my_arm.toml: a URDF with its hidden effects, feedback, "
                        "sensors), a URDF or module:attr")
     bench.add_argument("--methods", type=_names,
-                       help="comma-separated method ids or module:Class (default: every registered method)")
-    bench.add_argument("--seeds", type=_seeds, help="comma-separated seeds (default 0,1,2; --quick: 0)")
-    bench.add_argument("--quick", action="store_true", help="small budgets: 1 seed, 2 references of about 20 s of moves per set")
-    bench.add_argument("--out", type=_writable, default=Path("results.csv"), help="results CSV (appended)")
+                       help="comma-separated method ids or module:Class (default: every registered method that runs "
+                       "on the machine: on a machine file or URDF every one but basic, paper002-* and paper000-pgnn, "
+                       "the FlexArm's and the IX's; the learners start from the file's physical model with its "
+                       "[[model]] tables)")
+    bench.add_argument("--seeds", type=_seeds,
+                       help="comma-separated seeds (default 0,1,2; --quick: 0): the seeds of the references "
+                       "(a machine file's too) and of the learners")
+    bench.add_argument("--quick", action="store_true",
+                       help="small budgets: 1 seed, 2 references of about 20 s of moves per set (a machine file's: "
+                       "point-to-point moves of its [references] table), the learners on a share of their budgets")
+    bench.add_argument("--out", type=_writable, default=Path("results.csv"),
+                       help="results CSV (appended; the traces go to OUT.traces/, one folder per configuration; a "
+                       "machine file's rows name it by its path as given)")
     bench.add_argument("--html", type=_page_target, metavar="DIR|OUT.html",
                        help="the leaderboard page of the run's rows (default: the results CSV's name with .html)")
     bench.add_argument("--no-html", action="store_true", help="write no page")
@@ -207,9 +216,15 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--timeout", type=_seconds, metavar="SECONDS",
                        help="per-cell time limit of a method (fit, learn, feedforward, runs); a cell past it fails")
     board = sub.add_parser("leaderboard", help="rank the methods of a results CSV")
-    board.add_argument("csv", nargs="?", type=Path, default=Path("results.csv"))
-    board.add_argument("--reference-set", choices=("validation", "train", "test"), default="validation")
-    board.add_argument("--config", metavar="HASH", help="configuration hash to rank (default: the newest run's)")
+    board.add_argument("csv", nargs="?", type=Path, default=Path("results.csv"),
+                       help="results CSV of lcgym bench (default results.csv); a machine file's rows rank as any "
+                            "machine's, under the file's path")
+    board.add_argument("--reference-set", choices=("validation", "train", "test"), default="validation",
+                       help="the references the rows are scored on (default validation: those no method trained "
+                            "on; a machine file's are drawn from its [references] table as a built-in's are)")
+    board.add_argument("--config", metavar="HASH",
+                       help="configuration hash to rank (default: the newest run's; a run on a changed "
+                       "machine file or another lcgym has another)")
     board.add_argument("--markdown", type=_writable, help="write a Markdown page (figures beside it)")
     board.add_argument("--html", type=_page_target, metavar="DIR|OUT.html",
                        help="write the leaderboard page: DIR/index.html, or OUT.html (one file, figures inside)")
@@ -238,7 +253,9 @@ def build_parser() -> argparse.ArgumentParser:
     diag.add_argument("data", type=Path, help="measurement file (.csv or .parquet; docs/measurement-format.md)")
     diag.add_argument("--system", required=True, metavar="MACHINE", help=_machine_help())
     diag.add_argument("--add", action="append", default=[], metavar="EFFECT@AXIS",
-                      help="add this effect to the model, refit, show before/after (repeatable)")
+                      help="add this effect to the model, refit, show before/after (repeatable; AXIS a joint "
+                           "of the machine, a machine file's or URDF's by its joint name; lcgym effects lists the "
+                           "effects; on a machine file the report ends with the [[model]] tables to paste)")
     diag.add_argument("--json", type=_writable, metavar="OUT.json", help="write the report as JSON")
     diag.add_argument("--plots", type=Path, metavar="DIR",
                       help="write residual_time.png (the residual over time), residual_map.png (over position and "
@@ -247,7 +264,8 @@ def build_parser() -> argparse.ArgumentParser:
     diag.add_argument("--replay", action="store_true",
                       help="re-run the plant the data were simulated on with the model before/after (a log of lcgym "
                            "simulate on ix or a machine file: its sidecar records the plant)")
-    diag.add_argument("--min-explained", type=_share, default=0.1, help="significance: share of residual energy (default 0.1)")
+    diag.add_argument("--min-explained", type=_share, default=0.1, help="significance: the share of an axis's residual energy a "
+                      "candidate must remove on held-out data to be selected (default 0.1; any machine)")
     diag.add_argument("--kinematics", choices=("reference", "measured"), default="reference",
                       help="velocity and acceleration from the reference corrected by the measured error (default; "
                            "a file without ref_ columns uses the measured position) or from the measured position")
@@ -416,7 +434,7 @@ def cmd_simulate(args) -> int:
     if args.out:
         trials = [t for r in results for t in r.trials]
         write_trials(args.out, trials, meta={"system": args.system, "seed": args.seed})
-        print(f"wrote {args.out} ({len(trials)} trials)")
+        print(f"wrote {args.out} ({len(trials)} trial{'s' if len(trials) != 1 else ''})")
     if args.plot:
         plot_tracking_errors(results, args.plot)
         print(f"wrote {args.plot}")

@@ -2,6 +2,7 @@
 concurrent writers, Dask."""
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -187,6 +188,18 @@ def _session(sid: int) -> list[int]:
     return pids
 
 
+_DOCS_BENCHMARK = Path(__file__).resolve().parents[1] / "docs" / "benchmark.md"
+
+
+def _stop_message(text: str) -> str:
+    """A stopped bench's line with what differs between runs taken out: the counts, the CSV's path,
+    the cells named."""
+    line = next(x for x in text.splitlines() if x.startswith("lcgym bench: stopped:"))
+    line = re.sub(r"stored in \S+;", "stored in CSV;", line)
+    line = re.sub(r"[\w.-]+/[\w.:-]+/\d+(, [\w.-]+/[\w.:-]+/\d+)*", "CELLS", line)
+    return re.sub(r"\d+ finished cells?", "N finished cells", line)
+
+
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads the processes of a session from /proc")
 def test_sigterm_stops_the_workers_names_the_cells_in_flight_and_resume_runs_them(tmp_path, tally):
     """SIGTERM to a parallel bench after its first finished cell: the finished cell is kept, the cells
@@ -206,6 +219,7 @@ def test_sigterm_stops_the_workers_names_the_cells_in_flight_and_resume_runs_the
     assert proc.returncode == 130, stderr
     assert "semaphore" not in stderr, stderr
     in_flight = stderr.split("in flight, not stored: ")[1].split(";")[0].split(", ")
+    assert _stop_message(stderr) == _stop_message(_DOCS_BENCHMARK.read_text()), "docs/benchmark.md shows another message"
     done = _cells_in(out)
     assert done >= 1 and in_flight and all(c.startswith("ix-v1/") for c in in_flight), stderr
     stored = {f"ix-v1/{m}/0" for m in read_results(out)["method"]}
@@ -541,3 +555,20 @@ def test_a_worker_keeping_what_it_remembers_is_not_restarted_as_leaking(setup):
         time.sleep(0.5)  # the leak check runs after the task's result is sent
         last = pool.submit(_grow_and_report, 1, setup).result()
     assert (first == last) == setup
+
+
+def test_an_edited_machine_file_or_its_urdf_is_another_configuration(tmp_path):
+    """--resume and the leaderboard keep runs of a machine file apart once it or its URDF changed."""
+    import shutil
+
+    folder = shutil.copytree(Path(__file__).parent / "data" / "rail_arm", tmp_path / "rail_arm")
+    machine = folder / "rail_arm.toml"
+    config = BenchConfig(systems=(str(machine),), methods=("feedback",), seeds=(0,))
+    before = config.config_hash()
+    assert config.config_hash() == before
+    machine.write_text(machine.read_text() + "\n")
+    edited = config.config_hash()
+    assert edited != before
+    urdf = next(folder.glob("*.urdf"))
+    urdf.write_text(urdf.read_text().replace("</robot>", "<!-- edited -->\n</robot>"))
+    assert config.config_hash() not in (before, edited)

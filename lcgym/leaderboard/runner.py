@@ -111,12 +111,15 @@ class BenchConfig:
         """Hash of the budgets, the systems and lcgym's own source code.
 
         Cells of another configuration, or computed by other lcgym code, are neither resumed nor
-        ranked together. Methods and seeds are left out (they name the cells); a changed user
-        controller is not detected: start a new CSV after changing one.
+        ranked together. A machine file or URDF among the systems enters by its content
+        (``machine_file_hash``): an edited one is another configuration. Methods and seeds are left
+        out (they name the cells); a changed user controller is not detected: start a new CSV after
+        changing one.
         """
         payload = {k: v for k, v in asdict(self).items() if k not in ("methods", "seeds")}
         payload["lcgym"] = __version__
         payload["source"] = source_hash()
+        payload["machine_files"] = {s: machine_file_hash(s) for s in self.systems if Path(s).is_file()}
         return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:12]
 
     def cells(self) -> list[tuple[str, str, int]]:
@@ -303,6 +306,23 @@ def _file_name_part(text: str) -> str:
     last = text.replace("\\", "/").rstrip("/").rsplit("/", 1)[-1]
     safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in last).lstrip(".") or "machine"
     return f"{safe}-{hashlib.sha256(text.encode()).hexdigest()[:8]}"
+
+
+def machine_file_hash(path: str | Path) -> str:
+    """SHA-256 of a machine file or URDF as the benchmark runs it: its bytes, and a machine file's
+    URDF's (the ``urdf`` key, relative to the file)."""
+    import tomllib
+
+    path = Path(path)
+    digest = hashlib.sha256(path.read_bytes())
+    if path.suffix == ".toml":
+        try:
+            urdf = tomllib.loads(path.read_text()).get("urdf")
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError):
+            urdf = None  # loading the machine refuses it, with the line
+        if isinstance(urdf, str) and (path.parent / urdf).is_file():
+            digest.update((path.parent / urdf).read_bytes())
+    return digest.hexdigest()
 
 
 def trace_path(out: str | Path, system: str, method: str, seed: int, config_hash: str | None = None) -> Path:

@@ -281,6 +281,12 @@ class PhysicalModel:
                     shared.enter_context(self.system.caching())
                 shared.enter_context(reduction_memo())
                 self.effects = fit_shapes(self, kin, lengths, u, mask)
+                if not self.system.fully_linear:
+                    # the search's rigid-body columns are at the given nonlinear parameters (the IX's centres
+                    # of mass), which a fit without the effects may have left far from the data's: search
+                    # once more at those the fit finds with the shapes in (the diagnosis's refits chain so)
+                    self._fit_variable_projection(kin, lengths, u, mask)
+                    self.effects = fit_shapes(dataclasses.replace(self, params=self.params_), kin, lengths, u, mask)
                 shapes = {e.key: {n: float(getattr(e, n)) for n in e.nonlinear} for e in self.effects
                           if e.key in self.search_shapes}
             if self.system.fully_linear:
