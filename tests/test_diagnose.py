@@ -346,3 +346,27 @@ def test_effects_added_by_name_on_the_ix_are_fitted_at_the_rigid_body_they_leave
     spring = next(e for e in rep.after["effects"] if e["effect"] == "cable_spring@roll")
     assert abs(spring["k"] / 0.22 - 1) < 0.1 and abs(spring["q0"] - 20 * DEG) < 2.5 * DEG, rep.text()
     assert rep.after["residual"]["roll"]["RMS"] < 0.1 * rep.residual["roll"]["RMS"], rep.text()
+
+
+def test_the_effects_figure_names_a_rails_input_a_force():
+    """effects.png's y label follows the axis's input: a force [N] on a prismatic axis, a torque
+    [N m] on a revolute one, the input [V] of the IX's amplifier."""
+    import types
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from lcgym.diagnose.report import Diagnosis
+
+    x = np.linspace(-1.0, 1.0, 50)
+    labels = {}
+    for axis, unit in (("rail", "N"), ("elbow", "N m"), ("roll", "V")):
+        owner = types.SimpleNamespace(displays={"rail": (1000.0, "mm")}, residual={axis: {"unit": unit}})
+        curve = {"effect": f"coulomb_friction@{axis}", "family": "friction", "variable": "velocity", "x": x,
+                 "torque": np.tanh(x), "used": np.ones_like(x, dtype=bool)}
+        fig = Diagnosis._effect_panels(owner, plt, [curve])
+        labels[unit] = fig.axes[0].get_ylabel()
+        plt.close(fig)
+    assert labels == {"N": "force [N]", "N m": "torque [N m]", "V": "input [V]"}

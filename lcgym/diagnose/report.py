@@ -409,10 +409,11 @@ class Diagnosis:
             order = np.argsort(x)
             ax.plot(x[order], y[order], ".", ms=2, alpha=0.5)
             ax.set_xlabel(f"{axis} {c['variable']} [{unit}{per}]")
-            ax.set_ylabel(f"torque [{self.residual[axis]['unit']}]")
+            unit_u = self.residual[axis]["unit"]
+            ax.set_ylabel(f"{ {'N': 'force', 'N m': 'torque'}.get(unit_u, 'input')} [{unit_u}]")  # a rail's is a force
             ax.set_title(f"{c['effect']} [{c['family']}]", fontsize=10)
             ax.grid(alpha=0.3)
-        wrapped_title(fig, "The effects added, as fitted: torque over the variable each acts on")
+        wrapped_title(fig, "The effects added, as fitted: torque (force) over the variable each acts on")
         return fig
 
     def _time_panels(self, plt, series: list[tuple[str, str]], velocity: bool, title: str):

@@ -317,7 +317,8 @@ def machine_file_hash(path: str | Path) -> str:
     digest = hashlib.sha256(path.read_bytes())
     if path.suffix == ".toml":
         try:
-            urdf = tomllib.loads(path.read_text()).get("urdf")
+            with path.open("rb") as file:
+                urdf = tomllib.load(file).get("urdf")
         except (tomllib.TOMLDecodeError, UnicodeDecodeError):
             urdf = None  # loading the machine refuses it, with the line
         if isinstance(urdf, str) and (path.parent / urdf).is_file():
