@@ -278,6 +278,24 @@ def test_every_cached_kernel_is_keyed_by_the_sources_it_calls():
                 if not cache._cache_path.startswith(root):
                     stale.append(f"{info.name}.{name}: {cache._cache_path}")
     assert seen > 10 and not stale, stale
+    import numba
+
+    assert numba.config.CACHE_DIR == _numba_default_cache_dir(), "a module left numba's cache folder set"
+
+
+def _numba_default_cache_dir() -> str:
+    return subprocess.run([sys.executable, "-c", "import numba; print(numba.config.CACHE_DIR)"], capture_output=True,
+                          text=True, check=True).stdout.strip()
+
+
+def test_one_module_sets_numbas_cache_folder():
+    """``physics.compiled.Kernels`` is the one place that sets numba's cache folder: every module
+    compiles its kernels with it (``njit = Kernels(__file__, ...)``), none sets it itself."""
+    package = Path(__file__).resolve().parents[1] / "lcgym"
+    setting = sorted(str(p.relative_to(package)) for p in package.rglob("*.py") if "config.CACHE_DIR =" in p.read_text())
+    assert setting == ["physics/compiled.py"], setting
+    direct = sorted(str(p.relative_to(package)) for p in package.rglob("*.py") if "numba.njit(" in p.read_text())
+    assert direct == ["physics/compiled.py"], f"compile with physics.compiled.Kernels, not numba.njit: {direct}"
 
 
 LEADERBOARD_VIEWS = ("lcgym.leaderboard.store", "lcgym.leaderboard.report", "lcgym.leaderboard.page",

@@ -1,6 +1,8 @@
-"""Settings of lcgym's compiled (numba) kernels: the cache folder of every kernel, the fast-math
-flags of those that use them (the IX's and the URDF plant's; the FlexArm's kernels run without),
-and ``in_row_blocks``, which runs a row-wise kernel on blocks of rows in numba's threads.
+"""Settings of lcgym's compiled (numba) kernels: ``Kernels``, the decorator every module compiles
+its kernels with (numba's ``njit(cache=True)``, cached in a folder of its own sources, the one
+place that sets numba's cache folder), the fast-math flags of those that use them (the IX's and
+the URDF plant's; the FlexArm's kernels run without), and ``in_row_blocks``, which runs a
+row-wise kernel on blocks of rows in numba's threads.
 
 The kernels themselves live with their machines (``systems/ix/kernel.py``, ``systems/ix/compiled.py``,
 ``systems/flexarm/*.py``, ``systems/urdf_plant.py``); they call the same ``register_jitable``
@@ -11,6 +13,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -38,6 +41,33 @@ def cache_dir(*files: str) -> str:
         h.update(Path(path).read_bytes())
     root = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "lcgym" / "numba"
     return str(root / h.hexdigest()[:16])
+
+
+class Kernels:
+    """The decorator of one module's kernels: ``numba.njit(cache=True, **options)``, the machine code
+    cached in ``cache_dir(*sources)``, a folder named by the sources' hash (the module's own file and
+    those of the equations it compiles), so that an edited equation never runs from a stale cache.
+
+    ``njit = Kernels(__file__, dynamics.__file__)``, then ``@njit``, ``@njit(fastmath=FASTMATH)`` or
+    ``compiled = njit(function)``. numba reads its cache folder when a function is decorated: it is
+    set for that moment only, and left as it was for any other code."""
+
+    def __init__(self, *sources: str):
+        self.sources = sources
+        self.folder = cache_dir(*sources)
+
+    def __call__(self, function: Callable | None = None, **options) -> Callable:
+        import numba
+
+        def compile_(f: Callable) -> Callable:
+            before = numba.config.CACHE_DIR
+            numba.config.CACHE_DIR = self.folder
+            try:
+                return numba.njit(cache=True, **options)(f)
+            finally:
+                numba.config.CACHE_DIR = before
+
+        return compile_ if function is None else compile_(function)
 
 
 def in_row_blocks(kernel, head: tuple, rows: tuple, min_rows: int = 100_000) -> None:

@@ -15,15 +15,13 @@ FlexArm's Basic feedforward and its model-following error call it 18 and 6 times
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 from scipy import linalg
 
-from .compiled import cache_dir
+from .compiled import Kernels
 from .workspace import WORKSPACE
 
-_previous_cache_dir = numba.config.CACHE_DIR
-numba.config.CACHE_DIR = cache_dir(__file__)
+njit = Kernels(__file__)
 
 
 def discretize_foh(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -62,7 +60,7 @@ def _discretize_foh(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarray
     return np.ascontiguousarray(Ad), np.ascontiguousarray(Bd0), np.ascontiguousarray(Bd1)
 
 
-@numba.njit(cache=True)
+@njit
 def _states(Ad, Bd0, Bd1, u, x0):
     x = np.empty((u.shape[0], Ad.shape[0]))
     x[0] = x0
@@ -116,6 +114,3 @@ def rigid_axis(J: float, D: float, fs: float, z: np.ndarray, delay: int = 0) -> 
     for _ in range(delay):
         pd = z * pd
     return pn, pd
-
-
-numba.config.CACHE_DIR = _previous_cache_dir

@@ -43,11 +43,10 @@ from contextlib import ExitStack
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-import numba
 import numpy as np
 from scipy.optimize import least_squares
 
-from .compiled import cache_dir
+from .compiled import Kernels
 from .effects import Effect, Loads
 from .kinematics import reference_kinematics, reference_positions
 from .linalg import penalty_rows, solve_min_norm  # noqa: F401 (the fit's solve; tests import it from here)
@@ -499,20 +498,16 @@ class QuadraticDesign:
         return out.reshape(-1, *self.shape)
 
 
-_previous_cache_dir = numba.config.CACHE_DIR
-numba.config.CACHE_DIR = cache_dir(__file__)
+njit = Kernels(__file__)
 
 
-@numba.njit(cache=True)  # no fast-math: numpy's products and sums, bit for bit
+@njit  # no fast-math: numpy's products and sums, bit for bit
 def _add_columns(out, idx, w, values):
     """out[:, idx[j]] += w[j] * values[:, j] for j in order (out (rows, m), values (rows, len(idx))):
     ``out[:, idx] += w * values`` term after term, in one pass over the rows."""
     for t in range(out.shape[0]):
         for j in range(idx.size):
             out[t, idx[j]] += w[j] * values[t, j]
-
-
-numba.config.CACHE_DIR = _previous_cache_dir
 
 
 def _sparse_term(term, shape: tuple[int, int], scale: float, rtol: float = 1e-9, block: int = 1 << 16):

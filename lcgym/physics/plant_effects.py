@@ -34,11 +34,10 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-import numba
 import numpy as np
 
 from . import effects as fx
-from .compiled import FASTMATH, cache_dir
+from .compiled import FASTMATH, Kernels
 
 PLANT_KINDS: dict[int, type[fx.Effect]] = dict(sorted((cls.plant_kind, cls) for cls in fx.EFFECTS.values() if cls.plant_kind))
 """The library's effects that every plant simulates, by their ``Effect.plant_kind`` (0 ends a row):
@@ -101,11 +100,10 @@ def slopes(effects: Sequence[fx.Effect], n_axes: int, load=0.0) -> tuple[np.ndar
     return dv, dq
 
 
-_previous_cache_dir = numba.config.CACHE_DIR  # numba reads CACHE_DIR when a function is decorated
-numba.config.CACHE_DIR = cache_dir(__file__, fx.__file__)
+njit = Kernels(__file__, fx.__file__)
 
 
-@numba.njit(cache=True, fastmath=FASTMATH)
+@njit(fastmath=FASTMATH)
 def axis_torque(row, q, v, load, tau):
     """``tau`` plus the torque [input unit] the packed effects ``row`` (``pack``) add to the input
     one axis needs, at its position q [rad or m], velocity v [per s] and gravity torque ``load``
@@ -142,6 +140,3 @@ def axis_torque(row, q, v, load, tau):
             tau += c[0] * b[0] + c[1] * b[1]
         j += 2 + size
     return tau
-
-
-numba.config.CACHE_DIR = _previous_cache_dir

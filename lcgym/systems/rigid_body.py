@@ -30,12 +30,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 import pinocchio as pin
 
 from ..physics import linalg
-from ..physics.compiled import FASTMATH, NO_REFCOUNTS, cache_dir
+from ..physics.compiled import FASTMATH, NO_REFCOUNTS, Kernels
 from ..physics.linalg import solve_spd_in_place
 
 REVOLUTE, PRISMATIC = 0, 1
@@ -114,8 +113,7 @@ def _joint_kind(model, i: int) -> tuple[int, np.ndarray]:
                      "continuous and prismatic joints only")
 
 
-_previous_cache_dir = numba.config.CACHE_DIR  # numba reads CACHE_DIR when a function is decorated
-numba.config.CACHE_DIR = cache_dir(__file__, linalg.__file__)
+njit = Kernels(__file__, linalg.__file__)
 
 
 def scratch(n: int) -> tuple:
@@ -132,7 +130,7 @@ def scratch(n: int) -> tuple:
 BASE_V, BASE_A, JOINT, MOMENTUM, MOVED = range(5)  # rows of the temporaries
 
 
-@numba.njit(cache=True, fastmath=FASTMATH, inline="always", **NO_REFCOUNTS)
+@njit(fastmath=FASTMATH, inline="always", **NO_REFCOUNTS)
 def _motion_to_child(R, p, i, src, j, dst):
     """dst[i] = the motion src[j] of joint i's parent, expressed in joint i's frame (placed at R[i],
     p[i] in the parent's): (R^T w, R^T (v + w x p))."""
@@ -145,7 +143,7 @@ def _motion_to_child(R, p, i, src, j, dst):
         dst[i, 3 + r] = R[i, 0, r] * t0 + R[i, 1, r] * t1 + R[i, 2, r] * t2
 
 
-@numba.njit(cache=True, fastmath=FASTMATH, inline="always", **NO_REFCOUNTS)
+@njit(fastmath=FASTMATH, inline="always", **NO_REFCOUNTS)
 def _add_force_to_parent(R, p, i, src, k, dst, j):
     """dst[j] += the force src[k] of joint i's frame expressed in its parent's: (R n + p x R f, R f)."""
     f0 = R[i, 0, 0] * src[k, 3] + R[i, 0, 1] * src[k, 4] + R[i, 0, 2] * src[k, 5]
@@ -161,7 +159,7 @@ def _add_force_to_parent(R, p, i, src, k, dst, j):
     dst[j, 5] += f2
 
 
-@numba.njit(cache=True, fastmath=FASTMATH, inline="always", **NO_REFCOUNTS)
+@njit(fastmath=FASTMATH, inline="always", **NO_REFCOUNTS)
 def _add_inertia_times(m, c, I, i, x, j, out, k):
     """out[k] += the force of the rigid inertia i (mass m[i], centre c[i], inertia I[i] about the
     centre) moving with x[j] = (w, v): f = m (v + w x c), n = I w + c x f."""
@@ -180,7 +178,7 @@ def _add_inertia_times(m, c, I, i, x, j, out, k):
     out[k, 5] += f2
 
 
-@numba.njit(cache=True, fastmath=FASTMATH, inline="always", **NO_REFCOUNTS)
+@njit(fastmath=FASTMATH, inline="always", **NO_REFCOUNTS)
 def _joint_motion(kind, axis, i, rate, out, k):
     """out[k] = S_i rate: joint i's motion at unit ``rate``, angular (revolute) or linear (prismatic)."""
     off = 0 if kind[i] == REVOLUTE else 3
@@ -190,14 +188,14 @@ def _joint_motion(kind, axis, i, rate, out, k):
         out[k, off + r] = axis[i, r] * rate
 
 
-@numba.njit(cache=True, fastmath=FASTMATH, inline="always", **NO_REFCOUNTS)
+@njit(fastmath=FASTMATH, inline="always", **NO_REFCOUNTS)
 def _joint_force(kind, axis, i, F, k):
     """S_i^T F[k]: the force's component the joint transmits (its moment or force along the axis)."""
     off = 0 if kind[i] == REVOLUTE else 3
     return axis[i, 0] * F[k, off] + axis[i, 1] * F[k, off + 1] + axis[i, 2] * F[k, off + 2]
 
 
-@numba.njit(cache=True, fastmath=FASTMATH, **NO_REFCOUNTS)
+@njit(fastmath=FASTMATH, **NO_REFCOUNTS)
 def _joint_frames(q, kind, axis, rotation, translation, R, p):
     """R[i], p[i]: joint i's frame in its parent's at position q[i] (placement times joint motion)."""
     for i in range(q.size):
@@ -221,7 +219,7 @@ def _joint_frames(q, kind, axis, rotation, translation, R, p):
                                                       + rotation[i, r, 2] * a2)
 
 
-@numba.njit(cache=True, fastmath=FASTMATH, **NO_REFCOUNTS)
+@njit(fastmath=FASTMATH, **NO_REFCOUNTS)
 def _bias_forces(qd, parent, kind, axis, mass, com, inertia, gravity, R, p, V, A, F, T, out):
     """out = h(q, qd) = C(q, qd) qd + g(q) [N m or N] by the recursive Newton-Euler algorithm with
     qdd = 0, the base accelerating at -gravity (qd = 0: g(q)). R, p: the joint frames
@@ -269,7 +267,7 @@ def _bias_forces(qd, parent, kind, axis, mass, com, inertia, gravity, R, p, V, A
             _add_force_to_parent(R, p, i, F, i, F, parent[i])
 
 
-@numba.njit(cache=True, fastmath=FASTMATH, **NO_REFCOUNTS)
+@njit(fastmath=FASTMATH, **NO_REFCOUNTS)
 def _mass_matrix(parent, kind, axis, mass, com, inertia, armature, R, p, cm, cc, cI, T, M):
     """M = M(q) + diag(armature) by the composite-rigid-body algorithm; the composite inertia of
     each subtree (cm, cc, cI: scratch) as (mass, centre, inertia about the centre) in its joint's
@@ -303,7 +301,7 @@ def _mass_matrix(parent, kind, axis, mass, com, inertia, armature, R, p, cm, cc,
             _add_composite(cm, cc, cI, parent[i], i, R, p)
 
 
-@numba.njit(cache=True, fastmath=FASTMATH, **NO_REFCOUNTS)
+@njit(fastmath=FASTMATH, **NO_REFCOUNTS)
 def _add_composite(cm, cc, cI, k, i, R, p):
     """Composite k += composite i, whose frame is placed at R[i], p[i] in k's: the centres combined,
     the inertias moved to the new centre by the parallel-axis theorem."""
@@ -329,7 +327,7 @@ def _add_composite(cm, cc, cI, k, i, R, p):
     cc[k, 0], cc[k, 1], cc[k, 2] = x0, x1, x2
 
 
-@numba.njit(cache=True, fastmath=FASTMATH, inline="always", **NO_REFCOUNTS)
+@njit(fastmath=FASTMATH, inline="always", **NO_REFCOUNTS)
 def accelerations(q, qd, tau, parent, kind, axis, rotation, translation, mass, com, inertia, armature, gravity,
                   R, p, V, A, F, cm, cc, cI, M, h, T, qdd):
     """qdd = (M(q) + diag(armature))^-1 (tau - h(q, qd)) [rad/s^2 or m/s^2], joint order; tau
@@ -342,7 +340,7 @@ def accelerations(q, qd, tau, parent, kind, axis, rotation, translation, mass, c
     solve_spd_in_place(M, qdd)
 
 
-@numba.njit(cache=True, fastmath=FASTMATH, inline="always", **NO_REFCOUNTS)
+@njit(fastmath=FASTMATH, inline="always", **NO_REFCOUNTS)
 def gravity_torque(q, parent, kind, axis, rotation, translation, mass, com, inertia, armature, gravity,
                    R, p, V, A, F, cm, cc, cI, M, h, T, g):
     """g = g(q) [N m or N], joint order: the torques that hold the machine still at q (the
@@ -350,6 +348,3 @@ def gravity_torque(q, parent, kind, axis, rotation, translation, mass, com, iner
     _joint_frames(q, kind, axis, rotation, translation, R, p)
     h[:] = 0.0  # at rest
     _bias_forces(h, parent, kind, axis, mass, com, inertia, gravity, R, p, V, A, F, T, g)
-
-
-numba.config.CACHE_DIR = _previous_cache_dir

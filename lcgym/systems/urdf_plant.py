@@ -52,14 +52,13 @@ import dataclasses
 import math
 from collections.abc import Sequence
 
-import numba
 import numpy as np
 import pinocchio as pin
 
 from ..data import Trial
 from ..physics import effects as fx
 from ..physics import linalg, plant_effects
-from ..physics.compiled import FASTMATH, NO_REFCOUNTS, cache_dir
+from ..physics.compiled import FASTMATH, NO_REFCOUNTS, Kernels
 from ..physics.lti import rigid_axis
 from ..references import Reference, random_moves
 from . import rigid_body
@@ -87,11 +86,10 @@ OUT_Y, OUT_U, OUT_Q = range(3)
 # control status
 OK, TOO_FAR, NOT_FINITE = range(3)
 
-_previous_cache_dir = numba.config.CACHE_DIR  # numba reads CACHE_DIR when a function is decorated
-numba.config.CACHE_DIR = cache_dir(__file__, fx.__file__, plant_effects.__file__, rigid_body.__file__, linalg.__file__)
+njit = Kernels(__file__, fx.__file__, plant_effects.__file__, rigid_body.__file__, linalg.__file__)
 
 
-@numba.njit(cache=True, fastmath=FASTMATH, **NO_REFCOUNTS)
+@njit(fastmath=FASTMATH, **NO_REFCOUNTS)
 def rk4_step(S, E, L, h, parent, kind, axis, rotation, translation, mass, com, inertia, armature, gravity,
              R, p, VV, AA, F, cm, cc, cI, M, hh, T):
     """One classical RK4 step of size h [s] of the state S[Q], S[V] with the input S[U] held: at each
@@ -126,14 +124,14 @@ def rk4_step(S, E, L, h, parent, kind, axis, rotation, translation, mass, com, i
         S[V, i] += h / 6.0 * (S[A0, i] + 2.0 * S[A0 + 1, i] + 2.0 * S[A0 + 2, i] + S[A0 + 3, i])
 
 
-@numba.njit(cache=True, fastmath=FASTMATH, **NO_REFCOUNTS)
+@njit(fastmath=FASTMATH, **NO_REFCOUNTS)
 def encoder(q, resolution, noise):
     """The encoder's reading of position q [rad or m]: quantized to ``resolution`` (0: exact), plus
     ``noise``."""
     return (math.floor(q / resolution + 0.5) * resolution if resolution > 0.0 else q) + noise
 
 
-@numba.njit(cache=True, fastmath=FASTMATH, **NO_REFCOUNTS)
+@njit(fastmath=FASTMATH, **NO_REFCOUNTS)
 def control(k, S, C, ref, ff, noise, out, ts):
     """Sample k: encoder reading, PID and saturation (module docstring); S[U] receives u[k], out[k]
     the measured position, the input and the true position. Returns OK, TOO_FAR (a tracking error
@@ -168,7 +166,7 @@ def control(k, S, C, ref, ff, noise, out, ts):
     return status
 
 
-@numba.njit(cache=True, fastmath=FASTMATH, **NO_REFCOUNTS)
+@njit(fastmath=FASTMATH, **NO_REFCOUNTS)
 def closed_loop(first, last, S, C, E, L, ref, ff, noise, out, ts, substeps, parent, kind, axis, rotation, translation,
                 mass, com, inertia, armature, gravity, R, p, VV, AA, F, cm, cc, cI, M, hh, T):
     """Samples first .. last - 1 of a run (rows of ref, ff, noise, out; pre-roll included): the
@@ -186,7 +184,7 @@ def closed_loop(first, last, S, C, E, L, ref, ff, noise, out, ts, substeps, pare
     return last, OK
 
 
-@numba.njit(cache=True, fastmath=FASTMATH, **NO_REFCOUNTS)
+@njit(fastmath=FASTMATH, **NO_REFCOUNTS)
 def exact_tracking_feedback(C, ref, zeros, out, S, ts):
     """The controller's output when every encoder reads the reference exactly, into out[:, OUT_U]:
     ``control`` run with the position set to ``ref[k]`` at each sample (C: controller rows without
@@ -197,9 +195,6 @@ def exact_tracking_feedback(C, ref, zeros, out, S, ts):
         for i in range(ref.shape[1]):
             S[Q, i] = ref[k, i]
         control(k, S, C, ref, zeros, zeros, out, ts)
-
-
-numba.config.CACHE_DIR = _previous_cache_dir
 
 
 # ---------------------------------------------------------------------------------------------

@@ -20,19 +20,17 @@ w3 (A, h2). Gradients are accumulated per tile in float32, as a BLAS product acc
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 import torch
 
-from ...physics.compiled import FASTMATH, cache_dir
+from ...physics.compiled import FASTMATH, Kernels
 
 TILE = 256
 """Samples per tile: 30 rows of 256 float32 fit the 32 KiB L1 cache."""
 
-_previous_cache_dir = numba.config.CACHE_DIR
-numba.config.CACHE_DIR = cache_dir(__file__)
+njit = Kernels(__file__)
 # error_model="numpy": no division-by-zero check in the loops, which would stop their vectorization
-_jit = numba.njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+_jit = njit(fastmath=FASTMATH, error_model="numpy")
 
 # tanh(x) = x p(x^2) / q(x^2) on |x| <= CLAMP, +-1 (in float32) beyond: a rational minimax fit
 # (the one of the Eigen library's float tanh), within 3e-7 of the exact value (tests/test_pgnn_fused.py)
@@ -45,7 +43,7 @@ _Q0, _Q1, _Q2, _Q3 = (np.float32(c) for c in Q)
 _CLAMP = np.float32(CLAMP)
 
 
-@numba.njit(cache=True, fastmath=FASTMATH, error_model="numpy", inline="always")
+@njit(fastmath=FASTMATH, error_model="numpy", inline="always")
 def tanh32(x):
     """tanh of a float32 without a library call, so that a loop of it vectorizes."""
     x = min(max(x, -_CLAMP), _CLAMP)
@@ -65,7 +63,7 @@ def tanh_array(x):
     return out
 
 
-@numba.njit(cache=True, fastmath=FASTMATH, error_model="numpy", inline="always")
+@njit(fastmath=FASTMATH, error_model="numpy", inline="always")
 def _layer(out, W, b, inputs):
     """out[j] = tanh(b[j] + sum_k W[j, k] inputs[k]) for each row j, over the tile's samples:
     out (h, T), W (h, m), b (h,), inputs (m, T)."""
@@ -170,9 +168,6 @@ def to_tiles(v, out, columns_first):
             for t in range(T):
                 s = c * T + t
                 row[t] = v[s, i] if s < B else 0.0
-
-
-numba.config.CACHE_DIR = _previous_cache_dir
 
 
 class _Scratch:

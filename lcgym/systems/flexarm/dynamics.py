@@ -33,13 +33,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-import numba
 import numpy as np
 from numba.extending import register_jitable
 
 from ...physics import effects as fx
 from ...physics import linalg, plant_effects
-from ...physics.compiled import cache_dir
+from ...physics.compiled import Kernels
 from ...physics.linalg import solve_spd_in_place
 
 N_JOINTS = 6
@@ -464,13 +463,10 @@ def energy(dh, pi, q, qd, gravity):
 # ---------------------------------------------------------------------------------------------
 
 
-# numba reads CACHE_DIR when a function is decorated: this module's kernels cache in a folder named
-# by a hash of the sources they call (``physics.compiled.cache_dir``), so an edited equation recompiles
-_previous_cache_dir = numba.config.CACHE_DIR
-numba.config.CACHE_DIR = cache_dir(__file__, fx.__file__, plant_effects.__file__, linalg.__file__)
+njit = Kernels(__file__, fx.__file__, plant_effects.__file__, linalg.__file__)
 
 
-@numba.njit(cache=True)
+@njit
 def _rnea_batch(dh, pi, q, qd, qdd, gravity):
     out = np.empty(q.shape)
     for k in range(q.shape[0]):
@@ -478,7 +474,7 @@ def _rnea_batch(dh, pi, q, qd, qdd, gravity):
     return out
 
 
-@numba.njit(cache=True)
+@njit
 def _regressor_batch(dh, q, qd, qdd, gravity):
     out = np.empty((q.shape[0], N_JOINTS, N_PARAMS))
     for k in range(q.shape[0]):
@@ -559,11 +555,9 @@ def flexible_energy(dh, pi, drive, x, gravity):
 
 
 # compiled single-sample versions, for loops in Python (tests, small studies)
-forward_dynamics_compiled = numba.njit(cache=True)(forward_dynamics)
-solve_spd_compiled = numba.njit(cache=True)(solve_spd)
-energy_compiled = numba.njit(cache=True)(energy)
-flexible_derivatives_compiled = numba.njit(cache=True)(flexible_derivatives)
-flexible_energy_compiled = numba.njit(cache=True)(flexible_energy)
-specific_force_compiled = numba.njit(cache=True)(specific_force)
-
-numba.config.CACHE_DIR = _previous_cache_dir
+forward_dynamics_compiled = njit(forward_dynamics)
+solve_spd_compiled = njit(solve_spd)
+energy_compiled = njit(energy)
+flexible_derivatives_compiled = njit(flexible_derivatives)
+flexible_energy_compiled = njit(flexible_energy)
+specific_force_compiled = njit(specific_force)

@@ -24,11 +24,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-import numba
 import numpy as np
 
 from ...physics import linalg
-from ...physics.compiled import cache_dir
+from ...physics.compiled import Kernels
 from ...physics.memo import ArrayMemo
 from ...physics.workspace import WORKSPACE
 from ..system import REGRESSOR_MIN_ROWS
@@ -115,13 +114,10 @@ def cached_regressors(size: int | None = None):
     return _memo().active(size)
 
 
-# numba reads CACHE_DIR when a function is decorated: this module's kernels cache in a folder named
-# by a hash of the sources they call (``physics.compiled.cache_dir``), so an edited equation recompiles
-_previous_cache_dir = numba.config.CACHE_DIR
-numba.config.CACHE_DIR = cache_dir(__file__, arm.__file__, linalg.__file__)
+njit = Kernels(__file__, arm.__file__, linalg.__file__)
 
 
-@numba.njit(cache=True)
+@njit
 def _regressor(dh, gear, q, qd, qdd, gravity, eps):
     T = q.shape[0]
     X = np.zeros((T, N, N_THETA))
@@ -165,7 +161,7 @@ def mass_matrix(p, q):
     return M + _diag(motor)
 
 
-@numba.njit(cache=True)
+@njit
 def _mass_matrices(dh, pi, q):
     out = np.empty((q.shape[0], N, N))
     for k in range(q.shape[0]):
@@ -173,7 +169,7 @@ def _mass_matrices(dh, pi, q):
     return out
 
 
-@numba.njit(cache=True)
+@njit
 def _mass_basis(dh, q):
     out = np.zeros((q.shape[0], N, N, N_PI))
     zero = np.zeros(N)
@@ -209,5 +205,3 @@ def _diag(v):
 
         return torch.diag_embed(v)
     return np.diag(v)
-
-numba.config.CACHE_DIR = _previous_cache_dir

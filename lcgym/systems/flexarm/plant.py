@@ -45,13 +45,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-import numba
 import numpy as np
 
 from ...data import Trial
 from ...physics import effects as fx
 from ...physics import linalg, plant_effects
-from ...physics.compiled import cache_dir
+from ...physics.compiled import Kernels
 from ...references import Reference
 from ..runs import remembered
 from ..system import SimulationDiverged
@@ -254,13 +253,10 @@ S_QM, S_U, S_QL, S_ACC, S_TCP = 0, 6, 12, 18, 21
 N_SIG = 24
 
 
-# numba reads CACHE_DIR when a function is decorated: this module's kernels cache in a folder named
-# by a hash of the sources they call (``physics.compiled.cache_dir``), so an edited equation recompiles
-_previous_cache_dir = numba.config.CACHE_DIR
-numba.config.CACHE_DIR = cache_dir(__file__, arm.__file__, fx.__file__, plant_effects.__file__, linalg.__file__)
+njit = Kernels(__file__, arm.__file__, fx.__file__, plant_effects.__file__, linalg.__file__)
 
 
-@numba.njit(cache=True)
+@njit
 def _rk4(x, u, dh, pi, drive, h, n, eps, k1_first):
     """n RK4 steps of h [s] from x (in place) under the held input u; ``k1_first`` is the
     derivative at x (the caller has it: the sample's recorded load acceleration)."""
@@ -286,13 +282,13 @@ N_LOOP = 24 + 18
 I_INT, I_EPREV, I_DF = 24, 30, 36
 
 
-@numba.njit(cache=True)
+@njit
 def _measure(x, i, res):
     qm = x[12 + i]
     return math.floor(qm / res + 0.5) * res if res > 0.0 else qm
 
 
-@numba.njit(cache=True)
+@njit
 def loop_start(st, q0, off0, ff0, dh, pi, drive, C, cfg):
     """Static balance at the reference sample q0: the motors at their reference, the load sagging
     until the joint springs carry gravity, K_J (q_mr / N - q_l) = G(q_l) (fixed point), and the PID
@@ -317,7 +313,7 @@ def loop_start(st, q0, off0, ff0, dh, pi, drive, C, cfg):
         st[I_EPREV + i] = e
 
 
-@numba.njit(cache=True)
+@njit
 def loop_sample(st, q_ref_k, q_ref_next, ff_k, off_k, dh, pi, drive, C, cfg, accel_offset, sig_row, record):
     """One 1 ms sample in place on st: encoders, PID + feedforward, (signals into sig_row if
     ``record``), integration over the sample. Returns True if the state left the safe range."""
@@ -353,7 +349,7 @@ def loop_sample(st, q_ref_k, q_ref_next, ff_k, off_k, dh, pi, drive, C, cfg, acc
     return False
 
 
-@numba.njit(cache=True, nogil=True)  # nogil: references run in parallel threads (bench.py)
+@njit(nogil=True)  # nogil: references run in parallel threads (bench.py)
 def simulate(q_ref, ff, off, dh, pi, drive, C, cfg, accel_offset, sig):
     """Closed loop over the reference after a pre-roll of cfg[6] samples at its first sample;
     fills sig (T, N_SIG); returns -1, or the sample where the state left the safe range."""
@@ -368,5 +364,3 @@ def simulate(q_ref, ff, off, dh, pi, drive, C, cfg, accel_offset, sig):
                        sig[k], True):
             return k
     return -1
-
-numba.config.CACHE_DIR = _previous_cache_dir

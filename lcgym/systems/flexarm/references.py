@@ -16,11 +16,10 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
 from ...physics import linalg
-from ...physics.compiled import cache_dir
+from ...physics.compiled import Kernels
 from ...references import AxisProfile, Reference, stream
 from . import dynamics as arm
 
@@ -32,23 +31,20 @@ MOVING = (1, 2, 4)  # joints 2, 3, 5 (0-based)
 START_GUESS = arm.HOME  # the IK starts from the home pose (elbow up, tool down)
 
 
-# numba reads CACHE_DIR when a function is decorated: this module's kernels cache in a folder named
-# by a hash of the sources they call (``physics.compiled.cache_dir``), so an edited equation recompiles
-_previous_cache_dir = numba.config.CACHE_DIR
-numba.config.CACHE_DIR = cache_dir(__file__, arm.__file__, linalg.__file__)
+njit = Kernels(__file__, arm.__file__, linalg.__file__)
 
 
-_fk = numba.njit(cache=True)(arm.forward_kinematics)
+_fk = njit(arm.forward_kinematics)
 
 
-@numba.njit(cache=True)
+@njit
 def _tool_error(dh, q, x, z):
     """(TCP x - x, TCP z - z, tilt of the tool from straight down) for joint angles q."""
     Rw, pw = _fk(dh, q)
     return np.array([pw[5, 0] - x, pw[5, 2] - z, math.atan2(Rw[5, 0, 2], -Rw[5, 2, 2])])
 
 
-@numba.njit(cache=True)
+@njit
 def inverse_kinematics_line(dh, xs, z, q0):
     """Joint angles (T, 6) that put the TCP at (xs[k], 0, z) with the tool down, moving joints 2,
     3, 5 only, starting from q0. Raises if a sample does not converge (out of reach)."""
@@ -74,7 +70,7 @@ def inverse_kinematics_line(dh, xs, z, q0):
     return out
 
 
-@numba.njit(cache=True)
+@njit
 def _tcp_batch(dh, q):
     out = np.empty((q.shape[0], 3))
     for k in range(q.shape[0]):
@@ -120,5 +116,3 @@ def arm_reference_set(name: str, seed: int = 0, n_references: int | None = None,
     if n < 1:
         raise ValueError(f"n_references must be >= 1 (set {name!r}), got {n}")
     return [tcp_line(f"arm-{name}-{seed}-{i}", rng, fs) for i in range(n)]
-
-numba.config.CACHE_DIR = _previous_cache_dir

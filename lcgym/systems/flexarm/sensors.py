@@ -29,10 +29,9 @@ phase), as is the result.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
-from ...physics.compiled import cache_dir
+from ...physics.compiled import Kernels
 from ...physics.kinematics import lowpass_zero_phase
 from . import dynamics as arm
 
@@ -66,11 +65,10 @@ def estimate_load_acceleration(trial, arm_params: arm.ArmParameters, drive: arm.
     return lowpass_zero_phase(out, fs, cutoff)
 
 
-_previous_cache_dir = numba.config.CACHE_DIR
-numba.config.CACHE_DIR = cache_dir(__file__, arm.__file__)
+njit = Kernels(__file__, arm.__file__)
 
 
-@numba.njit(cache=True)
+@njit
 def _sensor_model(dh, q, qd, offset, gravity):
     """The accelerometer's model along a trajectory: f(q, 0, 0) (T, 3), the columns
     A[:, :, j] = f(q, 0, e_j) - f(q, 0, 0) (T, 3, 6) and f(q, qd, 0) (T, 3) [m/s^2]."""
@@ -89,16 +87,13 @@ def _sensor_model(dh, q, qd, offset, gravity):
     return f0, A, f_qd
 
 
-@numba.njit(cache=True)
+@njit
 def specific_forces(dh, q, qd, qdd, offset, gravity):
     """``arm.specific_force`` at every sample of a trajectory (T, 6) each: (T, 3) [m/s^2]."""
     out = np.empty((q.shape[0], 3))
     for k in range(q.shape[0]):
         out[k] = arm.specific_force_compiled(dh, q[k], qd[k], qdd[k], offset, gravity)
     return out
-
-
-numba.config.CACHE_DIR = _previous_cache_dir
 
 
 def true_load_acceleration(trial, cutoff: float = 50.0) -> np.ndarray:

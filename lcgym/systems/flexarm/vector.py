@@ -18,12 +18,11 @@ import numba
 import numpy as np
 
 from ...physics import linalg
-from ...physics.compiled import cache_dir
+from ...physics.compiled import Kernels
 from . import dynamics as arm
 from . import plant as F
 
-_previous_cache_dir = numba.config.CACHE_DIR
-numba.config.CACHE_DIR = cache_dir(__file__, F.__file__, arm.__file__, linalg.__file__)
+njit = Kernels(__file__, F.__file__, arm.__file__, linalg.__file__)
 
 SCALES = ("pos", "vel", "acc", "ff", "err", "err_clip", "reward", "obs_bound", "preview", "action_bound")
 ENV_OK, ENV_DIVERGED = 0, 1
@@ -33,7 +32,7 @@ _loop_sample = F.loop_sample
 _measure = F._measure
 
 
-@numba.njit(cache=True)
+@njit
 def observe(st, ref_pos, ref_vel, ref_acc, base_ff, T, k, N, res, scales, out):
     """The observation (36,) of ``env.FlexArmEnv`` at sample k of a reference of length T into
     ``out`` (float32); returns the encoder-side error e = q_lr(k) - q_m / N (6,) [rad]."""
@@ -52,7 +51,7 @@ def observe(st, ref_pos, ref_vel, ref_acc, base_ff, T, k, N, res, scales, out):
     return e
 
 
-@numba.njit(cache=True)
+@njit
 def reward_of(e, scale):
     """The env's reward -1/2 sum_i (e_i / scale)^2 for the encoder-side error e (6,) [rad]."""
     total = 0.0
@@ -61,7 +60,7 @@ def reward_of(e, scale):
     return -0.5 * total
 
 
-@numba.njit(cache=True)
+@njit
 def step_one(b, st, ref_pos, ref_vel, ref_acc, base_ff, offset, lengths, ref_idx, k, action, scales,
              dh, pi, drive, C, cfg, accel_offset, obs, reward, status, clipped, u, load_error):
     """One sample of sub-env b (see ``env.FlexArmEnv.step``); ``u`` gets the motor torques [N m] and
@@ -95,7 +94,7 @@ def step_one(b, st, ref_pos, ref_vel, ref_acc, base_ff, offset, lengths, ref_idx
 # more than a handful of arms' samples). Two functions, not one compiled twice: numba's disk cache
 # keys a kernel by its function's name and line, so a parallel and a serial compilation of one
 # function share an entry and whichever was compiled first is loaded for both.
-@numba.njit(cache=True)
+@njit
 def step_serial(active, st, ref_pos, ref_vel, ref_acc, base_ff, offset, lengths, ref_idx, k, action, scales, dh, pi,
                 drive, C, cfg, accel_offset, obs, reward, status, clipped, u, load_error):
     for b in range(st.shape[0]):
@@ -104,13 +103,10 @@ def step_serial(active, st, ref_pos, ref_vel, ref_acc, base_ff, offset, lengths,
                      drive, C, cfg, accel_offset, obs, reward, status, clipped, u, load_error)
 
 
-@numba.njit(cache=True, parallel=True)
+@njit(parallel=True)
 def step_parallel(active, st, ref_pos, ref_vel, ref_acc, base_ff, offset, lengths, ref_idx, k, action, scales, dh,
                   pi, drive, C, cfg, accel_offset, obs, reward, status, clipped, u, load_error):
     for b in numba.prange(st.shape[0]):
         if active[b]:
             step_one(b, st, ref_pos, ref_vel, ref_acc, base_ff, offset, lengths, ref_idx, k, action, scales, dh, pi,
                      drive, C, cfg, accel_offset, obs, reward, status, clipped, u, load_error)
-
-
-numba.config.CACHE_DIR = _previous_cache_dir

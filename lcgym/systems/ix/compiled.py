@@ -9,28 +9,22 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
-from ...physics.compiled import FASTMATH, cache_dir, in_row_blocks
+from ...physics.compiled import FASTMATH, Kernels, in_row_blocks
 from . import dynamics as ix
 
-# numba reads CACHE_DIR when a function is decorated: set it for this module's kernels only
-_previous_cache_dir = numba.config.CACHE_DIR
-numba.config.CACHE_DIR = cache_dir(__file__, ix.__file__)
+njit = Kernels(__file__, ix.__file__)
 
 _torques = ix.joint_torques
 
 
-@numba.njit(cache=True, fastmath=FASTMATH, nogil=True)  # nogil: blocks of rows on threads
+@njit(fastmath=FASTMATH, nogil=True)  # nogil: blocks of rows on threads
 def _inverse_dynamics_sets(P, q, qd, qdd, out):
     for t in range(q.shape[0]):
         s2, c2, s3, c3 = math.sin(q[t, 0]), math.cos(q[t, 0]), math.sin(q[t, 1]), math.cos(q[t, 1])
         for k in range(P.shape[0]):
             out[t, 0, k], out[t, 1, k] = _torques(P[k], s2, c2, s3, c3, qd[t, 0], qd[t, 1], qdd[t, 0], qdd[t, 1])
-
-
-numba.config.CACHE_DIR = _previous_cache_dir
 
 
 def regressor(zeta_n, q, qd, qdd, columns=None) -> np.ndarray:

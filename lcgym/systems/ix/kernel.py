@@ -27,13 +27,11 @@ import numpy as np
 
 from ...physics import effects as fx
 from ...physics import plant_effects
-from ...physics.compiled import FASTMATH, cache_dir
+from ...physics.compiled import FASTMATH, Kernels
 from . import dynamics as ix
 from . import effects as ix_effects
 
-# numba reads CACHE_DIR when a function is decorated: set it for this module's kernels only
-_previous_cache_dir = numba.config.CACHE_DIR
-numba.config.CACHE_DIR = cache_dir(__file__, ix.__file__, fx.__file__, ix_effects.__file__, plant_effects.__file__)
+njit = Kernels(__file__, ix.__file__, fx.__file__, ix_effects.__file__, plant_effects.__file__)
 
 # effect parameter slots (per axis row)
 (
@@ -57,7 +55,7 @@ _periodic = fx.periodic_basis
 _effects = plant_effects.axis_torque
 
 
-@numba.njit(cache=True, fastmath=FASTMATH)
+@njit(fastmath=FASTMATH)
 def friction_level(v, e, nb):
     """Friction level L(q) [V] (Coulomb + normal-force part) and Stribeck increment at speed v.
 
@@ -70,14 +68,14 @@ def friction_level(v, e, nb):
     return level, strib
 
 
-@numba.njit(cache=True, fastmath=FASTMATH)
+@njit(fastmath=FASTMATH)
 def joint_trig(s, trig):
     """trig = (sin q2, cos q2, sin q3, cos q3) of state s: shared by the relaxation and the RHS."""
     trig[0], trig[1] = math.sin(s[0]), math.cos(s[0])
     trig[2], trig[3] = math.sin(s[1]), math.cos(s[1])
 
 
-@numba.njit(cache=True, fastmath=FASTMATH)
+@njit(fastmath=FASTMATH)
 def lugre_relax(s, trig, E, h):
     """Advance the LuGre bristle states z over h exactly for frozen q, v (half of a Strang split).
 
@@ -100,7 +98,7 @@ def lugre_relax(s, trig, E, h):
             s[8 + i] = z_ss + (s[8 + i] - z_ss) * math.exp(-a * h)
 
 
-@numba.njit(cache=True, fastmath=FASTMATH)
+@njit(fastmath=FASTMATH)
 def axis_terms(s, i, u, e, nb):
     """Effects and drive of axis i: (added inertia, generalized force on the load, motor acc).
 
@@ -136,7 +134,7 @@ def axis_terms(s, i, u, e, nb):
     return added_inertia, torque - tau, motor_acc
 
 
-@numba.njit(cache=True, fastmath=FASTMATH)
+@njit(fastmath=FASTMATH)
 def derivatives(s, trig, u, p, E, ds):
     """ds = d/dt s for input u (2,) [V] held constant; p true rigid parameters of the load;
     trig = joint_trig(s)."""
@@ -158,7 +156,7 @@ def derivatives(s, trig, u, p, E, ds):
     ds[5], ds[7] = (s[7], acc1) if E[1, FX_K] > 0.0 else (ds[1], ds[3])
 
 
-@numba.njit(cache=True, fastmath=FASTMATH)
+@njit(fastmath=FASTMATH)
 def rk4_interval(s, u, p, E, dt, substeps, work):
     """Advance state s in place over dt with input u held: ``substeps`` Strang-split steps, each
     an exact half-step of the bristle relaxation, a classical RK4 step of the mechanics (bristle
@@ -201,7 +199,7 @@ SIG_Y, SIG_U, SIG_FB, SIG_LOAD = 0, 2, 4, 6
 N_SIG = 8
 
 
-@numba.njit(cache=True, fastmath=FASTMATH)
+@njit(fastmath=FASTMATH)
 def sensor(s, E, cfg, out):
     """Quantized encoder reading [rad]: motor side when the drive is flexible (in axis units)."""
     for i in range(2):
@@ -210,7 +208,7 @@ def sensor(s, E, cfg, out):
         out[i] = math.floor(x / res + 0.5) * res if res > 0.0 else x
 
 
-@numba.njit(cache=True, fastmath=FASTMATH)
+@njit(fastmath=FASTMATH)
 def control(ref, meas, ff, C, cs, cfg, out_u, out_fb):
     """Diagonal PD + first-order low-pass (per axis), plus feedforward, saturated at +-umax.
 
@@ -227,7 +225,7 @@ def control(ref, meas, ff, C, cs, cfg, out_u, out_fb):
         out_u[i] = min(max(cs[2 + i] + ff[i], -umax), umax)
 
 
-@numba.njit(cache=True, fastmath=FASTMATH)
+@njit(fastmath=FASTMATH)
 def loop_start(st, ref0, E, cfg):
     """Plant at rest at ref0 (motor = load, no bristle deflection), controller without history."""
     st[:] = 0.0
@@ -238,7 +236,7 @@ def loop_start(st, ref0, E, cfg):
     st[CS0], st[CS0 + 1] = ref0[0] - y[0], ref0[1] - y[1]
 
 
-@numba.njit(cache=True, fastmath=FASTMATH)
+@njit(fastmath=FASTMATH)
 def loop_sample(st, ref_k, ff_k, p, E, C, cfg, work, sig):
     """One sample k of the closed loop, in place on st (N_LOOP,).
 
@@ -254,7 +252,7 @@ def loop_sample(st, ref_k, ff_k, p, E, C, cfg, work, sig):
     st[UA0], st[UA0 + 1] = sig[SIG_U], sig[SIG_U + 1]
 
 
-@numba.njit(cache=True, fastmath=FASTMATH)
+@njit(fastmath=FASTMATH)
 def out_of_range(s, ref, cfg):
     """True if a state is not finite, the tracking error exceeds CFG_ERR or a speed CFG_VEL."""
     for j in range(N_STATE):
@@ -266,7 +264,7 @@ def out_of_range(s, ref, cfg):
     return False
 
 
-@numba.njit(cache=True, fastmath=FASTMATH)
+@njit(fastmath=FASTMATH)
 def settle(st, ref0, ff0, n_samples, p, E, C, cfg, work):
     """Start at ref0 and hold ref0, ff0 for n_samples (gravity sag, friction states settle)."""
     loop_start(st, ref0, E, cfg)
@@ -275,7 +273,7 @@ def settle(st, ref0, ff0, n_samples, p, E, C, cfg, work):
         loop_sample(st, ref0, ff0, p, E, C, cfg, work, sig)
 
 
-@numba.njit(cache=True, parallel=True, fastmath=FASTMATH)
+@njit(parallel=True, fastmath=FASTMATH)
 def simulate_batch(ref, ff, lengths, p, E, C, cfg, preroll, sig_out, status, fail_k, final_state):
     """Closed-loop runs of B references at once (parallel over references).
 
@@ -309,7 +307,7 @@ N_ENV_SIG = N_SIG + 6
 SC_ERR, SC_CLIP, SC_REWARD, SC_BOUND = range(4)  # env scales: obs error, obs clip, reward error, action bound
 
 
-@numba.njit(cache=True, fastmath=FASTMATH)
+@njit(fastmath=FASTMATH)
 def env_step_one(b, st, work, ref_pos, feats, base_ff, lengths, ref_idx, k, action, scales, p, E, C, cfg,
                  obs, reward, status, clipped, sig):
     """Step env b by one sample with feedforward base_ff + clip(action); write its observation,
@@ -342,7 +340,7 @@ def env_step_one(b, st, work, ref_pos, feats, base_ff, lengths, ref_idx, k, acti
     status[b] = ENV_DIVERGED if out_of_range(st[b], ref_pos[r, kn], cfg) else ENV_OK
 
 
-@numba.njit(cache=True, fastmath=FASTMATH)
+@njit(fastmath=FASTMATH)
 def env_step_serial(active, st, work, ref_pos, feats, base_ff, lengths, ref_idx, k, action, scales, p, E, C, cfg,
                     obs, reward, status, clipped, sig):
     for b in range(st.shape[0]):
@@ -351,13 +349,10 @@ def env_step_serial(active, st, work, ref_pos, feats, base_ff, lengths, ref_idx,
                          obs, reward, status, clipped, sig)
 
 
-@numba.njit(cache=True, parallel=True, fastmath=FASTMATH)
+@njit(parallel=True, fastmath=FASTMATH)
 def env_step_parallel(active, st, work, ref_pos, feats, base_ff, lengths, ref_idx, k, action, scales, p, E, C, cfg,
                       obs, reward, status, clipped, sig):
     for b in numba.prange(st.shape[0]):
         if active[b]:
             env_step_one(b, st, work, ref_pos, feats, base_ff, lengths, ref_idx, k, action, scales, p, E, C, cfg,
                          obs, reward, status, clipped, sig)
-
-
-numba.config.CACHE_DIR = _previous_cache_dir
