@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import systems as machines
+from ..fitted import check_fitted
 from .loop import loop_feedforward, machine_loop
 from .protocol import Controller, Cost, given_system
 
@@ -39,8 +40,7 @@ class BasicArmFeedforward(Controller):
         return self
 
     def _parts(self, reference) -> dict:
-        if not hasattr(self, "nominal_"):
-            raise RuntimeError("basic: call fit(trials) before feedforward()")
+        check_fitted(self, "nominal_", hint="call fit(trials) before feedforward()")
         return self.nominal_.compute(reference.positions, reference.fs)
 
     def feedforward(self, reference) -> np.ndarray:

@@ -11,6 +11,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from .. import systems
+from ..fitted import check_fitted
 from ..physics.model import PhysicalModel
 from .loop import loop_feedforward, machine_loop
 from .protocol import Controller, Cost, given_system
@@ -52,6 +53,5 @@ class PhysicalFeedforward(Controller):
         return model.reference_offset(reference) if hasattr(model, "reference_offset") else None
 
     def _model(self) -> PhysicalModel:
-        if not hasattr(self, "model_"):
-            raise RuntimeError("PhysicalFeedforward: call fit(trials) before feedforward()")
+        check_fitted(self, "model_", hint="call fit(trials) before feedforward()")
         return self.model_

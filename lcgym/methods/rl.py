@@ -64,6 +64,7 @@ import pandas as pd
 from tqdm.auto import tqdm
 
 from .. import systems
+from ..fitted import check_fitted, is_fitted
 from ..provenance import source_hash
 from ..systems import SimulationDiverged
 from .bases import base_controller
@@ -283,13 +284,12 @@ class RLFeedforward(Controller):
 
     # --- learn: train once, then one rollout per reference ----------------------------------
     def learn(self, plant, reference) -> RLFeedforward:
-        if not hasattr(self, "training_"):
-            raise RuntimeError("rl: call fit(trials) before learn()")
-        if not hasattr(self, "scales_"):
+        check_fitted(self, "training_", hint="call fit(trials) before learn()")
+        if not is_fitted(self, "scales_"):
             self.scales_ = self._scales(plant)
-        if not hasattr(self, "model_"):
+        if not is_fitted(self, "model_"):
             self._train_or_load(plant)
-        if not hasattr(self, "kept_"):  # also for a model of the user's (``load_model``)
+        if not is_fitted(self, "kept_"):  # also for a model of the user's (``load_model``)
             self._safeguard(plant)
         self.rollouts_[reference.name] = self._rollout(plant, reference, self.kept_)
         return self

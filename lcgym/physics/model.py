@@ -46,6 +46,7 @@ from typing import Any, ClassVar
 import numpy as np
 from scipy.optimize import least_squares
 
+from ..fitted import is_fitted
 from .compiled import Kernels
 from .effects import Effect, Loads
 from .kinematics import reference_kinematics, reference_positions
@@ -180,7 +181,7 @@ class PhysicalModel:
         effect = self.system.effect(effect, **params)
         if any(e.key == effect.key for e in self.effects):
             raise ValueError(f"model already has {effect.key}")
-        fitted = hasattr(self, "effects_")  # then its effects' shapes are found: they start from them
+        fitted = is_fitted(self, "effects_")  # then its effects' shapes are found: they start from them
         return dataclasses.replace(self, params=self.fitted_params, effects=(*self.fitted_effects, effect),
                                    search_shapes=() if fitted else self.search_shapes)
 

@@ -49,6 +49,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ... import systems
+from ...fitted import check_fitted, is_fitted
 from ...systems import SimulationDiverged
 from ..bases import ReferenceMemo, base_controller
 from ..protocol import DEFAULT_BASE, Controller, Cost, given_system
@@ -186,8 +187,7 @@ class IterativeLearningControl(Controller):
         return self
 
     def learn(self, plant, reference) -> IterativeLearningControl:
-        if not hasattr(self, "learned_"):
-            raise RuntimeError("ILC: call fit(trials) before learn()")
+        check_fitted(self, "learned_", hint="call fit(trials) before learn()")
         if self.base == "basic":
             learn = self._learn_model_following
         elif self.nominal_ is not None:
@@ -382,7 +382,7 @@ class ILCTransfer(IterativeLearningControl):
         return self
 
     def learn(self, plant, reference) -> ILCTransfer:
-        if not hasattr(self, "kept_"):
+        if not is_fitted(self, "kept_"):
             super().learn(plant, self.source_)
             f0, o0 = self._start(self.source_)
             learned = self._learned(self.source_)
@@ -412,8 +412,7 @@ class ILCTransfer(IterativeLearningControl):
         return f, (0.0 if o0 is None else o0) + _fitted(self.offset_correction_, reference.n_samples)
 
     def _signals(self, reference) -> tuple[np.ndarray, np.ndarray | None]:
-        if not hasattr(self, "kept_"):
-            raise RuntimeError("ilc-transfer: call learn(plant, reference) first")
+        check_fitted(self, "kept_", hint="call learn(plant, reference) first")
         return self.memo_.get("signals", reference,
                               lambda: mixed(self._start(reference), self._transferred(reference), self.kept_))
 

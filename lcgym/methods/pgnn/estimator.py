@@ -30,6 +30,7 @@ import torch
 
 from ... import systems
 from ...data import atomic_write
+from ...fitted import is_fitted
 from ...physics.effects import effect_from_record, effect_record
 from ...physics.kinematics import reference_kinematics, reference_positions
 from ...physics.model import PhysicalModel
@@ -128,7 +129,7 @@ class PGNN:
     def reference_offset(self, reference) -> np.ndarray | None:
         """The physical model's reference offset with the trained parameters (the arm's joint
         torsion, ``ArmModel.reference_offset``), or None for a system without one (the IX)."""
-        if not hasattr(self, "physical_") or not hasattr(self.physical_, "reference_offset"):
+        if not is_fitted(self, "physical_") or not hasattr(self.physical_, "reference_offset"):
             return None
         return dataclasses.replace(self.physical_, params=self.params_).reference_offset(reference)
 

@@ -53,6 +53,7 @@ from typing import TYPE_CHECKING, ClassVar
 import numpy as np
 
 from ... import systems
+from ...fitted import check_fitted, is_fitted
 from ...references import references_of
 from ..bases import ReferenceMemo, closed_loop
 from ..loop import loop_feedforward, machine_loop
@@ -157,13 +158,13 @@ class PGNNFeedforward(Controller):
         return self
 
     def learn(self, plant, reference) -> PGNNFeedforward:
-        if not hasattr(self, "pgnn_"):
+        if not is_fitted(self, "pgnn_"):
             self.physical_ = physical = self._least_squares().fit(self.trials_)
             refs = references_of(self.trials_)
             data = [closed_loop(plant, r, physical.feedforward(r), physical.reference_offset(r)) for r in refs]
             self.cost_ = Cost(plant_trials=len(refs))
             self._train(data)
-        if not hasattr(self, "part_kept_"):
+        if not is_fitted(self, "part_kept_"):
             self._gate(plant)
         return self
 
@@ -175,7 +176,7 @@ class PGNNFeedforward(Controller):
         self.note_ = ""
         if not self.gate:
             return
-        if not hasattr(self, "physical_"):  # the least-squares model of the training trials (learn's, where it ran)
+        if not is_fitted(self, "physical_"):  # the least-squares model of the training trials (learn's, where it ran)
             self.physical_ = self._least_squares().fit(self.trials_)
         axes = refs[0].axes
         if len(refs) < self.min_judged:
@@ -232,7 +233,7 @@ class PGNNFeedforward(Controller):
         return model.predict(reference) + loop_feedforward(self.loop_, reference), model.reference_offset(reference)
 
     def _signals(self, reference):
-        if not hasattr(self, "part_kept_") or not self.gate:
+        if not is_fitted(self, "part_kept_") or not self.gate:
             return self._whole(reference)  # not kept: learn may change what this returns
         if self.net_kept_.all():
             return self.memo_.get("signals", reference, lambda: self._whole(reference))
@@ -259,8 +260,7 @@ class PGNNFeedforward(Controller):
                           system=self.system_).fit(trials)
 
     def _model(self) -> PGNN:
-        if not hasattr(self, "pgnn_"):
-            raise RuntimeError(f"{self.name}: call fit(trials) (and learn(plant, reference)) before feedforward()")
+        check_fitted(self, "pgnn_", hint="call fit(trials) (and learn(plant, reference)) before feedforward()")
         return self.pgnn_
 
     def feedforward(self, reference) -> np.ndarray:

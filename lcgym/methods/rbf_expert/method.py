@@ -37,6 +37,7 @@ from __future__ import annotations
 import numpy as np
 
 from ... import systems
+from ...fitted import check_fitted, is_fitted
 from ..bases import ReferenceMemo, base_controller, closed_loop
 from ..ilc.method import ILCConfig, frequency_update, learning_filters, nominal_update
 from ..protocol import DEFAULT_BASE, Controller, Cost, given_system
@@ -81,9 +82,8 @@ class RBFExpertFeedforward(Controller):
         return self
 
     def learn(self, plant, reference) -> RBFExpertFeedforward:
-        if not hasattr(self, "training_"):
-            raise RuntimeError("rbf-expert: call fit(trials) before learn()")
-        if not hasattr(self, "predictor_"):
+        check_fitted(self, "training_", hint="call fit(trials) before learn()")
+        if not is_fitted(self, "predictor_"):
             self.plant_ = plant
             self._train(plant)
             self.kept_ = np.ones(reference.positions.shape[1], dtype=bool)
@@ -122,8 +122,7 @@ class RBFExpertFeedforward(Controller):
 
     def predict(self, reference) -> np.ndarray:
         """e_hat (T, n): the predicted error of ``reference`` (arm: e_pl [rad/s^2]; IX: tracking [rad])."""
-        if not hasattr(self, "predictor_"):
-            raise RuntimeError("rbf-expert: call learn(plant, reference) first (it trains the predictor)")
+        check_fitted(self, "predictor_", hint="call learn(plant, reference) first (it trains the predictor)")
         e_hat = self.predictor_.predict(reference)
         self.outside_[reference.name] = dict(self.predictor_.outside_share_)
         return e_hat
@@ -145,8 +144,7 @@ class RBFExpertFeedforward(Controller):
         return f0 + fade * frequency_update(np.zeros_like(f0), e_hat, inverse, q, learning.gain), o0
 
     def _signals(self, reference) -> tuple[np.ndarray, np.ndarray | None]:
-        if not hasattr(self, "kept_"):
-            raise RuntimeError("rbf-expert: call learn(plant, reference) first (it trains the predictor)")
+        check_fitted(self, "kept_", hint="call learn(plant, reference) first (it trains the predictor)")
         if self.kept_.all():
             return self.memo_.get("signals", reference, lambda: self._predicted(reference))
         return self.memo_.get("signals", reference,

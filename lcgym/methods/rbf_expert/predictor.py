@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ...fitted import check_fitted
 from ...physics.kinematics import lowpass_zero_phase, relay
 from .expert import CRUISE, CRUISE_REST_RANGES, NETWORK_TYPES, REST, TABLE5_RANGES, ExpertConfig, network_types
 from .influence import motion_influence
@@ -170,8 +171,7 @@ class RBFExpertPredictor:
     def predict(self, reference, filtered: bool = True) -> np.ndarray:
         """e_hat (T, n): the predicted error, zero on joints without networks and where no network is
         active; zero-phase low-passed at ``lowpass_hz`` unless ``filtered`` is False."""
-        if not hasattr(self, "networks_"):
-            raise RuntimeError("RBFExpertPredictor: call fit(references, errors) before predict")
+        check_fitted(self, "networks_", hint="call fit(references, errors) before predict")
         T, n = reference.positions.shape
         out = np.zeros((T, n))
         self.outside_share_ = {}
