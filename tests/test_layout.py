@@ -34,7 +34,7 @@ LAYERS = [
     {"systems", "systems.*"},  # systems.*: a machine's folder (systems/ix/, systems/two_link/, ...)
     {"envs"},
     {"physics", "references", "datasets", "logs"},
-    {"data", "figures", "fitted", "metrics", "provenance"},
+    {"data", "figures", "fitted", "metrics", "provenance", "user_code"},
 ]
 SAME_LAYER = {  # imports allowed within one layer (unit -> units)
     "simulate": {"leaderboard"},

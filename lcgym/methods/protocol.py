@@ -20,10 +20,7 @@ sets (fit, apply, run, tables), the same way for the benchmark and ``simulate``.
 from __future__ import annotations
 
 import dataclasses
-import importlib
 import inspect
-import os
-import sys
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
@@ -37,6 +34,7 @@ import pandas as pd
 from .. import systems
 from ..envs.actions import short_repr
 from ..systems.bench import Bench
+from ..user_code import import_user_module
 
 DEFAULT_BASE = "physical"
 BASES = ("physical", "basic")
@@ -215,10 +213,8 @@ def _load_class(spec: str, registry: dict[str, type]) -> type:
     module_name, sep, class_name = spec.partition(":")
     if not sep or not module_name or not class_name:
         raise ValueError(f"unknown method {spec!r}: use one of {', '.join(sorted(registry))} or module:Class")
-    if os.getcwd() not in sys.path:  # like `python -m`: a module in the current folder is found
-        sys.path.insert(0, os.getcwd())
     try:
-        module = importlib.import_module(module_name)
+        module = import_user_module(module_name)
     except ImportError as exc:
         raise ValueError(f"method {spec!r}: cannot import module {module_name!r} ({exc})") from None
     cls = getattr(module, class_name, None)

@@ -21,8 +21,6 @@ from __future__ import annotations
 
 import hashlib
 import importlib
-import os
-import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
@@ -30,6 +28,7 @@ from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ..user_code import import_user_module
 from .system import Axis, DiagnosisSettings, ParameterVector, SimulationDiverged, System
 
 if TYPE_CHECKING:
@@ -216,10 +215,8 @@ def get(spec: str | System, joints: Sequence[str] | None = None, **options) -> S
 def from_python(module_name: str, attr: str) -> System:
     """``module:attr``: a ``System`` instance, or a function without arguments that returns one."""
     where = f"{module_name}:{attr}"
-    if os.getcwd() not in sys.path:  # like `python -m`: a module in the current folder is found
-        sys.path.insert(0, os.getcwd())
     try:
-        module = importlib.import_module(module_name)
+        module = import_user_module(module_name)
     except Exception as exc:  # an ImportError, or any error the user's module raises on import
         raise ValueError(f"machine {where}: cannot import module {module_name!r} ({type(exc).__name__}: {exc})") from None
     if not hasattr(module, attr):
