@@ -86,4 +86,4 @@ def test_only_the_last_runs_are_kept(monkeypatch):
     with remembered_runs():
         for k in (6, 7, 8, 6):
             plant.run(_ref(k))
-    assert plant.ran == 4 and len(runs._store) <= 2
+    assert plant.ran == 4 and len(runs._store()) <= 2

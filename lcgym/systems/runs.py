@@ -7,8 +7,9 @@ that carries on from run to run) returns a copy of the trial it ran before: the 
 bit, without running it again. A method still counts every run it asked for (``plant_trials``).
 
 Only inside ``remembered_runs()`` (the benchmark's cells); the last ``SIZE`` runs of the process
-are kept, keyed by the plant's configuration (its ``repr``: every field of the plant's dataclass),
-the reference (name and positions) and the signals.
+are kept (``WORKSPACE``'s slot ``"systems.runs"``), keyed by the plant's configuration (its
+``repr``: every field of the plant's dataclass), the reference (name and positions) and the
+signals.
 """
 
 from __future__ import annotations
@@ -23,10 +24,16 @@ from contextlib import contextmanager
 
 import numpy as np
 
+from ..physics.workspace import WORKSPACE
+
 SIZE = 64
-_store: OrderedDict = OrderedDict()
 _active = [0]
 _lock = threading.Lock()
+
+
+def _store() -> OrderedDict:
+    """The runs kept, oldest first."""
+    return WORKSPACE.slot("systems.runs", OrderedDict)
 
 
 @contextmanager
@@ -61,11 +68,12 @@ def remembered(run):
         plant = repr(self)
         keys = [_key(plant, r, [s[i] for s in per_ref]) for i, r in enumerate(refs)]
         found = {}
+        store = _store()
         with _lock:  # a bench runs its references in threads
             for i, k in enumerate(keys):
-                if k in _store:
-                    _store.move_to_end(k)
-                    found[i] = copy.deepcopy(_store[k])
+                if k in store:
+                    store.move_to_end(k)
+                    found[i] = copy.deepcopy(store[k])
         missing = [i for i in range(len(refs)) if i not in found]
         if missing:
             if single:
@@ -76,9 +84,9 @@ def remembered(run):
             with _lock:
                 for i, trial in zip(missing, ran, strict=True):
                     found[i] = trial
-                    _store[keys[i]] = copy.deepcopy(trial)  # a copy: the caller may alter its trial
-                    while len(_store) > SIZE:
-                        _store.popitem(last=False)
+                    store[keys[i]] = copy.deepcopy(trial)  # a copy: the caller may alter its trial
+                    while len(store) > SIZE:
+                        store.popitem(last=False)
         trials = [found[i] for i in range(len(refs))]
         return trials[0] if single else trials
 
