@@ -2,10 +2,8 @@
 
     xdot = A x + B u,  y = C x + D u,  u linear between samples (first-order hold)
 
-``lsim`` gives what ``scipy.signal.lsim`` gives (its default ``interp=True``) to round-off: bit for
-bit for a single input where numpy's small vector-matrix products sum in the loop's order (the
-machine of 2026-12-01), from the 15th digit on where they do not (an AVX-512 machine of
-2026-12-02; several inputs likewise). The same
+``lsim`` gives what ``scipy.signal.lsim`` gives (its default ``interp=True``) to round-off (bit for
+bit where numpy's small vector-matrix products sum in the loop's order; tested). The same
 discretization (the matrix exponential of the augmented system, ``discretize_foh``; for an input
 that is zero throughout exp(A dt) alone, as scipy) and the same recursion
 x[k+1] = x[k] Ad + u[k] Bd0 + u[k+1] Bd1 summed in the same order, but in a compiled loop. scipy

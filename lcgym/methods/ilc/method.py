@@ -307,7 +307,7 @@ class IterativeLearningControl(Controller):
 
         f0, o0 = self._start(reference)
         # each joint's loop model carries the load inertia of the fitted arm (payload included) at the
-        # reference's mean pose: with the nominal M_n the static EE error rose on seed 1 (helper study)
+        # reference's mean pose: the nominal M_n lacks the payload, and the static EE error rose with it
         inertia = load_inertia(self.base_.model_.fitted_params.arm(), reference.positions)
         learned, history, true_history, used = learn_on_base(plant, reference, f0, o0, self.nominal_,
                                                              trials=self.config_.arm_trials, inertia=inertia)

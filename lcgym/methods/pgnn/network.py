@@ -15,9 +15,8 @@ zeta = zeta0 + scale delta with delta starting at 0. ``zeta_steps="absolute"`` (
 paper's: Adam on zeta itself): scale = 1, so that Adam's step, about lr, is lr in the parameter's own
 units. ``"relative"``: scale = max(|zeta0|, 1e-3), a relative step for CoM coordinates of centimetres
 and inertias of tenths alike, which holds zeta nearer zeta0. Neither makes the NN-contribution
-ratio J_LS / J of Tables II/III what the paper's is (12.6x / 4.3x): on IX-v1's leaderboard data
-1.43x / 1.49x relative, 1.42x / 1.64x absolute (``studies/pgnn_protocol.py`` rows B and C, which
-also differ in the iteration length).
+ratio J_LS / J of Tables II/III what the paper's is (``studies/pgnn_protocol.py``; the figures in
+docs/methods/pgnn.md).
 """
 
 from __future__ import annotations

@@ -45,12 +45,10 @@ class RBFExpertConfig:
     training samples is not trained (predicts zero); cruise_and_rest: the two experts beyond Table 3
     (``expert``; False: the paper's four, ``paper002-nnp``).
 
-    Defaults differing from the paper's choice, measured on the FlexArm (``studies/rbf_expert_arm.py
-    --tune``: 24 training lines, chosen on the validation lines of seed 0, which the study's report
-    does not use): 2D, not 3D (the 3D networks reach 62 % of LCS's dynamic improvement of the joint
-    error, the 2D ones 95 %: the lines fill the position dimension too thinly); 10 levels for
-    eq. (29) (20 levels: 92 %); a 0.5 s "long period" of constant velocity (``expert.ExpertConfig``);
-    ridge 10 (1: 90 %).
+    Defaults differing from the paper's choice, chosen on the FlexArm (``studies/rbf_expert_arm.py
+    --tune``; the evidence in docs/methods/rbf-expert.md): 2D, not 3D networks (the lines fill the
+    position dimension too thinly); 10 levels for eq. (29); a 0.5 s "long period" of constant
+    velocity (``expert.ExpertConfig``); ridge 10.
     """
 
     dims: int = 2

@@ -53,7 +53,7 @@ class ArmModel(PhysicalModel):
     fit_coulomb: bool = True
     built_in: ClassVar[tuple[str, ...]] = ("rigid_body", "motor_inertia", "viscous_friction", "coulomb_friction")
     # the motor encoders' motion carries the gear torsion, which the load-side model takes for the load's
-    # motion: fitted on it, the benchmark's j2 error rose 4.1x (seed 0, docs/machines/flexarm.md)
+    # motion: fitted on it, the benchmark's joint errors rose (docs/machines/flexarm.md)
     fitted_on: ClassVar[str] = "reference"
     # besides the exactly unexcited directions, the stationary joints' columns carry round-off of the
     # inverse kinematics (1e-7 relative) that must not be fitted
