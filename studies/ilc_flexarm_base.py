@@ -1,6 +1,6 @@
 """ILC on the FlexArm on its physical base (issue 48): the least-squares physical model's
 feedforward and joint-torsion offset, then ``trials`` updates of the encoder ILC of
-``methods/ilc/flexarm.py``, each measured; the kept trial is the best one as the machine's sensors
+``systems/flexarm/learning.py``, each measured; the kept trial is the best one as the machine's sensors
 (motor encoders, flange accelerometer) measure it. Per trial, what the sensors measure (the
 load-error estimate of joints 2, 3, 5 and the EE acceleration error) beside what the benchmark
 scores from the simulation's truth (load-side tracking error, TCP error in the dynamic and static
@@ -18,11 +18,11 @@ from dataclasses import replace
 import numpy as np
 from tqdm import tqdm
 
-from lcgym.methods.ilc.flexarm import ArmILCConfig, learn_on_base, measure, update
 from lcgym.methods.physical import PhysicalFeedforward
 from lcgym.systems.flexarm import FLEXARM
 from lcgym.systems.flexarm.bench import FlexArmBench
 from lcgym.systems.flexarm.errors import paper_errors, period_mask
+from lcgym.systems.flexarm.learning import ArmILCConfig, learn_on_base, measure, update
 
 JOINTS = (1, 2, 4)  # j2, j3, j5
 

@@ -203,7 +203,7 @@ def part_rl(seed: int) -> None:
 
 
 def part_armlimits(seed: int) -> None:
-    from lcgym.methods.ilc.flexarm import model_following_error, predicted_update
+    from lcgym.systems.flexarm.learning import model_following_error, predicted_update
 
     print("armlimits: FlexArm-v1, TCP error [mm] of the validation lines; the RBF expert's eq. (17) with e_pl "
           "measured or predicted; RL's budget")

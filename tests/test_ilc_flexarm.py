@@ -1,11 +1,11 @@
-"""ILC on a FlexArm base (lcgym/methods/ilc/flexarm.py): the kept trial is never measured worse
+"""ILC on a FlexArm base (lcgym/systems/flexarm/learning.py): the kept trial is never measured worse
 than the base, the update leaves the base alone where nothing is measured and hands the feedback's
 torque to the feedforward, and a predicted error enters the same update as a measured one."""
 
 import numpy as np
 import pytest
 
-from lcgym.methods.ilc.flexarm import (
+from lcgym.systems.flexarm.learning import (
     PREDICTED,
     ArmILCConfig,
     best_trial,

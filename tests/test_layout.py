@@ -208,6 +208,14 @@ def _name_branches(path: Path, root: Path = ROOT.parent) -> list[str]:
     return out
 
 
+def test_no_method_imports_a_machine():
+    """A learning method reaches a machine's own law through the machine (``System.learning``), not
+    by importing the machine's modules: no edge from ``methods`` to a machine's folder."""
+    edges = _edges()
+    into_machines = {k: v for k, v in edges.items() if k[0] == "methods" and k[1].startswith("systems.")}
+    assert not into_machines, into_machines
+
+
 def test_no_method_learner_or_diagnosis_branches_on_a_machine_name():
     found = [hit for unit in METHOD_UNITS for path in sorted(ROOT.glob(f"{unit}/**/*.py")) + sorted(ROOT.glob(f"{unit}.py"))
              for hit in _name_branches(path)]

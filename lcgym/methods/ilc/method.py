@@ -4,7 +4,7 @@ The update of trial j to j + 1, per axis, is plant-inversion ILC with a robustne
 f_{j+1} = Q (f_j + L e_j), computed on the whole trial in the frequency domain (FFT over the trial,
 zero-padded to twice its length so that the circular wrap of the non-causal filters falls in the
 padding). On a base f_0, Q acts on what is learned, f_{j+1} = f_0 + Q (f_j - f_0 + L e_j), as the
-FlexArm's update does (``ilc.flexarm``): the base's own content above Q's corner stays (a velocity
+FlexArm's update does (``systems/flexarm/learning.py``): the base's own content above Q's corner stays (a velocity
 loop's velocity feedforward, ``methods.loop``, whose steps Q would round off):
 
 * A machine without a nominal feedforward structure (``System.nominal`` is None: the IX, paper
@@ -51,10 +51,10 @@ import numpy as np
 from ... import systems
 from ...fitted import check_fitted, is_fitted
 from ...systems import SimulationDiverged
+from ...systems.learning import ILCDiverged, best_trial, check_divergence, held_edges, q_filter, rms
 from ..bases import ReferenceMemo, base_controller
 from ..protocol import DEFAULT_BASE, Controller, Cost, given_system
 from ..safeguard import Safeguard, dropped_note, mixed, scored_axes
-from .iteration import ILCDiverged, best_trial, check_divergence, held_edges, q_filter, rms
 
 
 @dataclass(frozen=True)
@@ -190,7 +190,7 @@ class IterativeLearningControl(Controller):
         check_fitted(self, "learned_", hint="call fit(trials) before learn()")
         if self.base == "basic":
             learn = self._learn_model_following
-        elif self.nominal_ is not None:
+        elif self.system_.learning is not None:  # the machine's own law (the FlexArm's)
             learn = self._learn_arm
         else:
             learn = self._learn_tracking
@@ -302,14 +302,14 @@ class IterativeLearningControl(Controller):
                 true_history, cfg.arm_trials + 1)
 
     def _learn_arm(self, plant, reference):
-        """The FlexArm on its physical model (``ilc.flexarm``)."""
-        from .flexarm import learn_on_base, load_inertia
+        """The machine's own learning law (``System.learning``: the FlexArm on its physical model)."""
+        law = self.system_.learning
 
         f0, o0 = self._start(reference)
         # each joint's loop model carries the load inertia of the fitted arm (payload included) at the
         # reference's mean pose: the nominal M_n lacks the payload, and the static EE error rose with it
-        inertia = load_inertia(self.base_.model_.fitted_params.arm(), reference.positions)
-        learned, history, true_history, used = learn_on_base(plant, reference, f0, o0, self.nominal_,
+        inertia = law.load_inertia(self.base_.model_.fitted_params.arm(), reference.positions)
+        learned, history, true_history, used = law.learn_on_base(plant, reference, f0, o0, self.nominal_,
                                                              trials=self.config_.arm_trials, inertia=inertia)
         self.best_[reference.name] = learned.pop("trial")
         learned.pop("candidates")

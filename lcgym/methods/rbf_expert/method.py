@@ -17,7 +17,7 @@ plant-inversion update,
 
 Base (``bases``): the machine's fitted physical model by default; the FlexArm's Basic
 (``rbf-expert@basic``) for eq. (17) as the paper writes it. On the FlexArm's physical model the
-prediction enters the same update as ILC's there (``ilc.flexarm``). A training-reference safeguard
+prediction enters the same update as ILC's there (the machine's ``learning`` law). A training-reference safeguard
 (``safeguard``, as RL's) keeps the predicted correction only on the axes where it lowers the
 tracking error on every training reference; ``note_`` says what it dropped. ``paper002-nnp`` is the
 paper's protocol: on Basic, no safeguard.
@@ -107,11 +107,9 @@ class RBFExpertFeedforward(Controller):
             for r in refs:
                 tr = self.nominal_.run(plant, r)
                 errors.append(np.column_stack([tr.extra[f"e_pl_{a}"] for a in tr.axes]))
-        elif self.nominal_ is not None:
-            from ..ilc.flexarm import model_following_error
-
-            errors = [model_following_error(plant, closed_loop(plant, r, *self._start(r)), r, self.nominal_,
-                                            *self._start(r)) for r in refs]
+        elif (law := self.system_.learning) is not None:  # the machine's own law (the FlexArm's)
+            errors = [law.model_following_error(plant, closed_loop(plant, r, *self._start(r)), r, self.nominal_,
+                                                *self._start(r)) for r in refs]
         else:
             errors = [t.error for t in plant.run(refs, [self._start(r)[0] for r in refs])]
         phi = task_influence(refs, None if self.system_.joint_axes is None else self.system_.joint_axes())
@@ -136,10 +134,8 @@ class RBFExpertFeedforward(Controller):
             basic = self.nominal_.compute(reference.positions, reference.fs)
             return basic["tau_ff"] - basic["tau_nl"] + nominal_update(self.nominal_, basic["tau_nl"], e_hat, reference.fs,
                                                                       learning), o0
-        if self.nominal_ is not None:
-            from ..ilc.flexarm import predicted_update
-
-            return predicted_update(self.nominal_, f0, o0, e_hat, reference.fs, self.plant_.gains)
+        if (law := self.system_.learning) is not None:
+            return law.predicted_update(self.nominal_, f0, o0, e_hat, reference.fs, self.plant_.gains)
         inverse, q, fade = learning_filters(self.plant_, reference, learning)
         return f0 + fade * frequency_update(np.zeros_like(f0), e_hat, inverse, q, learning.gain), o0
 

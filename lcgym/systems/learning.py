@@ -1,12 +1,40 @@
-"""What every ILC law here shares (``ilc``: the IX's, a URDF machine's and paper 002's LCS;
-``flexarm``: the FlexArm on its physical model): the zero-phase Q filter, the error RMS per axis,
-divergence detection and the choice of the trial to keep."""
+"""What a learning method may ask of a machine beyond its plant's runs, and what every learning law
+shares.
+
+A machine with a learning law of its own (the FlexArm: its loop model, its load-error estimate from
+the encoders and the accelerometer, its best-trial rule; ``systems/flexarm/learning.py``) offers it
+as ``System.learning`` (a ``LearningLaw``); the learning methods (``methods.ilc``,
+``methods.rbf_expert``) call it there and import no machine's module. A machine without one
+(``learning is None``: the IX, a URDF machine) is learned by the methods' plant-inversion law, from
+the plant's ``process_sensitivity`` and ``encoder_resolution``.
+
+Shared by every law (``methods.ilc``: the IX's, a URDF machine's and paper 002's LCS; the FlexArm's):
+the zero-phase Q filter, the error RMS per axis, divergence detection and the choice of the trial
+to keep."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 import numpy as np
+
+
+@dataclass(frozen=True)
+class LearningLaw:
+    """A machine's own learning law (``System.learning``), as functions of its module:
+    ``learn_on_base(plant, reference, base_feedforward, base_offset, nominal, trials=, inertia=)`` (ILC
+    from a base: the kept trial's feedforward and offset, the measured and true histories, the
+    plant trials used), ``load_inertia(fitted_arm_params, positions)`` (the loop model's load
+    inertia at a reference's mean pose), ``model_following_error(plant, trial, reference, nominal,
+    feedforward, offset)`` (what an error predictor learns) and ``predicted_update(nominal,
+    base_feedforward, base_offset, predicted_error, fs, gains)`` (the update a predicted error
+    enters)."""
+
+    learn_on_base: Callable
+    load_inertia: Callable
+    model_following_error: Callable
+    predicted_update: Callable
 
 
 class ILCDiverged(RuntimeError):

@@ -1,6 +1,8 @@
-"""ILC on the FlexArm starting from any base (the least-squares physical model by default): its
-feedforward torque f and its reference offset o are learned from what the machine measures, the
-motor encoders and the flange accelerometer, never the simulation's true load angle.
+"""The FlexArm's learning law: ILC on the arm starting from any base (the least-squares physical
+model by default), which the learning methods reach through the machine (``FLEXARM.learning``, a
+``systems.learning.LearningLaw``) and never import. Its feedforward torque f and its reference
+offset o are learned from what the machine measures, the motor encoders and the flange
+accelerometer, never the simulation's true load angle.
 
 The loop of each joint (nominal linear model of ``systems.flexarm.nominal``, eqs. 3-4, with the
 load inertia ``inertia``; the plant's PID C(z) with its derivative low-pass; ZOH at fs):
@@ -33,7 +35,7 @@ what the PID put out (with its integrator's start, which the settled start hands
 the DC pole of C needs no inversion. H_hp is a zero-phase high-pass (``offset_hp_hz``): the
 offset learns only where the accelerometer sees the load; below it the base's offset stays. The
 torque term P_m^-1 N Delta_o moves the motor onto the new reference in the same trial. Q, Q_o
-are zero-phase Butterworth |B|^2 (``ilc.q_filter``); f, u_fb and e_m are padded with their edge
+are zero-phase Butterworth |B|^2 (``systems.learning.q_filter``); f, u_fb and e_m are padded with their edge
 values (``ilc.frequency_update``'s ``hold_edges``: the arm holds gravity at rest).
 
 Other laws for comparison (``torque``): ``"lcs"`` is paper 002's eq. (16) around the base,
@@ -57,12 +59,12 @@ import numpy as np
 from scipy import signal
 
 from ...physics.kinematics import lowpass_zero_phase, reference_kinematics
-from ...systems import SimulationDiverged
-from ...systems.flexarm import dynamics as arm
-from ...systems.flexarm.plant import PIDGains
-from ...systems.flexarm.references import MOVING
-from ...systems.flexarm.sensors import estimate_load_acceleration, specific_forces, true_load_acceleration
-from .iteration import ILCDiverged, check_divergence, held_edges, q_filter, rms
+from ..learning import ILCDiverged, check_divergence, held_edges, q_filter, rms
+from ..system import SimulationDiverged
+from . import dynamics as arm
+from .plant import PIDGains
+from .references import MOVING
+from .sensors import estimate_load_acceleration, specific_forces, true_load_acceleration
 
 ACC_CUTOFF = 50.0  # Hz: the accelerometer estimate's zero-phase low-pass (sensors.py); the reference's too
 REST = 0.3  # s: the rest at the start over which the accelerometer's bias is taken (sensors.py)
@@ -284,7 +286,7 @@ def learn_on_base(plant, reference, base_feedforward: np.ndarray, base_offset: n
     1, 7), the true history (trials + 1, 7: the true load error [rad] and EE acceleration error
     [m/s^2], for reporting only), the number of plant trials). ``inertia``: the loop model's load
     inertia (6,) (``load_inertia`` of the fitted arm; default the nominal M_n). A trial that leaves
-    the safe range, or a diverging history (``iteration.check_divergence`` on the joints' measured
+    the safe range, or a diverging history (``systems.learning.check_divergence`` on the joints' measured
     errors), ends the learning at the best trial so far. The dict also holds ``trial`` (the index
     kept) and ``candidates`` (every trial's (feedforward, offset), for studies)."""
     config = config or ArmILCConfig()
