@@ -58,10 +58,11 @@ def base_controller(system: systems.System, base: str):
 
 def closed_loop(plant, reference, feedforward: np.ndarray, offset: np.ndarray | None):
     """One closed-loop trial of ``reference`` with ``feedforward`` and a load-side reference offset
-    [rad] (None: none; the FlexArm's plant takes it as motor angle, N times the load's)."""
+    [rad] (None: none; a plant whose loads lag their motors, the FlexArm's, takes it with
+    ``run_with_offset``)."""
     if offset is None:
         return plant.run(reference, feedforward)
-    return plant.run(reference, feedforward, np.asarray(plant.true_drive.N) * np.asarray(offset, dtype=float))
+    return plant.run_with_offset(reference, feedforward, offset)
 
 
 class ReferenceMemo:

@@ -202,6 +202,11 @@ class FlexArmPlant:
         anew (``seed``) for every run."""
         return True
 
+    def run_with_offset(self, reference: Reference, feedforward, offset) -> Trial:
+        """``run`` with a load-side reference offset (T, 6) [rad] (a learner's: the load's reference
+        moved by it, ``methods.bases.closed_loop``), given to the motors as N times it."""
+        return self.run(reference, feedforward, np.asarray(self.true_drive.N) * np.asarray(offset, dtype=float))
+
     @remembered  # inside the benchmark's cells: a run made before is not made again (``systems.runs``)
     def run(self, reference: Reference, feedforward=None, motor_offset=None) -> Trial:
         """Run one reference (load-side joint angles (T, 6) [rad]); ``feedforward`` motor torques
