@@ -272,27 +272,22 @@ class PhysicalModel:
             mask = np.asarray(mask, dtype=bool)
             if mask.shape != u.shape:
                 raise ValueError(f"mask must have shape {u.shape} (samples, axes), got {mask.shape}")
-        shapes = {}
-        with ExitStack() as shared:
-            if self.search_shapes:  # the shapes of the effects declared without values, first (physics.shapes)
-                from .shapes import fit_shapes
-
+        if self.search_shapes:  # the shapes of the effects declared without values, first (physics.shapes)
+            with ExitStack() as shared:
                 if self.system.caching is not None:  # the search and the fit share the regressor and its reduction
                     shared.enter_context(self.system.caching())
                 shared.enter_context(reduction_memo())
-                self.effects = fit_shapes(self, kin, lengths, u, mask)
-                if not self.system.fully_linear:
-                    # the search's rigid-body columns are at the given nonlinear parameters (the IX's centres
-                    # of mass), which a fit without the effects may have left far from the data's: search
-                    # once more at those the fit finds with the shapes in (the diagnosis's refits chain so)
-                    self._fit_variable_projection(kin, lengths, u, mask)
-                    self.effects = fit_shapes(dataclasses.replace(self, params=self.params_), kin, lengths, u, mask)
-                shapes = {e.key: {n: float(getattr(e, n)) for n in e.nonlinear} for e in self.effects
-                          if e.key in self.search_shapes}
-            if self.system.fully_linear:
-                theta, resid = self._fit_linear(kin, lengths, u, mask)
-            else:
-                theta, resid = self._fit_variable_projection(kin, lengths, u, mask)
+                shaped = self._shapes(kin, lengths, u, mask)
+                # then the model with those shapes is fitted; this one keeps its arguments as given
+                fitted = dataclasses.replace(self, effects=shaped, search_shapes=()).fit(trials, mask, (kin, lengths))
+            self.__dict__.update({k: v for k, v in vars(fitted).items() if k.endswith("_")})
+            self.fit_info_ = {**fitted.fit_info_, "shapes": {e.key: {n: float(getattr(e, n)) for n in e.nonlinear}
+                                                            for e in shaped if e.key in self.search_shapes}}
+            return self
+        if self.system.fully_linear:
+            theta, resid = self._fit_linear(kin, lengths, u, mask)
+        else:
+            theta, resid = self._fit_variable_projection(kin, lengths, u, mask)
         n_free = theta.size - sum(len(e.linear) for e in self.effects)
         effects, i = [], n_free
         for e in self.effects:
@@ -300,9 +295,22 @@ class PhysicalModel:
             i += len(e.linear)
         self.effects_ = tuple(effects)
         self.fit_info_ = {**self.fit_info_, "residual_rms": float(np.sqrt(np.mean(resid**2))),
-                          "n_samples": int(sum(lengths)), "n_used": int(resid.size // len(self.system.axes)),
-                          **({"shapes": shapes} if shapes else {})}
+                          "n_samples": int(sum(lengths)), "n_used": int(resid.size // len(self.system.axes))}
         return self
+
+    def _shapes(self, kin, lengths, u, mask) -> tuple[Effect, ...]:
+        """``self.effects`` with the shapes of those in ``search_shapes`` found (``physics.shapes``)."""
+        from .shapes import fit_shapes
+
+        shaped = fit_shapes(self, kin, lengths, u, mask)
+        if not self.system.fully_linear:
+            # the search's rigid-body columns are at the given nonlinear parameters (the IX's centres of
+            # mass), which a fit without the effects may have left far from the data's: search once
+            # more at those the fit finds with the shapes in (the diagnosis's refits chain so)
+            first = dataclasses.replace(self, effects=shaped, search_shapes=())
+            first._fit_variable_projection(kin, lengths, u, mask)
+            shaped = fit_shapes(dataclasses.replace(self, params=first.params_, effects=shaped), kin, lengths, u, mask)
+        return shaped
 
     def _fit_linear(self, kin, lengths, u, mask=None):
         """A machine linear in all its parameters: one minimum-norm least-squares solve of the free
