@@ -129,6 +129,62 @@ class DiagnoseOptions:
             raise ValueError(f"kinematics must be 'reference' or 'measured', got {self.kinematics!r}")
 
 
+@dataclass
+class Setting:
+    """What the data and the options settle before any fit (``_settle``): the machine, the trials
+    (on uniform grids), the model to diagnose, the candidates and the effects to add (checked), the
+    plant to replay on, the axes that move, the kinematics, the layout (samples used, held-out folds)
+    and the significance rule (stricter where held-out blocks share one trajectory's quirks)."""
+
+    system: systems.System
+    spec: str | None
+    options: DiagnoseOptions
+    trials: list
+    validate: list | None
+    model: PhysicalModel
+    candidates: list[Candidate]
+    added: list[Effect]
+    plant: object | None
+    moving: list[int]
+    kinematics: tuple  # ((q, qd, qdd), lengths) of the trials, as the model sees them
+    corners: tuple[float, float]
+    spread: object
+    repeats: list
+    layout: object  # layout.Layout
+    min_explained: float
+    max_steps: int
+    strict: str  # the stricter rule, said in words ("" where the usual one holds)
+
+    @property
+    def fs(self) -> float:
+        return self.trials[0].fs
+
+    @property
+    def axes(self) -> tuple[str, ...]:
+        return self.system.axis_names
+
+
+@dataclass
+class Search:
+    """What the search found (``_search``): the noise floor and the regions of the nominal model's
+    residual, the ranking, the selected effects refitted with their shapes (``suggested``), the
+    report's candidate and step rows, and every effect found as the report names it."""
+
+    floor: np.ndarray
+    regions: object
+    groups: list
+    ranking: object  # search.Ranking
+    suggested: Prepared | None
+    rows: list[CandidateRow]
+    steps: list[StepRow]
+    found: dict[str, Effect]
+
+    @property
+    def model(self) -> PhysicalModel:
+        """The model with the selected effects, fitted."""
+        return self.ranking.model if self.suggested is None else self.suggested.model
+
+
 def diagnose(trials: Sequence, system: str | systems.System = "ix", options: DiagnoseOptions | None = None, *,
              candidates: Sequence[Candidate] | None = None, model: PhysicalModel | None = None,
              validate: Sequence | None = None, spec: str | None = None, progress: bool = False,
@@ -146,21 +202,47 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", options: Dia
     before and after its effects (those of ``add``, else the selected ones), computed the same way
     (``Diagnosis.validation``). Trials whose time stamps are not uniform are put on uniform grids
     first (``data.regularize``).
+
+    The stages, each a function of this module: ``_settle`` (every check before the work), ``_fit``
+    (the nominal model, trial edges left out where they dominate), ``_search`` (regions, noise floor,
+    the ranking and the selection), ``_add`` (the effects asked for, refitted), then validation on
+    the other experiment and the replay on the plant, and ``_report``.
     """
     if options is not None and settings:
         raise TypeError(f"diagnose: give options or its fields as keywords, not both ({', '.join(settings)})")
-    options = options or DiagnoseOptions(**settings)
-    add, replay, min_explained, min_rms = options.add, options.replay, options.min_explained, options.min_rms
-    block_seconds, max_steps, kinematics = options.block_seconds, options.max_steps, options.kinematics
+    s = _settle(trials, system, options or DiagnoseOptions(**settings), candidates, model, validate, spec)
+    with s.system.caching() if s.system.caching is not None else nullcontext(), reduction_memo():
+        bar = tqdm(total=2, desc="diagnose", disable=not progress, leave=False)
+        bar.set_postfix_str("fit nominal model")
+        prep = _fit(s)
+        bar.update()
+        search = _search(s, prep, bar)
+        bar.close()
+        after = _add(s, prep, search) if s.added else None
+        families = {c.name: c.family for c in s.candidates}
+        families.update({c.effect: c.family for c in search.rows if c.named_as})
+        shown = after.model if after is not None else search.model  # the model with the effects found or added
+        ranges = fitted_ranges(shown, prep, families)
+        axes, units = s.axes, s.system.input_units
+        validated = None if s.validate is None else validation(s.validate, prep.model, shown, ranges, axes, units)
+        replayed = None
+        if s.options.replay:
+            replayed = replay_tracking(s.trials, prep.model, shown, s.system, s.plant)
+            replayed["after_with"] = [e.key for e in shown.effects if e.key not in {f.key for f in prep.model.effects}]
+        return _report(s, prep, search, after, shown, families, ranges, validated, replayed)
+
+
+def _settle(trials, system, options: DiagnoseOptions, candidates, model, validate, spec) -> Setting:
+    """Every check before the work, and what the data settle (``Setting``)."""
+    add, min_explained, max_steps = options.add, options.min_explained, options.max_steps
     spec = spec or (system if isinstance(system, str) else None)
     system = systems.get(system)
     trials = _check_trials(trials, system)
-    axes, units = system.axis_names, system.input_units
     fs = trials[0].fs
     if model is None:
         model = system.diagnosis_model(fs)
-        if kinematics == "measured":
-            model.positions = KINEMATICS[kinematics]
+        if options.kinematics == "measured":
+            model.positions = KINEMATICS[options.kinematics]
     cands = candidates_for(system) if candidates is None else list(candidates)
     added = [_parse_add(a, model, system, spec or system.name) for a in add]  # every check before the work
     keys = [e.key for e in added]
@@ -171,7 +253,7 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", options: Dia
         if abs(validate[0].fs - trials[0].fs) > 1e-6 * trials[0].fs:
             raise ValueError(f"diagnose: the validation data are sampled at {validate[0].fs:g} Hz, the data fitted at "
                              f"{trials[0].fs:g} Hz; resample one of them (--resample)")
-    plant = replay_plant(trials, system, spec or system.name) if replay else None  # before the work
+    plant = replay_plant(trials, system, spec or system.name) if options.replay else None  # before the work
     moving = moving_axes(trials, system)
     if not moving:
         raise ValueError("diagnose: no axis moves more than its minimum travel (1 deg, 1 mm) in the data")
@@ -180,7 +262,8 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", options: Dia
     corners = (model.filter_hz, pre.velocity_filter_hz(trials))
     spread = pre.position_spread(trials)
     repeats = repeated_runs(trials, moving)
-    lay = layout(trials, kin, lengths, fs, *corners, block_seconds, spread=spread, moving=moving, repeats=repeats)
+    lay = layout(trials, kin, lengths, fs, *corners, options.block_seconds, spread=spread, moving=moving,
+                 repeats=repeats)
     strict = ""
     if repeats and not lay.whole_runs:  # held-out blocks of one trajectory share its quirks: fewer parameters, a higher bar
         shape_free = [c.name for c in cands if c.shape_free]
@@ -190,112 +273,125 @@ def diagnose(trials: Sequence, system: str | systems.System = "ix", options: Dia
         strict = (f"each effect must remove {100 * min_explained:.0f}% of what its axis has left, at most "
                   f"{max_steps} effect(s), no curve of no set shape ({', '.join(shape_free) or 'none'})")
     max_steps = 2 * len(moving) if max_steps is None else max_steps
+    return Setting(system, spec, options, trials, validate, model, cands, added, plant, moving, (kin, lengths),
+                   corners, spread, repeats, lay, min_explained, max_steps, strict)
 
-    with system.caching() if system.caching is not None else nullcontext(), reduction_memo():
-        bar = tqdm(total=2, desc="diagnose", disable=not progress, leave=False)
-        bar.set_postfix_str("fit nominal model")
-        prep = prepare(trials, model, lay, (kin, lengths))
-        fs_rows = fs / max(1, prep.model.decimate)
-        time = (prep.rows - np.concatenate([[0], np.cumsum(lengths)[:-1]])[prep.trial]) / fs
-        trim = edge_outliers(prep.residual, prep.used, prep.trial, time, [n / fs for n in lengths], fs, lay.settle)
-        if trim is not None:  # the residual is dominated by trial edges: leave them out, fit again
-            lay = layout(trials, kin, lengths, fs, *corners, block_seconds, trim, spread, moving, repeats)
-            prep = prepare(trials, model, lay, (kin, lengths))
-        bar.update()
-        residual = prep.residual
-        q, qd, qdd = (k[prep.rows] for k in prep.kin)
-        floor = _noise_floor(system, prep, min_rms)
-        scales = [{**sc, "rest": float(v)} for sc, v in zip(axis_scales(system, prep.kin[0], prep.kin[1]),
-                                                              lay.rest_speed, strict=True)]
-        regions = region_table(residual, region_masks(q, qd, qdd, prep.trial, fs_rows, system.axes), axes, prep.used)
-        bar.update()
-        bar.set_postfix_str("candidates")
-        groups = proportional_groups(prep.kin[1], lay.used, moving)
-        ranking = rank(prep, trials, cands, axes, lay, min_explained=min_explained, min_rms=floor, max_steps=max_steps,
-                       progress=bar, search_axes=moving, scales=scales, kinds=system.axes,
-                       position_blind=[i for g in groups for i in g["axes"]])
-        bar.close()
-        selected_keys = [f"{s.candidate.name}@{axes[s.axis]}" for s, _, _ in ranking.selected]
-        suggested = refit_shapes(ranking.model, selected_keys, trials, lay, (kin, lengths)) if selected_keys else None
 
-        rows = []
-        alone = {(s.candidate.name, s.axis): s for s in ranking.alone}
-        refined = {e.key: e for e in (ranking.model if suggested is None else suggested.model).fitted_effects}
-        for k, (s, share, before) in enumerate(ranking.selected, 1):  # explained, RMS_after: the effect alone
-            n = ranking.n_rows[s.axis]
-            row = _candidate_row(ranking, alone.get((s.candidate.name, s.axis), s), axes, units, selected=True, step=share)
-            at_step = {"step": k, "RMS_before_at_selection": math.sqrt(before / n),
-                       "RMS_after_at_selection": math.sqrt(max(before * (1.0 - share), 0.0) / n)}
-            named = ranking.named[k - 1]
-            if named.name != s.candidate.name:  # a form of no set shape, revised from the effect the step named
-                at_step.update(family=named.family, named_as=named.name)
-            final = refined.get(f"{s.candidate.name}@{axes[s.axis]}")
-            if final is not None:  # the nonlinear parameters as the model's estimator found them (``refit_shapes``)
-                scored = row.parameters
-                at_step["parameters"] = {n: float(getattr(final, n)) for n in scored}
-                if at_step["parameters"] != scored:  # the shares above were scored at the grid's values
-                    at_step["refined_from"] = scored
-            rows.append(dataclasses.replace(row, **at_step))
-        picked = {(s.candidate.name, s.axis) for s, _, _ in ranking.selected}
-        rest = [s for s in ranking.alone if (s.candidate.name, s.axis) not in picked and ranking.passes_alone(s)]
-        for s in sorted(rest, key=lambda s: -ranking.explained(s)):
-            rows.append(_candidate_row(ranking, s, axes, units, selected=False, step=None))
+def _fit(s: Setting) -> Prepared:
+    """The nominal model fitted; where the residual is dominated by trial edges, they are left out
+    (``s.layout`` then says so) and the model fitted again."""
+    kin, lengths = s.kinematics
+    prep = prepare(s.trials, s.model, s.layout, s.kinematics)
+    time = (prep.rows - np.concatenate([[0], np.cumsum(lengths)[:-1]])[prep.trial]) / s.fs
+    trim = edge_outliers(prep.residual, prep.used, prep.trial, time, [n / s.fs for n in lengths], s.fs, s.layout.settle)
+    if trim is not None:  # the residual is dominated by trial edges: leave them out, fit again
+        s.layout = layout(s.trials, kin, lengths, s.fs, *s.corners, s.options.block_seconds, trim, s.spread, s.moving,
+                          s.repeats)
+        prep = prepare(s.trials, s.model, s.layout, s.kinematics)
+    return prep
 
-        steps = [_step_row(k, st, axes, ranking.n_rows) for k, st in enumerate(ranking.steps, 1)]
-        info = prep.model.fit_info_
-        found = {f"{s.candidate.name}@{axes[s.axis]}": s.candidate.build(axes[s.axis], **s.params)
-                 for s in ranking.alone}
-        picked = {f"{s.candidate.name}@{axes[s.axis]}" for s, _, _ in ranking.selected}
-        found.update({e.key: e for e in refined.values() if e.key in picked})  # as selected, then fitted
-        after = after_record = None
-        if added:
-            effects = [found.get(e.key, e) if isinstance(a, str) else e for a, e in zip(add, added, strict=True)]
-            after_model = prep.model
-            for e in effects:
-                after_model = after_model.with_effect(e)
-            # an effect added by name is fitted as a [[model]] table of it would be; one given with values keeps them
-            by_name = [e.key for a, e in zip(add, effects, strict=True) if isinstance(a, str)]
-            after = refit_shapes(after_model, by_name, trials, lay, (kin, lengths)) if by_name else \
-                prepare(trials, after_model, lay, (kin, lengths))
-            after_record = {"added": [e.key for e in effects], "residual": norms(after.residual, axes, units, after.used),
-                            "effects": [_effect_params(e) for e in after.model.fitted_effects],
-                            "parameters": dict(zip(system.param_names,
-                                                   map(float, after.model.fitted_params.to_vector()), strict=True))}
-        families = {c.name: c.family for c in cands}
-        families.update({c.effect: c.family for c in rows if c.named_as})
-        # the model with the effects found or added
-        shown = after.model if after is not None else (ranking.model if suggested is None else suggested.model)
-        ranges = fitted_ranges(shown, prep, families)
-        validated = None if validate is None else validation(validate, prep.model, shown, ranges, axes, units)
-        replayed = None
-        if replay:
-            replayed = replay_tracking(trials, prep.model, shown, system, plant)
-            replayed["after_with"] = [e.key for e in shown.effects if e.key not in {f.key for f in prep.model.effects}]
-        extra_series = {**({} if after is None else {"residual_after": after.residual}),
-                        "effects": effect_curves(shown, prep, families)}
-        report = Diagnosis(system=system.name, axes=axes, unit=system.input_unit, n_samples=sum(prep.lengths), fs=fs,
-                           model_effects=[*prep.model.parts(), *(e.key for e in prep.model.effects)],
-                           residual=norms(residual, axes, units, prep.used), regions=regions, candidates=rows,
-                           min_explained=min_explained, min_rms=dict(zip(axes, map(float, floor), strict=True)),
-                           model=prep.model, suggested_model=ranking.model if suggested is None else suggested.model,
-                           series={"t": prep.rows / fs, "residual": residual, "q": q, "qd": qd, "used": prep.used,
-                                   "ref_velocity": _velocity(trials, fs)[prep.rows], **extra_series},
-                           kinematics=_kinematics_note(trials, prep.model), identified=(info["rank"], info["n_free"]),
-                           displays={a.name: a.display for a in system.axes},
-                           resampled=_resampled_notes(trials, validate), spec=spec, steps=steps, stop=ranking.stop,
-                           options="--kinematics measured" if kinematics == "measured" else "",
-                           samples={**_samples_record(lay, axes, system.axes, trials, fs),
-                                    "bandwidth": {k: dict(zip(axes, map(float, bandwidths(x, lengths, fs)), strict=True))
-                                                  for k, x in (("input", np.concatenate([tr.u for tr in trials])),
-                                                               ("position", np.concatenate([tr.pos for tr in trials])))},
-                                    "proportional": [{"axes": [axes[i] for i in g["axes"]], "alike": g["alike"]}
-                                                     for g in groups],
-                                    "repeated": repeats, "strict": strict},
-                           blocks=_blocks_note(lay),
-                           machine_file=_machine_file(system), found=found, after=after_record,
-                           after_model=None if after is None else after.model, ranges=ranges, validation=validated,
-                           replay=replayed)
-    return report
+
+def _search(s: Setting, prep: Prepared, bar) -> Search:
+    """The regions where the nominal model fails worst, the noise floor, and the search: every
+    candidate scored alone, the greedy selection, the selected effects refitted with the model's
+    own shape estimator (``refit_shapes``), and the report's rows of them."""
+    system, axes, units, lay = s.system, s.axes, s.system.input_units, s.layout
+    fs_rows = s.fs / max(1, prep.model.decimate)
+    q, qd, qdd = (k[prep.rows] for k in prep.kin)
+    floor = _noise_floor(system, prep, s.options.min_rms)
+    scales = [{**sc, "rest": float(v)} for sc, v in zip(axis_scales(system, prep.kin[0], prep.kin[1]),
+                                                          lay.rest_speed, strict=True)]
+    regions = region_table(prep.residual, region_masks(q, qd, qdd, prep.trial, fs_rows, system.axes), axes, prep.used)
+    bar.update()
+    bar.set_postfix_str("candidates")
+    groups = proportional_groups(prep.kin[1], lay.used, s.moving)
+    ranking = rank(prep, s.trials, s.candidates, axes, lay, min_explained=s.min_explained, min_rms=floor,
+                   max_steps=s.max_steps, progress=bar, search_axes=s.moving, scales=scales, kinds=system.axes,
+                   position_blind=[i for g in groups for i in g["axes"]])
+    selected_keys = [f"{c.candidate.name}@{axes[c.axis]}" for c, _, _ in ranking.selected]
+    suggested = refit_shapes(ranking.model, selected_keys, s.trials, lay, s.kinematics) if selected_keys else None
+
+    rows = []
+    alone = {(c.candidate.name, c.axis): c for c in ranking.alone}
+    refined = {e.key: e for e in (ranking.model if suggested is None else suggested.model).fitted_effects}
+    for k, (c, share, before) in enumerate(ranking.selected, 1):  # explained, RMS_after: the effect alone
+        n = ranking.n_rows[c.axis]
+        row = _candidate_row(ranking, alone.get((c.candidate.name, c.axis), c), axes, units, selected=True, step=share)
+        at_step = {"step": k, "RMS_before_at_selection": math.sqrt(before / n),
+                   "RMS_after_at_selection": math.sqrt(max(before * (1.0 - share), 0.0) / n)}
+        named = ranking.named[k - 1]
+        if named.name != c.candidate.name:  # a form of no set shape, revised from the effect the step named
+            at_step.update(family=named.family, named_as=named.name)
+        final = refined.get(f"{c.candidate.name}@{axes[c.axis]}")
+        if final is not None:  # the nonlinear parameters as the model's estimator found them (``refit_shapes``)
+            scored = row.parameters
+            at_step["parameters"] = {p: float(getattr(final, p)) for p in scored}
+            if at_step["parameters"] != scored:  # the shares above were scored at the grid's values
+                at_step["refined_from"] = scored
+        rows.append(dataclasses.replace(row, **at_step))
+    picked = {(c.candidate.name, c.axis) for c, _, _ in ranking.selected}
+    rest = [c for c in ranking.alone if (c.candidate.name, c.axis) not in picked and ranking.passes_alone(c)]
+    for c in sorted(rest, key=lambda c: -ranking.explained(c)):
+        rows.append(_candidate_row(ranking, c, axes, units, selected=False, step=None))
+
+    steps = [_step_row(k, st, axes, ranking.n_rows) for k, st in enumerate(ranking.steps, 1)]
+    found = {f"{c.candidate.name}@{axes[c.axis]}": c.candidate.build(axes[c.axis], **c.params) for c in ranking.alone}
+    picked_keys = {f"{c.candidate.name}@{axes[c.axis]}" for c, _, _ in ranking.selected}
+    found.update({e.key: e for e in refined.values() if e.key in picked_keys})  # as selected, then fitted
+    return Search(floor, regions, groups, ranking, suggested, rows, steps, found)
+
+
+def _add(s: Setting, prep: Prepared, search: Search) -> Prepared:
+    """The model with the effects asked for (``--add``), refitted: one added by name is fitted as a
+    ``[[model]]`` table of it would be (its shape by the model's estimator); one given with values
+    keeps them."""
+    add = s.options.add
+    effects = [search.found.get(e.key, e) if isinstance(a, str) else e for a, e in zip(add, s.added, strict=True)]
+    after_model = prep.model
+    for e in effects:
+        after_model = after_model.with_effect(e)
+    by_name = [e.key for a, e in zip(add, effects, strict=True) if isinstance(a, str)]
+    return refit_shapes(after_model, by_name, s.trials, s.layout, s.kinematics) if by_name else \
+        prepare(s.trials, after_model, s.layout, s.kinematics)
+
+
+def _report(s: Setting, prep: Prepared, search: Search, after: Prepared | None, shown: PhysicalModel, families: dict,
+            ranges: dict, validated, replayed) -> Diagnosis:
+    """The ``Diagnosis`` of the stages' results."""
+    system, axes, units, fs, trials = s.system, s.axes, s.system.input_units, s.fs, s.trials
+    lay, lengths = s.layout, s.kinematics[1]
+    after_record = None if after is None else {
+        "added": [e.key for e in s.added],
+        "residual": norms(after.residual, axes, units, after.used),
+        "effects": [_effect_params(e) for e in after.model.fitted_effects],
+        "parameters": dict(zip(system.param_names, map(float, after.model.fitted_params.to_vector()), strict=True))}
+    q, qd = (k[prep.rows] for k in prep.kin[:2])
+    info = prep.model.fit_info_
+    extra_series = {**({} if after is None else {"residual_after": after.residual}),
+                    "effects": effect_curves(shown, prep, families)}
+    return Diagnosis(system=system.name, axes=axes, unit=system.input_unit, n_samples=sum(prep.lengths), fs=fs,
+                     model_effects=[*prep.model.parts(), *(e.key for e in prep.model.effects)],
+                     residual=norms(prep.residual, axes, units, prep.used), regions=search.regions, candidates=search.rows,
+                     min_explained=s.min_explained, min_rms=dict(zip(axes, map(float, search.floor), strict=True)),
+                     model=prep.model, suggested_model=search.model,
+                     series={"t": prep.rows / fs, "residual": prep.residual, "q": q, "qd": qd, "used": prep.used,
+                             "ref_velocity": _velocity(trials, fs)[prep.rows], **extra_series},
+                     kinematics=_kinematics_note(trials, prep.model), identified=(info["rank"], info["n_free"]),
+                     displays={a.name: a.display for a in system.axes},
+                     resampled=_resampled_notes(trials, s.validate), spec=s.spec, steps=search.steps,
+                     stop=search.ranking.stop,
+                     options="--kinematics measured" if s.options.kinematics == "measured" else "",
+                     samples={**_samples_record(lay, axes, system.axes, trials, fs),
+                              "bandwidth": {k: dict(zip(axes, map(float, bandwidths(x, lengths, fs)), strict=True))
+                                            for k, x in (("input", np.concatenate([tr.u for tr in trials])),
+                                                         ("position", np.concatenate([tr.pos for tr in trials])))},
+                              "proportional": [{"axes": [axes[i] for i in g["axes"]], "alike": g["alike"]}
+                                               for g in search.groups],
+                              "repeated": s.repeats, "strict": s.strict},
+                     blocks=_blocks_note(lay),
+                     machine_file=_machine_file(system), found=search.found, after=after_record,
+                     after_model=None if after is None else after.model, ranges=ranges, validation=validated,
+                     replay=replayed)
 
 
 def refit_shapes(model: PhysicalModel, keys: Sequence[str], trials: Sequence, lay, kinematics) -> Prepared:
