@@ -18,11 +18,14 @@ from dataclasses import replace
 import numpy as np
 from tqdm import tqdm
 
+from lcgym.methods.ilc.method import iterate
 from lcgym.methods.physical import PhysicalFeedforward
 from lcgym.systems.flexarm import FLEXARM
 from lcgym.systems.flexarm.bench import FlexArmBench
 from lcgym.systems.flexarm.errors import paper_errors, period_mask
-from lcgym.systems.flexarm.learning import ArmILCConfig, learn_on_base, measure, update
+from lcgym.systems.flexarm.learning import ArmILCConfig, ArmLaw, measure, update
+from lcgym.systems.flexarm.references import MOVING
+from lcgym.systems.learning import Signals
 
 JOINTS = (1, 2, 4)  # j2, j3, j5
 
@@ -61,8 +64,10 @@ def main() -> None:
             physical[seed] = PhysicalFeedforward(system="flexarm").fit(bench.run(bench.references("train", seed, 8, 40.0)))
         base = physical[seed]
         f0, o0 = base.feedforward(ref), base.reference_offset(ref)
-        learned, history, _, _ = learn_on_base(bench.plant, ref, f0, o0, FLEXARM.nominal, config=config)
-        kept[ref.name] = learned["trial"]
+        law = ArmLaw(bench.plant, FLEXARM.nominal, config.trials, config)
+        learned = iterate(law.loop(ref, Signals(f0, o0)), ref, config.trials, MOVING)
+        history = learned.history
+        kept[ref.name] = learned.best
         # replay each trial's signals to score it (the plant is deterministic: the replay is that trial)
         f, o = f0, o0
         for j in range(len(history)):
@@ -70,7 +75,7 @@ def main() -> None:
             rows.append((ref.name, j, history[j], scored(bench, trial, ref)))
             if j < len(history) - 1:
                 err = measure(trial, ref, FLEXARM.nominal, f, o, bench.plant.accel_offset, o0, config.offset_hp_hz)
-                f, o = update(FLEXARM.nominal, f, o, err, trial.fs, config, bench.plant.gains, base=f0)
+                f, o = update(FLEXARM.nominal, f, o, err, trial.fs, config, base=f0)
     keys = list(rows[0][3])
     print(f"FlexArm-v1, {len(lines)} validation lines, physical base, {args.trials} updates; RMS over the lines "
           "(measured: the sensors' load-error estimate [mdeg] of j2, j3, j5 and EE [m/s^2]; scored: the truth)")

@@ -96,22 +96,21 @@ def part_ilc(seed: int) -> None:
     cell = Cell("emps_sim", seed)
     cell.score("physical (the base)", PhysicalFeedforward(system=cell.machine.system))
     cell.score("ilc, Q on what it learns", IterativeLearningControl(system=cell.machine.system))
-    from lcgym.methods.ilc import method as ilc
+    from lcgym.systems import learning
 
-    learned = ilc.frequency_update  # the update of what is learned, c_j+1 = Q (c_j + L e_j)
     whole = IterativeLearningControl(system=cell.machine.system)
-    start = whole._learn_tracking
+    on_correction = learning.TrackingLoop.update
 
-    def on_whole(plant, reference):  # f_j+1 = Q (f_j + L e_j): Q filters the base's feedforward too
-        f0 = whole._start(reference)[0]
-        ilc.frequency_update = lambda c, e, inverse, q, gain, hold_edges=False: learned(c + f0, e, inverse, q, gain) - f0
-        try:
-            return start(plant, reference)
-        finally:
-            ilc.frequency_update = learned
+    def on_whole(loop, state, measured):  # f_j+1 = Q (f_j + L e_j): Q filters the base's feedforward too
+        e = learning.deadzone(measured.error, 0.5 * np.asarray(loop.law.plant.encoder_resolution))
+        q_of_all = learning.frequency_update(state, e, loop.inverse, loop.q, loop.law.config.gain)
+        return loop.start + loop.fade * (q_of_all - loop.start)
 
-    whole._learn_tracking = on_whole
-    cell.score("ilc, Q on the whole feedforward (before)", whole)
+    learning.TrackingLoop.update = on_whole
+    try:
+        cell.score("ilc, Q on the whole feedforward (before)", whole)
+    finally:
+        learning.TrackingLoop.update = on_correction
 
 
 def part_pgnn(seed: int) -> None:
@@ -203,7 +202,8 @@ def part_rl(seed: int) -> None:
 
 
 def part_armlimits(seed: int) -> None:
-    from lcgym.systems.flexarm.learning import model_following_error, predicted_update
+    from lcgym.methods.ilc.method import ILCConfig
+    from lcgym.systems.learning import Signals
 
     print("armlimits: FlexArm-v1, TCP error [mm] of the validation lines; the RBF expert's eq. (17) with e_pl "
           "measured or predicted; RL's budget")
@@ -211,7 +211,7 @@ def part_armlimits(seed: int) -> None:
     plant, bench = cell.bench.plant, cell.bench
     cell.score("ilc (the bound)", IterativeLearningControl(system=cell.machine.system))
     method = RBFExpertFeedforward(system=cell.machine.system).fit(cell.train)
-    method.plant_ = plant
+    method.law_ = plant.learning_law(method.base, ILCConfig())
     method._train(plant)
     moving = list(bench.scored)
     tcp = {"base": [], "eq. (17), measured e_pl": [], "eq. (17), predicted e_pl": []}
@@ -219,14 +219,13 @@ def part_armlimits(seed: int) -> None:
     for r in cell.refs["validation"]:
         f0, o0 = method._start(r)
         base = closed_loop(plant, r, f0, o0)
-        e_pl = model_following_error(plant, base, r, method.nominal_, f0, o0)
+        loop = method.law_.loop(r, Signals(f0, o0))
+        e_pl = loop.model_error(base, loop.start)
         e_hat = method.predict(r)
         explained.append((np.sum((e_hat - e_pl)[:, moving] ** 2, axis=0), np.sum(e_pl[:, moving] ** 2, axis=0)))
         for label, run in (("base", base),
-                           ("eq. (17), measured e_pl", closed_loop(plant, r, *predicted_update(
-                               method.nominal_, f0, o0, e_pl, r.fs, plant.gains))),
-                           ("eq. (17), predicted e_pl", closed_loop(plant, r, *predicted_update(
-                               method.nominal_, f0, o0, e_hat, r.fs, plant.gains)))):
+                           ("eq. (17), measured e_pl", closed_loop(plant, r, *loop.predicted(e_pl))),
+                           ("eq. (17), predicted e_pl", closed_loop(plant, r, *loop.predicted(e_hat)))):
             tcp[label].append(bench.tcp_error(run))
     for label, errors in tcp.items():
         print(f"  {label:44s} tcp {np.sqrt(np.mean(np.concatenate(errors) ** 2)):.4g} mm", flush=True)

@@ -35,13 +35,14 @@ import time
 import numpy as np
 from tqdm import tqdm
 
-from lcgym.methods.ilc.method import ILCConfig, nominal_update
+from lcgym.methods.ilc.method import ILCConfig
 from lcgym.methods.rbf_expert.expert import ExpertConfig
 from lcgym.methods.rbf_expert.influence import task_influence
 from lcgym.methods.rbf_expert.predictor import RBFExpertConfig, RBFExpertPredictor
 from lcgym.methods.rbf_expert.preprocess import PreprocessConfig
 from lcgym.systems.flexarm import FLEXARM
 from lcgym.systems.flexarm.errors import paper_errors, period_mask
+from lcgym.systems.flexarm.learning import nominal_update
 from lcgym.systems.flexarm.nominal import BasicFeedforward
 from lcgym.systems.flexarm.plant import FlexArmPlant
 from lcgym.systems.flexarm.references import MOVING, arm_reference_set

@@ -14,9 +14,9 @@ from lcgym.leaderboard.report import ranking
 from lcgym.leaderboard.runner import BenchConfig, run_benchmark
 from lcgym.leaderboard.store import read_results
 from lcgym.methods import CONTROLLERS
-from lcgym.methods.ilc.method import best_trial
 from lcgym.methods.protocol import build_method, display_name, load_method, method_base, split_spec
 from lcgym.methods.safeguard import dropped_note, keep_axes, mixed
+from lcgym.systems.learning import best_trial
 
 RAIL_ARM = Path(__file__).parent / "data" / "rail_arm" / "rail_arm.toml"
 

@@ -5,15 +5,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from lcgym.methods.ilc.method import (
-    ILCConfig,
-    ILCTransfer,
-    IterativeLearningControl,
-    PaperLCS,
-    deadzone,
-    frequency_update,
-    q_filter,
-)
+from lcgym.methods.ilc.method import ILCConfig, ILCTransfer, IterativeLearningControl, PaperLCS
 from lcgym.systems.flexarm.errors import paper_errors, period_mask
 from lcgym.systems.flexarm.nominal import BasicFeedforward
 from lcgym.systems.flexarm.plant import FlexArmPlant
@@ -21,6 +13,7 @@ from lcgym.systems.flexarm.references import arm_reference_set
 from lcgym.systems.ix import dynamics as ix
 from lcgym.systems.ix.plant import IX_GAINS, IXPlant, process_sensitivity
 from lcgym.systems.ix.references import reference_set
+from lcgym.systems.learning import deadzone, frequency_update, q_filter
 
 FS = 500.0
 

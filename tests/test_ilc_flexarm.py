@@ -5,20 +5,20 @@ torque to the feedforward, and a predicted error enters the same update as a mea
 import numpy as np
 import pytest
 
+from lcgym.methods.ilc.method import iterate
 from lcgym.systems.flexarm.learning import (
     PREDICTED,
     ArmILCConfig,
-    best_trial,
-    learn_on_base,
+    ArmLaw,
     load_inertia,
     loop_responses,
     measure,
-    predicted_update,
     update,
 )
 from lcgym.systems.flexarm.nominal import BasicFeedforward
 from lcgym.systems.flexarm.plant import FlexArmPlant
 from lcgym.systems.flexarm.references import MOVING, arm_reference_set
+from lcgym.systems.learning import Signals, best_trial
 
 FS = 1000.0
 
@@ -33,9 +33,8 @@ def learned(line):
     """One update on Basic's torque and offset (a base with something to learn), on FlexArm-v1."""
     plant, nominal = FlexArmPlant.of_version("v1"), BasicFeedforward()
     basic = nominal.compute(line.positions, line.fs)
-    out = learn_on_base(plant, line, basic["tau_ff"], basic["reference_offset"], nominal, trials=1,
-                        config=ArmILCConfig(q_hz=6.0))
-    return plant, nominal, basic, out
+    loop = ArmLaw(plant, nominal, 1, ArmILCConfig(q_hz=6.0)).loop(line, Signals(basic["tau_ff"], basic["reference_offset"]))
+    return plant, nominal, basic, loop, iterate(loop, line, 1, MOVING)
 
 
 def test_best_trial_is_never_measured_worse_than_the_base_on_any_scored_axis():
@@ -43,7 +42,7 @@ def test_best_trial_is_never_measured_worse_than_the_base_on_any_scored_axis():
     cols = [*MOVING, 6]
     for _ in range(500):
         history = rng.uniform(0.5, 1.5, size=(rng.integers(1, 8), 7))
-        k = best_trial(history)
+        k = best_trial(history, cols)
         assert np.all(history[k, cols] <= history[0, cols])
         eligible = [j for j in range(len(history)) if np.all(history[j, cols] <= history[0, cols])]
         assert k in eligible and k == min(eligible, key=lambda j: (history[j, cols] / history[0, cols]).sum())
@@ -51,18 +50,18 @@ def test_best_trial_is_never_measured_worse_than_the_base_on_any_scored_axis():
     history = np.ones((2, 7))
     history[1, cols] = 0.5
     history[1, 0] = 9.0
-    assert best_trial(history) == 1
+    assert best_trial(history, cols) == 1
 
 
 def test_learning_keeps_a_trial_measured_no_worse_than_the_base(learned):
-    _, _, basic, (out, history, true_history, used) = learned
-    h = np.asarray(history)
-    assert used == len(history) == len(true_history) == 2 and h.shape == (2, 7)
-    k = out["trial"]
+    _, _, basic, _, out = learned
+    h = np.asarray(out.history)
+    assert out.used == len(out.history) == len(out.true_history) == 2 and h.shape == (2, 7)
+    k = out.best
     assert np.all(h[k, [*MOVING, 6]] <= h[0, [*MOVING, 6]])
-    f, o = out["candidates"][k]
-    assert out["feedforward"] is f and out["offset"] is o
-    assert np.array_equal(out["candidates"][0][0], basic["tau_ff"])  # trial 0 is the base itself
+    f, o = out.tried[k]
+    assert out.signals.feedforward is f and out.signals.offset is o
+    assert np.array_equal(out.tried[0][0], basic["tau_ff"])  # trial 0 is the base itself
     # on Basic the encoder ILC has something to learn: the measured error falls
     assert k > 0 and h[k, 6] < h[0, 6]
 
@@ -112,12 +111,12 @@ def test_loop_model_motor_and_load_agree_at_low_frequency():
 
 
 def test_a_predicted_error_enters_the_same_update_as_the_measured_one(learned, line):
-    plant, nominal, basic, _ = learned
+    plant, nominal, basic, loop, _ = learned
     f0, o0 = basic["tau_ff"], basic["reference_offset"]
     trial = plant.run(line, f0, np.asarray(nominal.drive.N) * o0)
     measured = measure(trial, line, nominal, f0, o0, plant.accel_offset)
-    f_m, o_m = update(nominal, f0, o0, measured, FS, PREDICTED, plant.gains, base=f0)
-    f_p, o_p = predicted_update(nominal, f0, o0, measured["e_pl"].copy(), FS, plant.gains)
+    f_m, o_m = update(nominal, f0, o0, measured, FS, PREDICTED, base=f0)
+    f_p, o_p = loop.predicted(measured["e_pl"].copy())
     np.testing.assert_array_equal(f_m, f_p)
     np.testing.assert_array_equal(o_m, o_p)
     assert not np.allclose(f_p, f0)  # the error did move it

@@ -209,11 +209,39 @@ def _name_branches(path: Path, root: Path = ROOT.parent) -> list[str]:
 
 
 def test_no_method_imports_a_machine():
-    """A learning method reaches a machine's own law through the machine (``System.learning``), not
+    """A learning method reaches a machine's own law through the plant (``plant.learning_law``), not
     by importing the machine's modules: no edge from ``methods`` to a machine's folder."""
     edges = _edges()
     into_machines = {k: v for k, v in edges.items() if k[0] == "methods" and k[1].startswith("systems.")}
     assert not into_machines, into_machines
+
+
+def test_ilc_and_the_rbf_expert_learn_through_the_plant_contract_alone():
+    """One learning law each: they ask the plant for the machine's law and branch neither on their
+    base nor on what the machine has (its nominal structure, a law of its own)."""
+    found = []
+    for path in sorted(ROOT.glob("methods/ilc/*.py")) + sorted(ROOT.glob("methods/rbf_expert/*.py")):
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.Compare) and "self.base" in ast.unparse(node):
+                found.append(f"{path.name}:{node.lineno} {ast.unparse(node)}")
+            if isinstance(node, ast.Attribute) and node.attr in ("nominal", "nominal_", "learning_law") and \
+                    ast.unparse(node.value) not in ("plant",):
+                found.append(f"{path.name}:{node.lineno} {ast.unparse(node)}")
+    assert not found, found
+
+
+def test_every_built_in_plant_keeps_the_plant_contract():
+    from lcgym import systems
+    from lcgym.methods.ilc import ILCConfig
+    from lcgym.systems.learning import LearningLaw
+    from lcgym.systems.plant import Plant
+
+    for name in systems.BUILT_IN:
+        plant = systems.get(name).make_bench().plant
+        assert isinstance(plant, Plant), name
+        for base in ("physical", "basic") if systems.get(name).nominal is not None else ("physical",):
+            law = plant.learning_law(base, ILCConfig())
+            assert isinstance(law, LearningLaw) and law.trials >= 1, (name, base)
 
 
 def test_no_method_learner_or_diagnosis_branches_on_a_machine_name():

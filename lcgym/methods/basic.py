@@ -28,6 +28,7 @@ class BasicArmFeedforward(Controller):
 
     def fit(self, trials) -> BasicArmFeedforward:
         self.loop_ = None
+        self.model_ = None  # a learner's base model (``methods.bases``): none, the nominal structure is fixed
         if self.nominal is not None:
             self.nominal_ = self.nominal
         else:

@@ -36,7 +36,6 @@ import numpy as np
 
 if TYPE_CHECKING:
     from .bench import Bench, BenchFactory
-    from .learning import LearningLaw
 
 DEG = math.pi / 180.0
 KINDS = ("revolute", "prismatic")
@@ -153,9 +152,8 @@ class System:
     ``bench.BenchFactory``: ``make_bench`` makes a bench, which holds the plant, the reference sets
     and what the benchmark scores, ``systems/bench.py``; and the machine's Gymnasium envs) and
     ``nominal`` (a nominal feedforward structure that learning methods start from, paper 002's
-    Basic on the FlexArm; None: they start from the fitted physical model) and ``learning`` (the
-    machine's own learning law, ``systems.learning.LearningLaw``: the FlexArm's; None: the
-    learning methods' plant-inversion law, from the plant's process sensitivity).
+    Basic on the FlexArm; None: they start from the fitted physical model). What a learning method
+    may ask of the machine's loop, its plant offers (``systems.plant.Plant.learning_law``).
 
     model: the physical-model class (``physics.model.PhysicalModel`` or a subclass), built with
     ``physical_model`` / ``diagnosis_model``. fs [Hz]: the machine's sample rate (None: the data's).
@@ -210,7 +208,6 @@ class System:
     caching: Callable | None = None
     bench: BenchFactory | None = None
     nominal: object | None = None
-    learning: LearningLaw | None = None
     model_effects: tuple[str, ...] = ()
 
     def __post_init__(self):

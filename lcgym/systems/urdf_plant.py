@@ -63,6 +63,7 @@ from ..physics.lti import rigid_axis
 from ..references import Reference, random_moves
 from . import rigid_body
 from .feedback import FeedbackGains
+from .learning import TrackingLaw
 from .runs import remembered
 from .system import SimulationDiverged, System
 from .urdf import URDFRobot, urdf_robot
@@ -511,6 +512,11 @@ class URDFPlant:
         return C
 
     # ------------------------------------------------------------------ simulation
+    def learning_law(self, base: str, config) -> TrackingLaw:
+        """Learning on the measured tracking error through the nominal process sensitivity
+        (``systems.learning.TrackingLaw``), on any base."""
+        return TrackingLaw(self, config)
+
     @property
     def deterministic(self) -> bool:
         """A run is a function of its inputs where the plant adds no measurement noise (the noise's

@@ -1,57 +1,45 @@
 """Iterative learning control: learn the feedforward of one repeated reference by running it again.
 
-The update of trial j to j + 1, per axis, is plant-inversion ILC with a robustness filter,
-f_{j+1} = Q (f_j + L e_j), computed on the whole trial in the frequency domain (FFT over the trial,
-zero-padded to twice its length so that the circular wrap of the non-causal filters falls in the
-padding). On a base f_0, Q acts on what is learned, f_{j+1} = f_0 + Q (f_j - f_0 + L e_j), as the
-FlexArm's update does (``systems/flexarm/learning.py``): the base's own content above Q's corner stays (a velocity
-loop's velocity feedforward, ``methods.loop``, whose steps Q would round off):
+ILC runs the reference on the plant, measures its error, updates the feedforward, and runs it
+again (``iterate``); it keeps the trial its sensors measured best, never one measured worse than
+its base (``systems.learning.best_trial``). What the error is and how a feedforward changes it
+belong to the machine: ILC asks the plant for its learning law (``plant.learning_law(base,
+config)``, ``systems.learning``) and iterates that law's loop, the same code on every machine:
 
-* A machine without a nominal feedforward structure (``System.nominal`` is None: the IX, paper
-  000's machine) starts from its physical model fitted on the training trials; e = reference -
-  measured angle [rad]; L = (P S)^-1, the inverse of the process sensitivity of the nominal closed
-  loop of each axis (``plant.process_sensitivity``; the IX: the rigid axis P(s) = 1 / (J s^2 + D s)
-  [rad/V] with J the diagonal of the nominal mass matrix at the reference's mean pose and D the
-  nominal viscous coefficient, discretized with a zero-order hold and the plant's one-sample
-  computation delay, and the plant's own PD + low-pass feedback C(z)). The trial's error is e_j =
-  S r - P S f_j (plus what the model lacks), so with Q = 1 and an exact model e_{j+1} = e_j - P S L
-  e_j = 0; Q < 1 restricts the learning to the frequencies where the model holds.
-* A machine with one (the FlexArm's Basic, paper 002, eq. 16, the "LCS" of section 5.3): the
-  nonlinear torque tau_nl is updated with e = e_pl, the model-following error estimated from the
-  accelerometer (``nominal.run``), and L = P_lu^-1, the inverse of the nominal linear model from
-  motor torque to load acceleration (``nominal.load_response``). One iteration by default, as in
-  the paper.
+* the IX and a URDF machine (``TrackingLaw``): plant-inversion ILC on the measured tracking error,
+  f_{j+1} = f_0 + Q (f_j - f_0 + L e_j), L = (P S)^-1 the inverse of each axis's nominal process
+  sensitivity (the IX: the rigid axis P(s) = 1 / (J s^2 + D s) [rad/V] at the reference's mean
+  pose, the plant's one-sample delay and its PD + low-pass C(z)), computed on the whole trial in
+  the frequency domain (zero-padded to twice its length so that the circular wrap of the
+  non-causal filters falls in the padding). With Q = 1 and an exact model e_{j+1} = e_j - P S L
+  e_j = 0; Q < 1 restricts the learning to the frequencies where the model holds;
+* the FlexArm on its physical model (``ArmLaw``): the torque learned from the motor encoders'
+  error through the loop model P_m S with the fitted arm's load inertia, each trial judged by the
+  load error estimated from encoders and accelerometer and the end-effector acceleration error;
+* the FlexArm on Basic (``ModelFollowingLaw``, paper 002's eq. 16, the "LCS" of section 5.3):
+  tau_nl updated with e_pl, the model-following error from the accelerometer, L = P_lu^-1.
 
-The edges: on Basic (eq. 16) Q filters the previous feedforward too, and zero padding would filter
-it as if it dropped to zero before and after the trial; the arm's tau_nl holds gravity at rest,
-which Q would bend at both ends (a start-up transient, ringing after the trial). ``nominal_update``
-pads tau_nl with its edge values (``frequency_update(hold_edges=True)``); the tracking-error ILC
-filters only its learned correction, zero-padded (its fade-in covers the start).
-
-Q is zero phase: the magnitude |B(w)|^2 of a Butterworth low-pass of order ``q_order`` with corner
-``q_hz`` (B applied twice, as ``filtfilt`` does). ``q_hz`` trades the bandwidth of what is learned
-against the model error at high frequency: the IX's drivetrain modes (15-34 Hz) are not in its
-nominal model; the paper sets 20 Hz for the arm. On the IX the learned error passes a deadzone of
-half an encoder count (``deadzone``: else the propeller's quantization is learned as error and the
-feedforward wanders), and the update fades in over the first 0.25 s (the plant holds the first
-sample's feedforward through its pre-roll; a learned change there moves the initial state, which
-L's linear model does not describe). Every trial's error norm is recorded (``history_``); when it
-grows three trials in a row and stands 1.5x above the best trial, ``ILCDiverged`` is raised with
-the history (as it is by a trial that drives the plant out of its safe range). Measurements behind
-these choices: docs/methods/ilc.md, "Design choices and what they measured".
+Q is zero phase: |B(w)|^2 of a Butterworth low-pass of order ``q_order`` with corner ``q_hz`` (B
+applied twice, as ``filtfilt`` does). ``q_hz`` trades the bandwidth of what is learned against the
+model error at high frequency: the IX's drivetrain modes (15-34 Hz) are not in its nominal model;
+the paper sets 20 Hz for the arm (``arm_q_hz``). Every trial's error norm is recorded
+(``history_``); a trial that leaves the plant's safe range, or an error that grows three trials in a
+row and stands 1.5x above the best trial, ends the learning at its best trial so far, and the row's
+note says so. Measurements behind these choices: docs/methods/ilc.md, "Design choices and what they
+measured".
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from ... import systems
 from ...fitted import check_fitted, is_fitted
 from ...systems import SimulationDiverged
-from ...systems.learning import ILCDiverged, best_trial, check_divergence, held_edges, q_filter, rms
+from ...systems.learning import ILCDiverged, Measured, Signals, best_trial, check_divergence
 from ..bases import ReferenceMemo, base_controller
 from ..protocol import DEFAULT_BASE, Controller, Cost, given_system
 from ..safeguard import Safeguard, dropped_note, mixed, scored_axes
@@ -76,71 +64,80 @@ class ILCConfig:
     arm_gain: float = 1.0
 
 
-def frequency_update(f: np.ndarray, e: np.ndarray, inverse: np.ndarray, q: np.ndarray, gain: float,
-                     hold_edges: bool = False) -> np.ndarray:
-    """Q (f + gain L e) per column of (T, A) signals; ``inverse`` (n_freq, A) the response of L and
-    ``q`` (n_freq,) the one of Q on the rfft grid of 2 T samples (zero padding against wrap-around).
-
-    ``hold_edges``: f is padded with its own edge values instead of zeros (the last sample for the
-    first half of the padding, the first sample for the second half, where the wrap-around lands),
-    i.e. f held before and after the trial. A feedforward that holds a torque at rest (the arm's
-    tau_nl carries gravity, up to 5 N m) would otherwise be filtered as if it dropped to zero at both
-    ends: Q then bends it by up to half its edge value over Q's settling time (about 50 ms at 20 Hz),
-    and the plant answers that change of torque with a start-up transient and residual vibration
-    after the trial (module docstring, "the edges"). e stays zero-padded: outside the trial there is
-    no error to learn."""
-    T = f.shape[0]
-    if hold_edges:
-        f = held_edges(f)
-    F = np.fft.rfft(f, n=2 * T, axis=0)
-    E = np.fft.rfft(e, n=2 * T, axis=0)
-    return np.fft.irfft(q[:, None] * (F + gain * inverse * E), n=2 * T, axis=0)[:T]
-
-
-def learning_filters(plant, reference, config: ILCConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """L = (P S)^-1 and Q on the rfft grid of 2 T samples, and the fade-in (T, 1) of the update, for
-    tracking-error learning on ``reference`` (module docstring)."""
-    T = reference.n_samples
-    inverse = 1.0 / plant.process_sensitivity(2 * T, reference.positions)
-    fade = np.clip(np.arange(T) / (FADE_IN * plant.fs), 0.0, 1.0)[:, None]
-    return inverse, q_filter(2 * T, plant.fs, config.q_hz, config.q_order), fade
-
-
-def nominal_update(nominal, tau_nl: np.ndarray, e_pl: np.ndarray, fs: float, config: ILCConfig) -> np.ndarray:
-    """Eq. (16) (and eq. (17) with a predicted e_pl): Q_u [tau_nl + P_lu^-1 e_pl] (T, n_axes) [N m],
-    P_lu the ``nominal`` structure's load response. Its zero-frequency bin is 0 (a constant torque
-    leaves no load acceleration), so a constant e_pl asks for no torque there: the inverse's bin is 0.
-    tau_nl is filtered with its edges held (module docstring, "The edges")."""
-    T = tau_nl.shape[0]
-    response = nominal.load_response(2 * T, fs)
-    inverse = np.divide(1.0, response, out=np.zeros_like(response), where=np.abs(response) > 0.0)
-    inverse[0] = 0.0
-    return frequency_update(tau_nl, e_pl, inverse, q_filter(2 * T, fs, config.arm_q_hz, config.q_order), config.arm_gain,
-                            hold_edges=True)
-
-
-def deadzone(e: np.ndarray, width) -> np.ndarray:
-    """e with ``width`` taken off its magnitude (zero inside +-width), per column: an encoder reads
-    the error only to within half a count, and learning the quantization as if it were error
-    makes the feedforward wander from trial to trial (the IX propeller: 0.0669 deg counts)."""
-    return np.sign(e) * np.maximum(np.abs(e) - width, 0.0)
-
-
-FADE_IN = 0.25  # s: the tracking-error update's fade-in at the start of a trial (``_learn_tracking``)
 MIN_JUDGED = 2
 """ILC transfer keeps its correction only where it lowers the error of at least this many training
 references it did not learn on: with the quick bench's one other, a correction that lowered it
 there ended 1.10-1.57x worse than the base on the FlexArm's validation references."""
 
 
-class _FailedTrial(Exception):
-    """A learning trial left the plant's safe range (``IterativeLearningControl._run_trial``)."""
-
-
 def short(exc: Exception, limit: int = 160) -> str:
     """An exception's message on one line of at most ``limit`` characters."""
     text = " ".join(str(exc).split())
     return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+@dataclass
+class Learned:
+    """What ``iterate`` learned on one reference: the kept trial's ``signals``; per trial the
+    measured ``history`` and the ``true_history`` (``LearningLoop.measure``'s rows, trial 0 the
+    base); the plant runs ``used``; the index ``best`` of the trial kept; ``failed``: why the
+    learning stopped early ("" where it did not); ``tried``: every trial's state."""
+
+    signals: Signals
+    history: list
+    true_history: list
+    used: int
+    best: int
+    failed: str = ""
+    tried: list = field(default_factory=list)
+
+
+def iterate(loop, reference, trials: int, scored) -> Learned:
+    """ILC on one reference through a machine's learning loop (``systems.learning.LearningLoop``):
+    trial 0 runs the base, each later one the update of the one before, every one measured
+    (``trials`` updates; the last trial measures the last update). Where the machine's axes
+    separate and no trial is best on every axis, one more run of each axis's best (``loop.mix``).
+    A trial that leaves the plant's safe range, or a diverging history (``check_divergence`` on
+    the axes' columns), ends the learning at the best trial so far; the base's own run failing
+    is raised as it is. The trial kept: ``best_trial`` on ``loop.columns(scored)``."""
+    state, n_axes = loop.start, reference.positions.shape[1]
+    tried, history, true_history = [], [], []
+    used, failed = 0, ""
+
+    def measured_run(state, label) -> Measured | None:
+        """The trial of ``state`` measured and recorded; None where it left the safe range."""
+        nonlocal failed
+        try:
+            trial = loop.run(state)
+        except SimulationDiverged as exc:
+            if label == 0:
+                raise
+            failed = f"trial {label} left the plant's safe range ({short(exc)})"
+            return None
+        measured = loop.measure(trial, state)
+        tried.append(state)
+        history.append(measured.row)
+        true_history.append(measured.true_row)
+        return measured
+
+    for j in range(trials + 1):
+        used += 1
+        measured = measured_run(state, j)
+        if measured is None:
+            break
+        try:
+            check_divergence([h[:n_axes] for h in history], reference.name)
+        except ILCDiverged:
+            failed = f"the error grew three trials in a row (to trial {j})"
+            break
+        if j < trials:
+            state = loop.update(state, measured)
+    mix = loop.mix(tried, history)
+    if mix is not None:  # each axis's column from the trial it did best in, measured once more
+        used += 1
+        measured_run(mix, "mixing each axis's best")
+    best = best_trial(history, loop.columns(scored))
+    return Learned(loop.signals(tried[best]), history, true_history, used, best, failed, tried)
 
 
 class IterativeLearningControl(Controller):
@@ -180,7 +177,6 @@ class IterativeLearningControl(Controller):
         self.system_ = given_system(self)
         self.base_ = base_controller(self.system_, self.base).fit(trials)
         self.memo_ = ReferenceMemo()
-        self.nominal_ = self.system_.nominal
         self.learned_, self.history_, self.true_history_, self.best_ = {}, {}, {}, {}
         self.failed_: dict[str, str] = {}  # reference -> why its learning stopped early (``_run_trial``)
         self.cost_ = Cost()
@@ -188,18 +184,20 @@ class IterativeLearningControl(Controller):
 
     def learn(self, plant, reference) -> IterativeLearningControl:
         check_fitted(self, "learned_", hint="call fit(trials) before learn()")
-        if self.base == "basic":
-            learn = self._learn_model_following
-        elif self.system_.learning is not None:  # the machine's own law (the FlexArm's)
-            learn = self._learn_arm
-        else:
-            learn = self._learn_tracking
-        learned, history, true_history, used = learn(plant, reference)
-        self.learned_[reference.name] = learned
-        self.history_[reference.name], self.true_history_[reference.name] = np.array(history), np.array(true_history)
-        self.cost_.plant_trials += used
+        law = plant.learning_law(self.base, self.config_)
+        loop = law.loop(reference, Signals(*self._start(reference)), self.base_.model_)
+        out = self._iterate(loop, reference, law.trials)
+        name = reference.name
+        self.learned_[name], self.best_[name] = out.signals, out.best
+        self.history_[name], self.true_history_[name] = np.array(out.history), np.array(out.true_history)
+        if out.failed:
+            self.failed_[name] = out.failed
+        self.cost_.plant_trials += out.used
         self.note_ = self._base_kept_note()
         return self
+
+    def _iterate(self, loop, reference, trials: int) -> Learned:
+        return iterate(loop, reference, trials, self._scored(reference.positions.shape[1]))
 
     def _base_kept_note(self) -> str:
         """The row's note where no learning trial beat the base on some references (trial 0 kept:
@@ -223,108 +221,17 @@ class IterativeLearningControl(Controller):
         return self.memo_.get("base", reference, lambda: (np.asarray(self.base_.feedforward(reference), dtype=float),
                                                           self.base_.reference_offset(reference)))
 
-    def _learn_tracking(self, plant, reference):
-        """Plant-inversion ILC on the measured tracking error, from the fitted physical model; where no
-        trial is best on every axis, one more run of each axis's best (``_per_axis_best``)."""
-        cfg = self.config_
-        f0 = self._start(reference)[0]
-        f = f0
-        # the plant holds the first sample's feedforward through its pre-roll: a learned change there
-        # would move the initial state, which L's linear model does not describe (the error at the
-        # start then alternates from trial to trial); the update fades in over FADE_IN seconds
-        inverse, q, fade = learning_filters(plant, reference, cfg)
-        history, true_history, tried = [], [], []
-        used = 0
-        for j in range(cfg.trials + 1):  # the last trial measures the last update
-            used += 1
-            try:
-                trial = self._run_trial(plant, reference, f, j)
-            except _FailedTrial:
-                break
-            tried.append(f)
-            history.append(rms(trial.error))
-            true_history.append(rms(trial.ref - np.column_stack([trial.extra[f"load_{a}"] for a in trial.axes])))
-            try:
-                check_divergence(history, reference.name)
-            except ILCDiverged:
-                self.failed_[reference.name] = f"the error grew three trials in a row (to trial {j})"
-                break
-            if j < cfg.trials:
-                e = deadzone(trial.error, 0.5 * np.asarray(plant.encoder_resolution))
-                f = f0 + fade * frequency_update(f - f0, e, inverse, q, cfg.gain)
-        scored = self._scored(f0.shape[1])
-        mixed = _per_axis_best(tried, history)
-        if mixed is not None:  # each axis's column from the trial it did best in, measured once more
-            used += 1
-            try:
-                trial = self._run_trial(plant, reference, mixed, "mixing each axis's best")
-            except _FailedTrial:
-                pass
-            else:
-                tried.append(mixed)
-                history.append(rms(trial.error))
-                true_history.append(rms(trial.ref - np.column_stack([trial.extra[f"load_{a}"] for a in trial.axes])))
-        best = self.best_[reference.name] = best_trial(history, scored)
-        return {"feedforward": tried[best]}, history, true_history, used
-
-    def _run_trial(self, plant, reference, f: np.ndarray, trial) -> object:
-        """A learning trial's run. One that leaves the plant's safe range is the method's failed trial:
-        recorded in ``failed_`` (the row's note says so) and raised as ``_FailedTrial``, so that the
-        learning stops there and keeps its best safe trial. The base's own run (trial 0) failing is
-        the cell's failure: raised as it is."""
-        try:
-            return plant.run(reference, f)
-        except SimulationDiverged as exc:
-            if trial == 0:
-                raise
-            self.failed_[reference.name] = f"trial {trial} left the plant's safe range ({short(exc)})"
-            raise _FailedTrial from None
-
-    def _learn_model_following(self, plant, reference):
-        """Paper 002's LCS iterated on Basic: its tau_nl updated with the model-following error
-        (eq. 16), ``arm_trials`` updates, each measured, the best kept."""
-        cfg, nominal = self.config_, self.nominal_
-        basic = nominal.compute(reference.positions, reference.fs)
-        update = np.zeros(reference.positions.shape)
-        history, true_history, tried = [], [], []
-        for j in range(cfg.arm_trials + 1):
-            trial = nominal.run(plant, reference, update)
-            tried.append(update)
-            e_pl = np.column_stack([trial.extra[f"e_pl_{a}"] for a in trial.axes])
-            history.append(rms(e_pl))
-            true_history.append(rms(np.column_stack([trial.extra[f"e_pl_true_{a}"] for a in trial.axes])))
-            check_divergence(history, reference.name)
-            if j < cfg.arm_trials:
-                # eq. (16): tau_nl,k+1 = Q_u [tau_nl,k + P_lu^-1 e_pl,k]; tau_nl,0 is Basic's
-                update = nominal_update(nominal, basic["tau_nl"] + update, e_pl, plant.fs, cfg) - basic["tau_nl"]
-        best = self.best_[reference.name] = best_trial(history, self._scored(update.shape[1]))
-        return ({"feedforward": basic["tau_ff"] + tried[best], "offset": basic["reference_offset"]}, history,
-                true_history, cfg.arm_trials + 1)
-
-    def _learn_arm(self, plant, reference):
-        """The machine's own learning law (``System.learning``: the FlexArm on its physical model)."""
-        law = self.system_.learning
-
-        f0, o0 = self._start(reference)
-        # each joint's loop model carries the load inertia of the fitted arm (payload included) at the
-        # reference's mean pose: the nominal M_n lacks the payload, and the static EE error rose with it
-        inertia = law.load_inertia(self.base_.model_.fitted_params.arm(), reference.positions)
-        learned, history, true_history, used = law.learn_on_base(plant, reference, f0, o0, self.nominal_,
-                                                             trials=self.config_.arm_trials, inertia=inertia)
-        self.best_[reference.name] = learned.pop("trial")
-        learned.pop("candidates")
-        return learned, history, true_history, used
-
-    def _learned(self, reference) -> dict:
-        if reference.name not in getattr(self, "learned_", {}):
+    def _learned(self, reference) -> Signals:
+        check_fitted(self, "learned_", hint="call fit(trials) before learn()")
+        if reference.name not in self.learned_:
             raise RuntimeError(f"ILC: no feedforward learned for {reference.name}; call learn(plant, reference) first")
         return self.learned_[reference.name]
 
     def feedforward(self, reference) -> np.ndarray:
-        return self._learned(reference)["feedforward"]
+        return self._learned(reference).feedforward
 
     def reference_offset(self, reference) -> np.ndarray | None:
-        return self._learned(reference).get("offset")
+        return self._learned(reference).offset
 
 
 class PaperLCS(IterativeLearningControl):
@@ -346,16 +253,11 @@ class PaperLCS(IterativeLearningControl):
         """The configuration given, with one iteration (the paper's)."""
         return replace(self.config or ILCConfig(), arm_trials=1)
 
-    def _learn_model_following(self, plant, reference):
-        cfg, nominal = self.config_, self.nominal_
-        basic = nominal.compute(reference.positions, reference.fs)
-        trial = nominal.run(plant, reference)
-        e_pl = np.column_stack([trial.extra[f"e_pl_{a}"] for a in trial.axes])
-        history = [rms(e_pl)]
-        true_history = [rms(np.column_stack([trial.extra[f"e_pl_true_{a}"] for a in trial.axes]))]
-        # eq. (16): tau_nl,1 = Q_u [tau_nl,0 + P_lu^-1 e_pl,0]
-        update = nominal_update(nominal, basic["tau_nl"], e_pl, plant.fs, cfg) - basic["tau_nl"]
-        return {"feedforward": basic["tau_ff"] + update, "offset": basic["reference_offset"]}, history, true_history, 1
+    def _iterate(self, loop, reference, trials: int) -> Learned:
+        """Eq. (16) once on trial 0's measurement, the update returned unmeasured (the paper's)."""
+        trial = loop.run(loop.start)
+        measured = loop.measure(trial, loop.start)
+        return Learned(loop.signals(loop.update(loop.start, measured)), [measured.row], [measured.true_row], 1, best=1)
 
 
 class ILCTransfer(IterativeLearningControl):
@@ -386,8 +288,8 @@ class ILCTransfer(IterativeLearningControl):
             super().learn(plant, self.source_)
             f0, o0 = self._start(self.source_)
             learned = self._learned(self.source_)
-            self.correction_ = learned["feedforward"] - f0
-            offset = learned.get("offset")
+            self.correction_ = learned.feedforward - f0
+            offset = learned.offset
             self.offset_correction_ = None if offset is None else offset - (0.0 if o0 is None else o0)
             # judged on the training references it did not learn on (the source alone where there is no other)
             others = self.training_[1:] or self.training_
@@ -421,18 +323,6 @@ class ILCTransfer(IterativeLearningControl):
 
     def reference_offset(self, reference) -> np.ndarray | None:
         return self._signals(reference)[1]
-
-
-def _per_axis_best(tried: list[np.ndarray], history: list[np.ndarray]) -> np.ndarray | None:
-    """The feedforward whose column of each axis is that of the trial the axis was measured best in;
-    None where one trial is best on every axis (nothing to mix). On a coupled machine the learning
-    may lower some axes and raise another (the rail arm: the elbow 10x down, the rail at its
-    encoder's floor 2x up): the mix keeps each axis's best, and ``best_trial`` keeps it only where
-    its own run, measured, is no worse than the base on any axis."""
-    best = np.argmin(np.asarray(history), axis=0)
-    if np.all(best == best[0]):
-        return None
-    return np.column_stack([tried[k][:, a] for a, k in enumerate(best)])
 
 
 def _fitted(c: np.ndarray, T: int) -> np.ndarray:

@@ -4,23 +4,20 @@ Training, once (the paper's factory stage; the plant runs counted in ``cost_``):
 reference is run with the starting feedforward and its error recorded; the predictor
 (``rbf_expert.predictor``) learns that error as a function of the reference. Operation, for any new
 reference, with no run and no sensor: the predicted error e_hat replaces the measured one in one
-plant-inversion update,
+update of the machine's learning law (``LearningLoop.predicted``, the plant's ``learning_law``):
 
-* a machine with a nominal feedforward structure (``System.nominal``: the FlexArm, its home), eq.
-  (17): tau_nl,1 = Q_u [tau_nl,0 + P_lu^-1 e_hat], starting from Basic (tau_nl,0, r_q of eq. 12),
-  e_hat the predicted model-following error [rad/s^2] learned from the accelerometer estimate e_pl
-  of Basic runs; Q_u zero phase at 20 Hz (``ILCConfig.arm_q_hz``);
-* a machine without one (the IX): f_1 = Q [f_0 + (P S)^-1 e_hat], starting from the fitted
-  physical model's feedforward, e_hat the predicted tracking error [rad] learned from runs with
-  that feedforward; L, Q (5 Hz) and the fade-in are those of the tracking-error ILC
-  (``ilc.learning_filters``).
+* on the FlexArm's Basic (``rbf-expert@basic``), eq. (17): tau_nl,1 = Q_u [tau_nl,0 + P_lu^-1
+  e_hat], e_hat the predicted model-following error [rad/s^2] learned from the accelerometer
+  estimate e_pl of Basic runs; Q_u zero phase at 20 Hz (``ILCConfig.arm_q_hz``);
+* on the FlexArm's physical model, eq. (17) around that base's feedforward (``ArmLaw``);
+* on the IX or a URDF machine: f_1 = f_0 + Q (P S)^-1 e_hat, e_hat the predicted tracking error
+  [rad or m] learned from runs with the fitted physical model's feedforward; L, Q (5 Hz) and the
+  fade-in are those of the tracking-error ILC (``TrackingLaw``).
 
-Base (``bases``): the machine's fitted physical model by default; the FlexArm's Basic
-(``rbf-expert@basic``) for eq. (17) as the paper writes it. On the FlexArm's physical model the
-prediction enters the same update as ILC's there (the machine's ``learning`` law). A training-reference safeguard
-(``safeguard``, as RL's) keeps the predicted correction only on the axes where it lowers the
-tracking error on every training reference; ``note_`` says what it dropped. ``paper002-nnp`` is the
-paper's protocol: on Basic, no safeguard.
+Base (``bases``): the machine's fitted physical model by default; the FlexArm's Basic for eq. (17)
+as the paper writes it. A training-reference safeguard (``safeguard``, as RL's) keeps the predicted
+correction only on the axes where it lowers the tracking error on every training reference;
+``note_`` says what it dropped. ``paper002-nnp`` is the paper's protocol: on Basic, no safeguard.
 
 The motion influence Phi comes from the machine's joint axes at its reference pose
 (``System.joint_axes``, ``influence.task_influence``): on the arm the entries of eq. (25), on the IX
@@ -38,8 +35,9 @@ import numpy as np
 
 from ... import systems
 from ...fitted import check_fitted, is_fitted
-from ..bases import ReferenceMemo, base_controller, closed_loop
-from ..ilc.method import ILCConfig, frequency_update, learning_filters, nominal_update
+from ...systems.learning import Signals
+from ..bases import ReferenceMemo, base_controller
+from ..ilc.method import ILCConfig
 from ..protocol import DEFAULT_BASE, Controller, Cost, given_system
 from ..safeguard import Safeguard, dropped_note, mixed
 from .influence import task_influence
@@ -52,7 +50,7 @@ class RBFExpertFeedforward(Controller):
     """``fit(trials)`` keeps the training references and fits the base (``base``: "physical", the
     default, or "basic" on the FlexArm); ``learn(plant, reference)`` trains the predictor on the
     first call (and runs the safeguard); ``feedforward(reference)`` applies the predicted update.
-    Learned: ``predictor_``, ``plant_`` (the one trained on: its loop defines L), ``outside_``,
+    Learned: ``predictor_``, ``law_`` (the learning law of the plant trained on: its loop defines L), ``outside_``,
     ``kept_`` (per axis: the correction acts there), ``note_``, ``cost_``. ``system``: the machine (a
     ``System`` or a spec for ``systems.get``, such as "flexarm")."""
 
@@ -72,7 +70,6 @@ class RBFExpertFeedforward(Controller):
         from ...references import references_of
 
         self.system_ = given_system(self)
-        self.nominal_ = self.system_.nominal
         self.base_ = base_controller(self.system_, self.base).fit(trials)
         self.memo_ = ReferenceMemo()
         self.training_ = references_of(trials)
@@ -84,7 +81,7 @@ class RBFExpertFeedforward(Controller):
     def learn(self, plant, reference) -> RBFExpertFeedforward:
         check_fitted(self, "training_", hint="call fit(trials) before learn()")
         if not is_fitted(self, "predictor_"):
-            self.plant_ = plant
+            self.law_ = plant.learning_law(self.base, self.learning or ILCConfig())
             self._train(plant)
             self.kept_ = np.ones(reference.positions.shape[1], dtype=bool)
             if self.safeguard:
@@ -102,16 +99,7 @@ class RBFExpertFeedforward(Controller):
 
     def _train(self, plant) -> None:
         refs = self.training_
-        if self.base == "basic":
-            errors = []
-            for r in refs:
-                tr = self.nominal_.run(plant, r)
-                errors.append(np.column_stack([tr.extra[f"e_pl_{a}"] for a in tr.axes]))
-        elif (law := self.system_.learning) is not None:  # the machine's own law (the FlexArm's)
-            errors = [law.model_following_error(plant, closed_loop(plant, r, *self._start(r)), r, self.nominal_,
-                                                *self._start(r)) for r in refs]
-        else:
-            errors = [t.error for t in plant.run(refs, [self._start(r)[0] for r in refs])]
+        errors = self.law_.base_errors(refs, [Signals(*self._start(r)) for r in refs])
         phi = task_influence(refs, None if self.system_.joint_axes is None else self.system_.joint_axes())
         v = np.concatenate([r.velocities for r in refs])
         joints = tuple(int(j) for j in np.flatnonzero(np.abs(v).max(axis=0) > MOVING_TOL))
@@ -126,18 +114,10 @@ class RBFExpertFeedforward(Controller):
         return e_hat
 
     def _predicted(self, reference) -> tuple[np.ndarray, np.ndarray | None]:
-        """(feedforward, offset) of the base updated once with the predicted error."""
+        """(feedforward, offset) of the base updated once with the predicted error (the machine's
+        learning law: ``LearningLoop.predicted``)."""
         e_hat = self.predict(reference)
-        learning = self.learning or ILCConfig()
-        f0, o0 = self._start(reference)
-        if self.base == "basic":
-            basic = self.nominal_.compute(reference.positions, reference.fs)
-            return basic["tau_ff"] - basic["tau_nl"] + nominal_update(self.nominal_, basic["tau_nl"], e_hat, reference.fs,
-                                                                      learning), o0
-        if (law := self.system_.learning) is not None:
-            return law.predicted_update(self.nominal_, f0, o0, e_hat, reference.fs, self.plant_.gains)
-        inverse, q, fade = learning_filters(self.plant_, reference, learning)
-        return f0 + fade * frequency_update(np.zeros_like(f0), e_hat, inverse, q, learning.gain), o0
+        return tuple(self.law_.loop(reference, Signals(*self._start(reference))).predicted(e_hat))
 
     def _signals(self, reference) -> tuple[np.ndarray, np.ndarray | None]:
         check_fitted(self, "kept_", hint="call learn(plant, reference) first (it trains the predictor)")

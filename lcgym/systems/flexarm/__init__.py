@@ -14,9 +14,8 @@ import math
 
 from .. import ENVS
 from ..bench import BenchFactory
-from ..learning import LearningLaw
 from ..system import Axis, DiagnosisSettings, System
-from . import dynamics, learning, motor
+from . import dynamics, motor
 from .bench import FlexArmBench
 from .effects import CANDIDATES, Payload
 from .model import ArmModel
@@ -52,8 +51,6 @@ FLEXARM = System(
     bench=BenchFactory(FlexArmBench, envs={k: v for k, v in ENVS.items() if k.startswith("lcgym/FlexArm-")},
                        observation_error=slice(30, 36)),
     nominal=BasicFeedforward(),
-    learning=LearningLaw(learning.learn_on_base, learning.load_inertia, learning.model_following_error,
-                         learning.predicted_update),
 )
 
 __all__ = ["FLEXARM"]

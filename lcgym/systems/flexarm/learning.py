@@ -1,6 +1,7 @@
-"""The FlexArm's learning law: ILC on the arm starting from any base (the least-squares physical
-model by default), which the learning methods reach through the machine (``FLEXARM.learning``, a
-``systems.learning.LearningLaw``) and never import. Its feedforward torque f and its reference
+"""The FlexArm's learning laws (``systems.learning``), which the learning methods reach through the
+plant (``FlexArmPlant.learning_law``) and never import: ``ArmLaw`` on any base (the least-squares
+physical model by default), and ``ModelFollowingLaw``, paper 002's eq. 16 on Basic. ``ArmLaw``'s
+feedforward torque f and its reference
 offset o are learned from what the machine measures, the motor encoders and the flange
 accelerometer, never the simulation's true load angle.
 
@@ -36,18 +37,16 @@ the DC pole of C needs no inversion. H_hp is a zero-phase high-pass (``offset_hp
 offset learns only where the accelerometer sees the load; below it the base's offset stays. The
 torque term P_m^-1 N Delta_o moves the motor onto the new reference in the same trial. Q, Q_o
 are zero-phase Butterworth |B|^2 (``systems.learning.q_filter``); f, u_fb and e_m are padded with their edge
-values (``ilc.frequency_update``'s ``hold_edges``: the arm holds gravity at rest).
+values (``systems.learning.frequency_update``'s ``hold_edges``: the arm holds gravity at rest).
 
 Other laws for comparison (``torque``): ``"lcs"`` is paper 002's eq. (16) around the base,
 f' = Q [f + P_lu^-1 e_pl] with e_pl = P_lu (u - f + F2(q_mr)) - qdd_l (the model-following error,
 q_mr = N (q_lr + o)); ``"none"`` learns the offset only.
 
-``learn_on_base`` runs trial 0 on the base, then ``trials`` updates, measuring each, and keeps the
-best trial by measured signals (``best_trial``): a trial is eligible when no scored joint's
+A trial is judged (``ArmLoop.measure``, ``systems.learning.best_trial``) by each scored joint's
 measured load-error estimate (``measured_load_error``: the encoder error below ``offset_hp_hz``,
-the doubly integrated accelerometer error above) and not the measured end-effector acceleration
-error exceed trial 0's; of those, the lowest sum of ratios to trial 0. Trial 0 is always eligible,
-so the result is never measured worse than the base.
+the doubly integrated accelerometer error above) and by the measured end-effector acceleration
+error, a 7th column: the trial kept exceeds trial 0 on none of them.
 """
 
 from __future__ import annotations
@@ -59,10 +58,8 @@ import numpy as np
 from scipy import signal
 
 from ...physics.kinematics import lowpass_zero_phase, reference_kinematics
-from ..learning import ILCDiverged, check_divergence, held_edges, q_filter, rms
-from ..system import SimulationDiverged
+from ..learning import LearningLaw, LearningLoop, Measured, Signals, frequency_update, held_edges, q_filter, rms, true_error
 from . import dynamics as arm
-from .plant import PIDGains
 from .references import MOVING
 from .sensors import estimate_load_acceleration, specific_forces, true_load_acceleration
 
@@ -76,8 +73,7 @@ class ArmILCConfig:
     encoder error through P_m S), "lcs" (eq. 16 around the base) or "none"; q_hz, q_order, gain:
     the torque's Q and gain; offset: learn the reference offset from the accelerometer;
     offset_q_hz, offset_hp_hz, offset_gain: its band and gain; offset_joints: the joints whose
-    offset is learned (0-based; default the moving ones); tolerance: a trial's measured errors may
-    exceed trial 0's by this fraction and stay eligible (0: not at all)."""
+    offset is learned (0-based; default the moving ones)."""
 
     trials: int = 8
     torque: str = "motor"
@@ -89,7 +85,6 @@ class ArmILCConfig:
     offset_hp_hz: float = 1.0
     offset_gain: float = 1.0
     offset_joints: tuple[int, ...] = MOVING
-    tolerance: float = 0.0
 
     def __post_init__(self):
         if self.torque not in ("motor", "lcs", "none"):
@@ -206,13 +201,12 @@ def _highpass(w: np.ndarray, hz: float, order: int = 2) -> np.ndarray:
 # ----------------------------------------------------------------------------- the update
 
 def update(nominal, f: np.ndarray, offset: np.ndarray | None, error: dict, fs: float, config: ArmILCConfig,
-           gains: PIDGains | None = None, inertia=None, base: np.ndarray | None = None,
-           responses: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
+           inertia=None, base: np.ndarray | None = None, responses: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
     """One learning update (module docstring): the next feedforward (T, 6) [N m] and reference
     offset (T, 6) [rad, load side] from the present ones and ``error``, a dict of (T, 6) signals as
     ``measure`` returns them (measured, or predicted by a model: eq. 17's use). Keys used:
     ``motor`` and ``feedback`` (torque "motor"), ``e_pl`` (torque "lcs"), ``acceleration`` (offset).
-    ``gains``: the machine's PID (default ``PIDGains.tuned()``, the plant's); ``inertia`` (6,) the
+    The PID's own output needs no model: it is measured (``feedback``). ``inertia`` (6,) the
     loop model's load inertia (default the nominal M_n); ``responses``: ``loop_responses`` of those on
     the update's grid, where the caller has them (the same every trial of a reference)."""
     f = np.asarray(f, dtype=float)
@@ -257,100 +251,162 @@ def update(nominal, f: np.ndarray, offset: np.ndarray | None, error: dict, fs: f
     return f0 + np.fft.irfft(F, n=n, axis=0)[:T], o + d_o
 
 
-# ----------------------------------------------------------------------------- learning on a base
-
-def best_trial(history: list[np.ndarray], scored=MOVING, tolerance: float = 0.0) -> int:
-    """Index of the trial to keep from the measured history (trials, 7): per trial the RMS of the
-    measured load-error estimate of the 6 joints [rad] and of the measured end-effector acceleration
-    error [m/s^2] (last column). Eligible: no scored joint's column and not the EE column above
-    trial 0's by more than ``tolerance``; of those, the lowest sum of ratios to trial 0. Trial 0
-    (the base) is always eligible."""
-    h = np.asarray(history, dtype=float)
-    cols = [*scored, h.shape[1] - 1]
-    ratio = h[:, cols] / np.maximum(h[0, cols], 1e-300)
-    eligible = np.all(ratio <= 1.0 + tolerance, axis=1)
-    eligible[0] = True
-    score = np.where(eligible, ratio.sum(axis=1), np.inf)
-    return int(np.argmin(score))
-
+# ----------------------------------------------------------------------------- the laws
 
 def _row(load: np.ndarray, ee: np.ndarray) -> np.ndarray:
     return np.concatenate([rms(load), [float(np.sqrt(np.mean(np.square(ee))))]])
 
 
-def learn_on_base(plant, reference, base_feedforward: np.ndarray, base_offset: np.ndarray | None, nominal,
-                  trials: int | None = None, config: ArmILCConfig | None = None, inertia=None):
-    """ILC on ``plant`` (a ``FlexArmPlant``) for ``reference`` from a base (its feedforward (T, 6)
-    [N m] and reference offset (T, 6) [rad, load side] or None). Returns ({"feedforward", "offset"}
-    of the best measured trial (``best_trial``; trial 0 is the base), the measured history (trials +
-    1, 7), the true history (trials + 1, 7: the true load error [rad] and EE acceleration error
-    [m/s^2], for reporting only), the number of plant trials). ``inertia``: the loop model's load
-    inertia (6,) (``load_inertia`` of the fitted arm; default the nominal M_n). A trial that leaves
-    the safe range, or a diverging history (``systems.learning.check_divergence`` on the joints' measured
-    errors), ends the learning at the best trial so far. The dict also holds ``trial`` (the index
-    kept) and ``candidates`` (every trial's (feedforward, offset), for studies)."""
-    config = config or ArmILCConfig()
-    trials = config.trials if trials is None else trials
-    f0 = np.asarray(base_feedforward, dtype=float)
-    o0 = np.zeros_like(f0) if base_offset is None else np.asarray(base_offset, dtype=float)
-    N = np.asarray(nominal.drive.N, dtype=float)
-    f, o = f0, o0
-    candidates, history, true_history = [], [], []
-    used = 0
-    responses = None
-    for j in range(trials + 1):
-        try:
-            trial = plant.run(reference, f, N * o)
-        except SimulationDiverged:
-            break
-        used += 1
-        err = measure(trial, reference, nominal, f, o, plant.accel_offset, o0, config.offset_hp_hz,
-                      model_following=config.torque == "lcs")
-        history.append(_row(err["load"], err["ee"]))
-        true_history.append(_true_row(plant, trial, reference))
-        candidates.append((f, o))
-        try:
-            check_divergence([h[:-1] for h in history], reference.name)
-        except ILCDiverged:
-            break
-        if j < trials:
-            responses = responses or loop_responses(nominal, 2 * f0.shape[0], trial.fs, inertia)
-            f, o = update(nominal, f, o, err, trial.fs, config, plant.gains, inertia, base=f0, responses=responses)
-    k = best_trial(history, tolerance=config.tolerance)
-    return ({"feedforward": candidates[k][0], "offset": candidates[k][1], "trial": k, "candidates": candidates},
-            history, true_history, used)
+def _true_row(trial) -> np.ndarray:
+    """RMS of the true load error (6) [rad] (reporting only; the EE column NaN: the true
+    end-effector error costs a run of the nominal models, which reporting does not pay)."""
+    return np.concatenate([rms(true_error(trial)), [np.nan]])
 
-
-# ----------------------------------------------------------------------------- the RBF expert's use (eq. 17)
 
 PREDICTED = ArmILCConfig(torque="lcs", q_hz=6.0)
 """The update a predicted error enters (the RBF expert on a base): eq. (16) around the base's
-feedforward with the predicted model-following error, Q at 6 Hz, the
-base's offset kept."""
+feedforward with the predicted model-following error, Q at 6 Hz, the base's offset kept."""
 
 
-def model_following_error(plant, trial, reference, nominal, feedforward: np.ndarray,
-                          offset: np.ndarray | None) -> np.ndarray:
-    """e_pl (T, 6) [rad/s^2] of a trial run with ``feedforward`` and ``offset`` (``measure``'s
-    ``e_pl``): what the RBF expert's predictor learns on the base's runs."""
-    return measure(trial, reference, nominal, feedforward, offset, plant.accel_offset)["e_pl"]
+class ArmLaw(LearningLaw):
+    """The FlexArm's law on a base (module docstring): learns the torque from the encoders' error
+    through the loop model P_m S, and judges a trial by the measured load-error estimate of each
+    joint and the measured end-effector acceleration error (a 7th history column). ``trials``: the
+    learning updates; ``settings``: the law's own (``ArmILCConfig``; its ``trials`` unused here);
+    ``nominal``: the nominal structure whose linear joint models the loop model takes (paper 002's
+    Basic)."""
+
+    def __init__(self, plant, nominal, trials: int, settings: ArmILCConfig = ArmILCConfig()):
+        self.plant, self.nominal, self.trials, self.settings = plant, nominal, trials, settings
+
+    def loop(self, reference, start: Signals, model=None) -> ArmLoop:
+        """``model``: the base's fitted physical model; each joint's loop model then carries the load
+        inertia of its fitted arm (payload included) at the reference's mean pose (the nominal M_n
+        lacks the payload, and the static end-effector error rose with it)."""
+        inertia = None if model is None else load_inertia(model.fitted_params.arm(), reference.positions)
+        return ArmLoop(self, reference, start, inertia)
 
 
-def predicted_update(nominal, base_feedforward: np.ndarray, base_offset: np.ndarray | None, e_pl: np.ndarray,
-                     fs: float, gains: PIDGains | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Eq. (17) around a base: (feedforward, offset) after one ``PREDICTED`` update with the
-    predicted e_pl (T, 6) [rad/s^2]."""
-    return update(nominal, base_feedforward, base_offset, {"e_pl": e_pl}, fs, PREDICTED, gains,
-                  base=base_feedforward)
+class ArmLoop(LearningLoop):
+    """``ArmLaw``'s workspace of one reference; its state is (feedforward (T, 6) [N m], offset (T,
+    6) [rad, load side])."""
+
+    def __init__(self, law: ArmLaw, reference, start: Signals, inertia=None):
+        self.law, self.reference, self.inertia = law, reference, inertia
+        f0 = np.asarray(start.feedforward, dtype=float)
+        self.start = (f0, np.zeros_like(f0) if start.offset is None else np.asarray(start.offset, dtype=float))
+        self._responses = None
+
+    def run(self, state):
+        f, o = state
+        return self.law.plant.run(self.reference, f, np.asarray(self.law.nominal.drive.N, dtype=float) * o)
+
+    def measure(self, trial, state) -> Measured:
+        law = self.law
+        err = measure(trial, self.reference, law.nominal, *state, law.plant.accel_offset, self.start[1],
+                      law.settings.offset_hp_hz, model_following=law.settings.torque == "lcs")
+        return Measured(_row(err["load"], err["ee"]), _true_row(trial), err)
+
+    def update(self, state, measured: Measured):
+        law, f0 = self.law, self.start[0]
+        fs = law.plant.fs
+        if self._responses is None:  # the same every trial of the reference
+            self._responses = loop_responses(law.nominal, 2 * f0.shape[0], fs, self.inertia)
+        return update(law.nominal, *state, measured.error, fs, law.settings, self.inertia, base=f0,
+                      responses=self._responses)
+
+    def signals(self, state) -> Signals:
+        return Signals(*state)
+
+    def columns(self, scored) -> list[int]:
+        return [*scored, self.start[0].shape[1]]  # and the end-effector column
+
+    def model_error(self, trial, state) -> np.ndarray:
+        """e_pl (T, 6) [rad/s^2] (``measure``'s): what the RBF expert's predictor learns."""
+        return measure(trial, self.reference, self.law.nominal, *state, self.law.plant.accel_offset)["e_pl"]
+
+    def predicted(self, error: np.ndarray) -> Signals:
+        """Eq. (17) around the base: one ``PREDICTED`` update with the predicted e_pl (T, 6) [rad/s^2]."""
+        law, (f0, o0) = self.law, self.start
+        return Signals(*update(law.nominal, f0, o0, {"e_pl": error}, self.reference.fs, PREDICTED, base=f0))
 
 
-def _true_row(plant, trial, reference) -> np.ndarray:
-    """RMS of the true load error (6) [rad] (reporting only; the EE column NaN: the true
-    end-effector error costs a run of the nominal models, which reporting does not pay)."""
-    load = trial.ref - np.column_stack([trial.extra[f"load_{a}"] for a in trial.axes])
-    return np.concatenate([rms(load), [np.nan]])
+class ModelFollowingLaw(LearningLaw):
+    """Paper 002's learning on Basic (section 5.3, the LCS): tau_nl updated with the model-following
+    error e_pl estimated from the accelerometer (``BasicFeedforward.run``), eq. (16),
+
+        tau_nl,k+1 = Q_u [tau_nl,k + P_lu^-1 e_pl,k],
+
+    P_lu the nominal linear model from motor torque to load acceleration (``nominal.load_response``),
+    Q_u zero phase (``config.arm_q_hz``, the paper's 20 Hz; ``q_order``; gain ``arm_gain``), tau_nl
+    padded with its edge values (it holds gravity at rest). ``config``: ``methods.ilc.ILCConfig``;
+    ``trials``: its ``arm_trials``."""
+
+    def __init__(self, plant, nominal, config):
+        self.plant, self.nominal, self.config, self.trials = plant, nominal, config, config.arm_trials
+
+    def loop(self, reference, start: Signals, model=None) -> ModelFollowingLoop:
+        return ModelFollowingLoop(self, reference)
 
 
-__all__ = ["PREDICTED", "ArmILCConfig", "best_trial", "model_following_error", "predicted_update",
-           "learn_on_base", "load_inertia", "loop_responses",
-           "measure", "measured_ee_error", "measured_load_error", "true_load_acceleration", "update"]
+def nominal_update(nominal, tau_nl: np.ndarray, e_pl: np.ndarray, fs: float, config) -> np.ndarray:
+    """Eq. (16) (and eq. (17) with a predicted e_pl): Q_u [tau_nl + P_lu^-1 e_pl] (T, n_axes) [N m],
+    P_lu the ``nominal`` structure's load response. Its zero-frequency bin is 0 (a constant torque
+    leaves no load acceleration), so a constant e_pl asks for no torque there: the inverse's bin is 0.
+    ``config``: ``arm_q_hz``, ``q_order``, ``arm_gain``."""
+    T = tau_nl.shape[0]
+    response = nominal.load_response(2 * T, fs)
+    inverse = np.divide(1.0, response, out=np.zeros_like(response), where=np.abs(response) > 0.0)
+    inverse[0] = 0.0
+    return frequency_update(tau_nl, e_pl, inverse, q_filter(2 * T, fs, config.arm_q_hz, config.q_order), config.arm_gain,
+                            hold_edges=True)
+
+
+class ModelFollowingLoop(LearningLoop):
+    """``ModelFollowingLaw``'s workspace of one reference; its state is the update of tau_nl (T, 6)
+    [N m] on Basic's (the start: zero)."""
+
+    def __init__(self, law: ModelFollowingLaw, reference):
+        self.law, self.reference = law, reference
+        self.basic = law.nominal.compute(reference.positions, reference.fs)
+        self.start = np.zeros(reference.positions.shape)
+
+    def run(self, state):
+        return self.law.nominal.run(self.law.plant, self.reference, state)
+
+    def measure(self, trial, state) -> Measured:
+        e_pl = np.column_stack([trial.extra[f"e_pl_{a}"] for a in trial.axes])
+        return Measured(rms(e_pl), rms(np.column_stack([trial.extra[f"e_pl_true_{a}"] for a in trial.axes])), e_pl)
+
+    def update(self, state, measured: Measured):
+        tau_nl = self.basic["tau_nl"]
+        return nominal_update(self.law.nominal, tau_nl + state, measured.error, self.law.plant.fs, self.law.config) - tau_nl
+
+    def signals(self, state) -> Signals:
+        return Signals(self.basic["tau_ff"] + state, self.basic["reference_offset"])
+
+    def model_error(self, trial, state) -> np.ndarray:
+        return self.measure(trial, state).error
+
+    def predicted(self, error: np.ndarray) -> Signals:
+        """Eq. (17) on Basic: tau_nl,1 = Q_u [tau_nl,0 + P_lu^-1 e_hat]."""
+        basic = self.basic
+        return Signals(basic["tau_ff"] - basic["tau_nl"] + nominal_update(self.law.nominal, basic["tau_nl"], error,
+                                                                          self.reference.fs, self.law.config),
+                       basic["reference_offset"])
+
+
+def learning_law(plant, base: str, config) -> LearningLaw:
+    """The FlexArm's law for a learner on ``base`` ("basic": paper 002's eq. 16; any other: ``ArmLaw``,
+    ``config.arm_trials`` updates). ``config``: ``methods.ilc.ILCConfig``."""
+    from .nominal import BasicFeedforward
+
+    nominal = BasicFeedforward()
+    if base == "basic":
+        return ModelFollowingLaw(plant, nominal, config)
+    return ArmLaw(plant, nominal, config.arm_trials)
+
+
+__all__ = ["PREDICTED", "ArmILCConfig", "ArmLaw", "ArmLoop", "ModelFollowingLaw", "ModelFollowingLoop",
+           "learning_law", "load_inertia", "loop_responses", "measure", "measured_ee_error", "measured_load_error",
+           "nominal_update", "true_load_acceleration", "update"]

@@ -196,6 +196,13 @@ class FlexArmPlant:
         for a loop that differentiates the measurement)."""
         return np.zeros_like(np.asarray(positions, dtype=float))
 
+    def learning_law(self, base: str, config):
+        """The FlexArm's laws (``flexarm/learning.py``): paper 002's eq. 16 on "basic", else learning
+        from the encoders and the accelerometer on the base."""
+        from .learning import learning_law
+
+        return learning_law(self, base, config)
+
     @property
     def deterministic(self) -> bool:
         """A run is a function of its inputs: the accelerometer's noise is drawn from a stream seeded

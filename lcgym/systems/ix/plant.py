@@ -46,6 +46,7 @@ from ...physics import plant_effects
 from ...physics.lti import rigid_axis
 from ...references import Reference
 from ..feedback import FeedbackGains
+from ..learning import TrackingLaw
 from ..runs import remembered
 from ..system import SimulationDiverged
 from . import dynamics as ix
@@ -303,6 +304,16 @@ class IXPlant:
         since its PD acts on the tracking error alone (``urdf_plant.URDFPlant.reference_feedback``
         for a loop that differentiates the measurement)."""
         return np.zeros_like(np.asarray(positions, dtype=float))
+
+    @property
+    def u_max(self) -> float:
+        """The amplifier's limit [V], both axes."""
+        return self.gains.u_max
+
+    def learning_law(self, base: str, config) -> TrackingLaw:
+        """Learning on the measured tracking error through the nominal process sensitivity
+        (``systems.learning.TrackingLaw``), on any base."""
+        return TrackingLaw(self, config)
 
     @property
     def deterministic(self) -> bool:
