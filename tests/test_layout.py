@@ -13,7 +13,7 @@ import each other), and every import must go down the layers
 (a unit may import its own layer's units where that is listed below, and any lower layer). The
 machine packages are found by name at run time (``systems.get``: ``importlib``), not imported by
 ``systems``: that lookup is the registry, not an import edge. No method keeps a setting in a dict
-(or a ``match``) keyed by a machine's name: the machine holds it (``System.hints``).
+(or a ``match``) keyed by a machine's name: the machine holds it (``System.settings``).
 """
 
 from __future__ import annotations
@@ -230,6 +230,18 @@ def test_ilc_and_the_rbf_expert_learn_through_the_plant_contract_alone():
     assert not found, found
 
 
+def test_a_system_is_a_rigid_body_model_of_at_most_12_fields_with_typed_attachments():
+    import dataclasses
+
+    from lcgym.systems.system import RigidBodyModel, System
+
+    core = [f.name for f in dataclasses.fields(RigidBodyModel)]
+    assert len(core) <= 12, core
+    attached = [f for f in dataclasses.fields(System) if f.name not in core]
+    loose = [f.name for f in attached if any(t in str(f.type).split(" | ") for t in ("object", "Callable", "Any"))]
+    assert attached and not loose, loose
+
+
 def test_every_built_in_plant_keeps_the_plant_contract():
     from lcgym import systems
     from lcgym.methods.ilc import ILCConfig
@@ -276,7 +288,7 @@ def _name_keys(path: Path, root: Path = ROOT.parent) -> list[str]:
 
 
 def test_no_method_keeps_a_setting_per_machine_name():
-    """A method's setting for one machine lives with the machine (``System.hints``), so that a new
+    """A method's setting for one machine lives with the machine (``System.settings``), so that a new
     machine is one folder and no method changes."""
     found = [hit for unit in METHOD_UNITS for path in sorted(ROOT.glob(f"{unit}/**/*.py")) + sorted(ROOT.glob(f"{unit}.py"))
              for hit in _name_keys(path)]

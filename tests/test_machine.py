@@ -376,7 +376,7 @@ def test_the_documented_machine_file_is_a_valid_machine_file(tmp_path):
     text = block.replace('"my_arm.urdf"', '"yaw_pitch.urdf"').replace('["shoulder", "elbow"]', '["yaw", "pitch"]')
     text = text.replace('axis = "elbow"', 'axis = "pitch"')
     m = load_machine(write_machine(tmp_path, text))
-    assert m.name == "my_arm" and m.hints["benchmark"]["rl"]["passes"] == 1.0
+    assert m.name == "my_arm" and m.settings["rl"]["passes"] == 1.0
 
 
 @pytest.mark.slow

@@ -12,6 +12,7 @@ from lcgym.physics.model import PhysicalModel, QuadraticDesign
 from lcgym.systems.ix import IX, compiled
 from lcgym.systems.ix import dynamics as ix
 from lcgym.systems.ix.references import random_moves
+from lcgym.systems.system import NonlinearStructure
 
 TRUE = ix.IXParameters(m2=1.8, m3=2.6, J2yy=0.6, J3xx=0.75, J3yy=0.45, J3zz=0.42, J3xy=0.01, J3xz=-0.02,
                        J3yz=0.02, d2=1.5, d3=0.8, x2=0.02, z2=0.08, x3=0.03, y3=0.05, z3=-0.04)
@@ -94,7 +95,7 @@ def test_quadratic_design_is_exact():
 
 
 def test_quadratic_design_of_the_nonlinear_columns_only_is_the_same_bit_for_bit(monkeypatch):
-    """The IX's columns other than ``IX.nonlinear_columns`` do not depend on zeta_n at all, and the
+    """The IX's columns other than ``IX.nonlinear.columns`` do not depend on zeta_n at all, and the
     design built from evaluations of those columns only (in blocks of rows on two threads) is the
     dense one's, bit for bit."""
     import numba
@@ -102,19 +103,19 @@ def test_quadratic_design_of_the_nonlinear_columns_only_is_the_same_bit_for_bit(
     monkeypatch.setattr(numba, "get_num_threads", lambda: 2)  # the blocks' path also in one-thread test workers
     rng = np.random.default_rng(4)
     q, qd, qdd = rng.normal(size=(3, 250_000, 2))
-    others = np.setdiff1d(np.arange(ix.N_LINEAR), IX.nonlinear_columns)
+    others = np.setdiff1d(np.arange(ix.N_LINEAR), IX.nonlinear.columns)
     base = compiled.regressor(np.zeros(5), q, qd, qdd)
     for zn in rng.normal(0, 0.1, (3, 5)):
         full = compiled.regressor(zn, q, qd, qdd)
         assert np.array_equal(full[:, :, others], base[:, :, others])
-        assert np.array_equal(compiled.regressor(zn, q, qd, qdd, columns=IX.nonlinear_columns),
-                              full[:, :, list(IX.nonlinear_columns)])
+        assert np.array_equal(compiled.regressor(zn, q, qd, qdd, columns=IX.nonlinear.columns),
+                              full[:, :, list(IX.nonlinear.columns)])
     monkeypatch.setattr(numba, "get_num_threads", lambda: 1)
     assert np.array_equal(compiled.regressor(zn, q, qd, qdd), full)  # one call: the same numbers
     k = slice(None, 5000)
     dense = QuadraticDesign(lambda zn: compiled.regressor(zn, q[k], qd[k], qdd[k]), 5)
     sparse = QuadraticDesign(lambda zn, columns=None: compiled.regressor(zn, q[k], qd[k], qdd[k], columns=columns), 5,
-                              columns=IX.nonlinear_columns)
+                              columns=IX.nonlinear.columns)
     for zn in rng.normal(0, 0.1, (3, 5)):
         assert np.array_equal(sparse(zn), dense(zn))
 
@@ -149,7 +150,7 @@ def test_effect_labels():
 def test_nonlinear_columns_out_of_range_rejected(columns):
     import dataclasses
 
-    with pytest.raises(ValueError, match="nonlinear_columns"):
-        dataclasses.replace(IX, nonlinear_columns=columns)
-    with pytest.raises(ValueError, match="nonlinear_columns"):
-        dataclasses.replace(IX, quadratic_in_nonlinear=False)
+    with pytest.raises(ValueError, match="nonlinear columns"):
+        dataclasses.replace(IX, nonlinear=NonlinearStructure(True, columns))
+    with pytest.raises(ValueError, match="nonlinear columns"):
+        NonlinearStructure(False, (0,))

@@ -163,7 +163,7 @@ def test_a_methods_machine_settings_are_typed_and_checked():
     values, the defaults where a machine sets none, and a key the method does not take named."""
     import dataclasses
 
-    from lcgym.methods.pgnn.method import COLLECT, PGNNProtocol
+    from lcgym.methods.pgnn.settings import COLLECT, PGNNProtocol
     from lcgym.methods.rl import NUM_ENVS, PASSES, RLConfig, RLMachineSettings
     from lcgym.systems.flexarm import FLEXARM
     from lcgym.systems.ix import IX
@@ -171,11 +171,11 @@ def test_a_methods_machine_settings_are_typed_and_checked():
     assert RLMachineSettings.of(IX) == RLMachineSettings(passes=3.0, num_envs=8, agent_rate=50.0)
     assert RLConfig(passes=0.5).on(IX) == RLMachineSettings(passes=0.5, num_envs=8, agent_rate=50.0)
     assert RLMachineSettings.of(FLEXARM) == RLMachineSettings(passes=1.0, num_envs=4, agent_rate=0.0)
-    assert PGNNProtocol.of(IX) == PGNNProtocol(collect="physical", filter_hz=None)  # u as measured
-    assert PGNNProtocol.of(FLEXARM) == PGNNProtocol(collect="physical", filter_hz=10.0)
-    bare = dataclasses.replace(FLEXARM, hints={})
+    assert PGNNProtocol.of(IX) == PGNNProtocol(collect="physical", filter_hz=None, constraint_configs=None)  # u as measured
+    assert PGNNProtocol.of(FLEXARM) == PGNNProtocol(collect="physical", filter_hz=10.0, decimate=10)
+    bare = dataclasses.replace(FLEXARM, settings={})
     assert RLMachineSettings.of(bare) == RLMachineSettings(PASSES, NUM_ENVS, 0.0) and PGNNProtocol.of(bare).collect == COLLECT
-    typo = dataclasses.replace(FLEXARM, hints={"benchmark": {"rl": {"pases": 2.0}, "pgnn": {"colect": "physical"}}})
+    typo = dataclasses.replace(FLEXARM, settings={"rl": {"pases": 2.0}, "pgnn": {"colect": "physical"}})
     with pytest.raises(ValueError, match=r"\[benchmark.rl\] has no setting pases"):
         RLMachineSettings.of(typo)
     with pytest.raises(ValueError, match=r"\[benchmark.pgnn\] has no setting colect"):

@@ -177,7 +177,7 @@ def test_config_errors():
 
 
 def test_the_agent_rate_is_the_machines_unless_given():
-    """The IX's agent acts at 50 Hz (its hints): 10 samples of 2 ms per action; 0 or a rate above
+    """The IX's agent acts at 50 Hz (its settings): 10 samples of 2 ms per action; 0 or a rate above
     the plant's acts on every sample; the FlexArm, which sets none, on every sample."""
     from lcgym.systems.flexarm import FLEXARM
 

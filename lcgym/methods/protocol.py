@@ -271,10 +271,10 @@ def method_base(spec: str, registry: dict[str, type]) -> str:
 
 
 def machine_settings(cls: type, system: systems.System, method: str):
-    """A method's settings on ``system``: its ``[benchmark.<method>]`` table
-    (``System.hints["benchmark"][method]``) read into the method's dataclass ``cls``; a key ``cls``
-    does not take is an error that names it."""
-    table = dict(system.hints.get("benchmark", {}).get(method, {}))
+    """A method's settings on ``system``: its table (``System.settings[method]``, a machine file's
+    ``[benchmark.<method>]``) read into the method's dataclass ``cls``; a key ``cls`` does not take
+    is an error that names it."""
+    table = dict(system.settings.get(method, {}))
     known = [f.name for f in dataclasses.fields(cls)]
     unknown = sorted(set(table) - set(known))
     if unknown:

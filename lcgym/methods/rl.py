@@ -73,14 +73,14 @@ from .protocol import DEFAULT_BASE, Controller, Cost, given_system, machine_sett
 from .safeguard import dropped_note, keep_axes, scored_axes
 
 ALGORITHMS = ("ppo", "sac", "td3")
-PASSES = 1.0  # env steps per training sample on a machine that sets none (System.hints["benchmark"]["rl"])
+PASSES = 1.0  # env steps per training sample on a machine that sets none (System.settings["rl"])
 NUM_ENVS = 4  # parallel envs on a machine that sets none
 
 
 @dataclass(frozen=True)
 class RLMachineSettings:
     """The method's settings on one machine, from its ``[benchmark.rl]`` table
-    (``System.hints["benchmark"]["rl"]``): ``passes``, env steps per training sample; ``num_envs``,
+    (``System.settings["rl"]``): ``passes``, env steps per training sample; ``num_envs``,
     parallel envs; ``agent_rate`` [Hz], the agent's action rate (0: every control sample).
     ``RLConfig`` overrides each."""
 

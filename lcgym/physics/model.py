@@ -355,11 +355,11 @@ class PhysicalModel:
         loads = self.load_torques(kin, p0)  # the model torques effects read (ripple), refined per pass
         n_pass = 2 if loads is not None else 1
         penalties = self.penalties(n)
-        evaluate = (QuadraticDesign if self.system.quadratic_in_nonlinear else _Design)
+        evaluate = (QuadraticDesign if self.system.nonlinear.quadratic else _Design)
         for _ in range(n_pass):
             rigid = evaluate(lambda zn, columns=None: before(self.system.regressor(zn, *kin, **(
                 {} if columns is None else {"columns": columns}))), zeta_n.size, lambda A: pre.reduce(A, lengths),
-                columns=self.system.nonlinear_columns)
+                columns=self.system.nonlinear.columns)
             fixed = pre.masked_reduce(self.effect_design(kin, loads), lengths, mask)
             design = lambda zn, r=rigid, f=fixed: np.concatenate([after(r(zn)), f], axis=2)  # noqa: E731
             if self.fit_nonlinear:
@@ -429,7 +429,7 @@ class QuadraticDesign:
 
     Most coefficient columns are zero (a column depends on one or two of the coordinates, if
     any): only the non-zero ones are reduced, 34 filtered columns instead of 21 x 22 for the IX.
-    ``columns`` (the machine's ``nonlinear_columns``): the linear parameters whose columns depend on
+    ``columns`` (the machine's ``nonlinear.columns``): the linear parameters whose columns depend on
     zeta_n at all; the 20 nodes other than 0 evaluate only those (``evaluate(z, columns)``), the
     IX's two masses of eleven parameters. The non-zero columns are found on blocks of rows
     (``_sparse_term``). Both give the same numbers as the dense evaluation, bit for bit (tested);

@@ -102,8 +102,9 @@ class MachineSettings:
     """What the simulated plant of a URDF machine carries beyond the URDF (module docstring). fs
     [Hz]; encoder_resolution, noise_rms [rad or m], u_max [N m or N; None: the URDF's effort
     limits], max_error [rad or m; None: the plant's default]: one value or one per axis; hidden: the
-    hidden effects (``physics.effects`` objects); hints: ``System.hints`` of the machine (e.g.
-    ``{"benchmark": {"rl": {"passes": 1.0}}}``); source: the machine file, if any."""
+    hidden effects (``physics.effects`` objects); methods: each method's settings on the machine,
+    keyed by method id (``System.settings``, the machine file's ``[benchmark.<method>]`` tables: e.g.
+    ``{"rl": {"passes": 1.0}}``); source: the machine file, if any."""
 
     fs: float = 1000.0
     feedback: FeedbackSettings = field(default_factory=FeedbackSettings)
@@ -113,7 +114,7 @@ class MachineSettings:
     max_error: float | tuple[float, ...] | None = None
     hidden: tuple = ()
     references: ReferenceSettings = field(default_factory=ReferenceSettings)
-    hints: Mapping = field(default_factory=dict)
+    methods: Mapping = field(default_factory=dict)
     source: str | None = None
 
     def __post_init__(self):
@@ -143,17 +144,17 @@ def benchmark_machine(machine: System | str | Path, settings: MachineSettings | 
     """A benchmark machine: ``machine`` (a URDF machine, ``urdf.from_urdf``, or a URDF path with
     ``joints`` and ``name``) with a simulated plant of ``settings`` (or ``MachineSettings(**kwargs)``):
     its bench (``MachineBench``, ``System.make_bench``), its Gymnasium ids (``envs``; default ``MACHINE_ENV``) and
-    the settings' hints."""
+    the methods' settings of ``settings``."""
     from .urdf import from_urdf
 
     settings = settings or MachineSettings(**kwargs)
     system = machine if isinstance(machine, System) else from_urdf(machine, joints=joints, name=name)
-    hints = {**system.hints, **{k: dict(v) for k, v in settings.hints.items()}}
+    methods = {**system.settings, **{k: dict(v) for k, v in settings.methods.items()}}
     # the id's entry points are registered once, in ``systems.ENVS``; the env's error columns come last
     bench = BenchFactory(MachineBench, settings,
                          envs=envs or {MACHINE_ENV: {"kwargs": {"machine": settings.source or system.name}}},
                          observation_error=slice(-system.n_axes, None))
-    return dataclasses.replace(system, fs=settings.fs, bench=bench, hints=hints)
+    return dataclasses.replace(system, fs=settings.fs, bench=bench, settings=methods)
 
 
 class MachineBench(URDFBench):
@@ -278,7 +279,7 @@ def load_machine(path: str | Path, envs: Mapping | None = None) -> System:
         system = dataclasses.replace(system, model_effects=model_effects(system, _list(data.get("model", []), "model")))
         settings = MachineSettings(
             fs=float(data.get("fs", 1000.0)), feedback=FeedbackSettings(**sections["feedback"]),
-            hidden=hidden, references=ReferenceSettings(**sections["references"]), hints=_hints(data.get("benchmark", {})),
+            hidden=hidden, references=ReferenceSettings(**sections["references"]), methods=_methods(data.get("benchmark", {})),
             source=str(path), **sections["sensors"], **sections["limits"])
         made = benchmark_machine(system, settings, envs=envs)
         settings.plant(made)  # the plant builds: gains, limits and effects fit the machine
@@ -345,11 +346,11 @@ def model_effects(system: System, tables: Sequence[Mapping]) -> tuple[str, ...]:
     return tuple(keys)
 
 
-def _hints(table) -> dict:
-    """[benchmark.<method>] tables -> ``System.hints["benchmark"]``."""
+def _methods(table) -> dict:
+    """[benchmark.<method>] tables -> ``System.settings``."""
     if not isinstance(table, dict) or not all(isinstance(v, dict) for v in table.values()):
         raise ValueError("benchmark: must hold one table per method, [benchmark.<method>]")
-    return {"benchmark": table} if table else {}
+    return table
 
 
 __all__ = ["MACHINE_ENV", "FeedbackSettings", "MachineBench", "MachineFileError", "MachineSettings", "ReferenceSettings",

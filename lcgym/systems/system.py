@@ -29,8 +29,9 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
+from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
@@ -146,44 +147,54 @@ class DiagnosisSettings:
             raise ValueError(f"DiagnosisSettings: noise_rms must be >= 0, got {self.noise_rms}")
 
 
-@dataclass(frozen=True, eq=False)
-class System:
-    """One machine (module docstring). Benchmark machines also carry ``bench`` (a
-    ``bench.BenchFactory``: ``make_bench`` makes a bench, which holds the plant, the reference sets
-    and what the benchmark scores, ``systems/bench.py``; and the machine's Gymnasium envs) and
-    ``nominal`` (a nominal feedforward structure that learning methods start from, paper 002's
-    Basic on the FlexArm; None: they start from the fitted physical model). What a learning method
-    may ask of the machine's loop, its plant offers (``systems.plant.Plant.learning_law``).
+@dataclass(frozen=True)
+class NonlinearStructure:
+    """How a machine's regressor depends on zeta_n, where it says more than "some function of it"
+    (``System.nonlinear``; the variable projection then evaluates less): ``quadratic``, its entries
+    are polynomials of degree <= 2 in zeta_n (the IX's centres of mass: an exact quadratic
+    expansion); ``columns``, the linear parameters whose regressor columns depend on zeta_n at all
+    (the IX: the two masses, which multiply the centres of mass in eqs. 4-7), evaluated through
+    ``regressor(zeta_n, q, qd, qdd, columns=...)``; None: all."""
 
-    model: the physical-model class (``physics.model.PhysicalModel`` or a subclass), built with
-    ``physical_model`` / ``diagnosis_model``. fs [Hz]: the machine's sample rate (None: the data's).
-    advance [samples]: how far ahead of a sample the feedforward's kinematics are evaluated
-    (computation delay plus half the hold interval of the machine's controller). effects: effect
-    classes of this machine beyond ``physics.effects`` (their formulas use its geometry).
-    diagnosis: what the diagnosis needs beyond the model (``DiagnosisSettings``: its noise floor
-    and candidate effects).
-    hints: per-method settings for this machine (``hints["pgnn"]``: ``PGNNConfig`` fields;
-    ``hints["benchmark"][method]``: the benchmark protocol's settings of a leaderboard method on it,
-    e.g. ``{"rl": {"passes": 3.0, "num_envs": 8}}``, a machine file's ``[benchmark.rl]``). Each
-    method reads its table into its own typed settings, which check the keys
-    (``methods.rl.RLMachineSettings``, ``methods.pgnn.method.PGNNProtocol``, ``pgnn.PGNNConfig``).
-    quadratic_in_nonlinear: the regressor's entries are polynomials of degree <= 2 in zeta_n
-    (the IX: a faster exact variable projection). nonlinear_columns: the linear parameters whose
-    regressor columns depend on zeta_n at all (the IX: the two masses, which multiply the centres
-    of mass in eqs. 4-7); the variable projection evaluates only these away from the given zeta_n,
-    through ``regressor(zeta_n, q, qd, qdd, columns=...)``; None: all. description: one line for
-    listings.
-    joint_axes: ``() -> (n_axes, 3)``, the unit axis of each joint in the base frame at the
-    machine's reference pose (the RBF expert's motion influence); None: all mutually perpendicular.
-    caching: ``(size=None) -> context manager`` inside which the machine keeps its last regressors
-    (``size`` of them, default the machine's own number: a diagnosis evaluates the model, its
-    effects and its refits on the same kinematics many times; a benchmark cell its bases on each
-    reference); None: nothing is kept.
-    model_effects: effects its physical model knows beyond its rigid body (``name@axis`` keys; a
-    machine file's ``[[model]]`` tables), declared without values: ``physical_model`` and
-    ``diagnosis_model`` carry them, and a fit finds their parameters, the coefficients by least
-    squares with the rigid body, the shapes on the diagnosis's grids (``physics.shapes``). Every
-    method that starts from the physical model sees them.
+    quadratic: bool = False
+    columns: tuple[int, ...] | None = None
+
+    def __post_init__(self):
+        if self.columns is not None:
+            object.__setattr__(self, "columns", tuple(int(i) for i in self.columns))
+            if not self.quadratic:
+                raise ValueError(f"nonlinear columns {self.columns} are for a regressor quadratic in zeta_n")
+
+
+class NominalStructure(Protocol):
+    """A nominal feedforward structure learning methods may start from (``System.nominal``; paper
+    002's Basic on the FlexArm, ``systems/flexarm/nominal.py``)."""
+
+    def compute(self, q_lr: np.ndarray, fs: float) -> dict:
+        """Its parts along a reference (T, n_axes) [rad]: ``tau_ff`` (the feedforward) and
+        ``reference_offset`` among them."""
+
+
+class Caching(Protocol):
+    """``caching(size=None)``: a context manager inside which the machine keeps its last ``size``
+    regressors (``System.caching``)."""
+
+    def __call__(self, size: int | None = None) -> AbstractContextManager: ...
+
+
+@dataclass(frozen=True, eq=False)
+class RigidBodyModel:
+    """A machine's rigid-body model (module docstring), the core of its ``System``.
+
+    name; axes; param_names and ``parameters`` (what makes the parameter objects); ``regressor``;
+    ``n_linear``, the parameters the model is linear in (None: all); ``inverse_dynamics`` and
+    ``mass_matrix`` (None: from the regressor, for a machine linear in all its parameters);
+    ``positive``, the indices of the parameters that are positive physically; ``fs`` [Hz], the
+    machine's sample rate (None: the data's); ``advance`` [samples], how far ahead of a sample the
+    feedforward's kinematics are evaluated (computation delay plus half the hold interval of the
+    machine's controller); ``joint_axes``, ``() -> (n_axes, 3)``, the unit axis of each joint in
+    the base frame at the machine's reference pose (the RBF expert's motion influence; None: all
+    mutually perpendicular).
     """
 
     name: str
@@ -195,20 +206,9 @@ class System:
     inverse_dynamics: Callable | None = None
     mass_matrix: Callable | None = None
     positive: tuple[int, ...] = ()
-    model: type | None = None
     fs: float | None = None
     advance: float = 0.5
-    effects: tuple[type, ...] = ()
-    diagnosis: DiagnosisSettings = field(default_factory=DiagnosisSettings)
-    hints: Mapping[str, Mapping] = field(default_factory=dict)
-    quadratic_in_nonlinear: bool = False
-    nonlinear_columns: tuple[int, ...] | None = None
-    description: str = ""
     joint_axes: Callable | None = None
-    caching: Callable | None = None
-    bench: BenchFactory | None = None
-    nominal: object | None = None
-    model_effects: tuple[str, ...] = ()
 
     def __post_init__(self):
         object.__setattr__(self, "axes", _as_axes(self.axes))
@@ -230,34 +230,6 @@ class System:
             raise ValueError(f"{self.name}: positive parameter indices {bad} out of range")
         if self.fs is not None and not (np.isfinite(self.fs) and self.fs > 0):
             raise ValueError(f"{self.name}: fs must be > 0, got {self.fs}")
-        if self.nonlinear_columns is not None:
-            object.__setattr__(self, "nonlinear_columns", tuple(int(i) for i in self.nonlinear_columns))
-            if any(not 0 <= i < self.n_linear for i in self.nonlinear_columns) or not self.quadratic_in_nonlinear:
-                raise ValueError(f"{self.name}: nonlinear_columns must be indices of linear parameters (0..{self.n_linear - 1}) "
-                                 f"of a machine quadratic_in_nonlinear, got {self.nonlinear_columns}")
-        object.__setattr__(self, "hints", {k: dict(v) for k, v in self.hints.items()})
-        object.__setattr__(self, "model_effects", tuple(self.model_effects))
-        twice = sorted({k for k in self.model_effects if self.model_effects.count(k) > 1})
-        if twice:
-            raise ValueError(f"{self.name}: model effect {twice[0]} listed twice")
-        if self.model_effects:
-            from ..physics.model import PhysicalModel
-            from ..physics.shapes import model_candidate
-
-            for key in self.model_effects:  # a ValueError says why its model cannot carry it
-                model_candidate(self, key, (self.model or PhysicalModel).built_in)
-
-    @property
-    def env_id(self) -> str | None:
-        """The machine's Gymnasium id (its newest version's, the last), or None (a machine without a plant)."""
-        return None if self.bench is None else next(reversed(self.bench.envs), None)
-
-    def make_bench(self, version: str | None = None) -> Bench:
-        """A fresh bench of this machine with the plant of ``version`` (None: the newest); a
-        machine without a plant cannot be benchmarked (``systems.resolve`` gives a URDF one)."""
-        if self.bench is None:
-            raise ValueError(f"machine {self.name} has no plant, so the benchmark cannot run on it")
-        return self.bench(self, version)
 
     # ------------------------------------------------------------------ axes and units
     @property
@@ -296,6 +268,136 @@ class System:
 
     def params_from_vector(self, p):
         return self.parameters.from_vector(p) if hasattr(self.parameters, "from_vector") else self.parameters(p)
+
+    # ------------------------------------------------------------------ linear machines
+    def _linear_inverse_dynamics(self, p, q, qd, qdd):
+        """u = X(q, qd, qdd) p, numpy or torch (differentiable in p)."""
+        X = self.regressor(np.zeros(0), *(_numpy(x) for x in (q, qd, qdd)))
+        return _contract(X, p)
+
+    def _linear_mass_matrix(self, p, q):
+        """M(q) from the regressor: column j = X(q, 0, e_j) p - X(q, 0, 0) p, (T, A, A)."""
+        q = np.atleast_2d(_numpy(q))
+        T, A = q.shape
+        zero = np.zeros_like(q)
+        base = self.regressor(np.zeros(0), q, zero, zero)
+        basis = np.empty((T, A, A, base.shape[-1]))
+        for j in range(A):
+            e = zero.copy()
+            e[:, j] = 1.0
+            basis[:, :, j, :] = self.regressor(np.zeros(0), q, zero, e) - base
+        return _contract(basis, p)
+
+    @classmethod
+    def from_regressor(cls, name: str, axes: Sequence, parameters: Mapping[str, float], regressor: Callable,
+                       positive: Sequence[str] = (), **kwargs) -> System:
+        """A machine linear in its parameters, given by ``regressor(q, qd, qdd) -> (T, n_axes,
+        n_params)`` (numpy; u = regressor @ p) and its nominal ``parameters`` {name: value}, in the
+        regressor's column order. ``positive``: names of the parameters that stay positive.
+        Other keyword arguments are ``System`` fields (fs, advance, noise_rms, description, ...)."""
+        names = tuple(parameters)
+        values = tuple(float(parameters[n]) for n in names)
+        axes_names = [getattr(a, "name", a) for a in axes]
+        unknown = [n for n in positive if n not in names]
+        if unknown:
+            raise ValueError(f"{name}: positive names {unknown} are not parameters ({', '.join(names)})")
+
+        def vector(p=None) -> ParameterVector:
+            v = values if p is None else tuple(float(x) for x in np.asarray(p, dtype=float).ravel())
+            if len(v) != len(names):
+                raise ValueError(f"{name}: parameter vector must have {len(names)} values, got {len(v)}")
+            return ParameterVector(names, v)
+
+        def full(zeta_n, q, qd, qdd):
+            try:
+                X = np.asarray(regressor(q, qd, qdd), dtype=float)
+            except Exception as exc:  # a user's function: say whose it is, in one line
+                raise ValueError(f"{name}: the regressor raised {type(exc).__name__}: {exc}") from exc
+            T, A = np.shape(q)[0], len(axes)
+            if X.shape != (T, A, len(names)):
+                raise ValueError(f"{name}: the regressor returned shape {X.shape}, expected ({T}, {A}, {len(names)})")
+            bad = np.argwhere(~np.isfinite(X))
+            if len(bad):
+                k, a, j = bad[0]
+                raise ValueError(f"{name}: the regressor returned {X[k, a, j]} at sample {k}, axis {axes_names[a]}, "
+                                 f"parameter {names[j]} (q={np.asarray(q)[k].tolist()})")
+            return X
+
+        return cls(name=name, axes=tuple(axes), param_names=names, regressor=full, parameters=vector,
+                   positive=tuple(names.index(n) for n in positive), **kwargs)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.name!r}, axes={list(self.axis_names)}, {len(self.param_names)} parameters)"
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class System(RigidBodyModel):
+    """One machine: its rigid-body model (``RigidBodyModel``) with typed attachments.
+
+    description: one line for listings. model: the physical-model class (``physics.model.
+    PhysicalModel`` or a subclass), built with ``physical_model`` / ``diagnosis_model``. effects:
+    effect classes of this machine beyond ``physics.effects`` (their formulas use its geometry).
+    model_effects: effects its physical model knows beyond its rigid body (``name@axis`` keys; a
+    machine file's ``[[model]]`` tables), declared without values: ``physical_model`` and
+    ``diagnosis_model`` carry them, and a fit finds their parameters, the coefficients by least
+    squares with the rigid body, the shapes on the diagnosis's grids (``physics.shapes``). Every
+    method that starts from the physical model sees them. nonlinear: how the regressor depends on
+    zeta_n (``NonlinearStructure``). diagnosis: what the diagnosis needs beyond the model
+    (``DiagnosisSettings``: its noise floor and candidate effects). settings: each method's table of
+    settings on this machine, keyed by method id (a machine file's ``[benchmark.<method>]``); a
+    method reads its table into a dataclass it declares, which checks the keys
+    (``methods.protocol.machine_settings``: ``methods.rl.RLMachineSettings``,
+    ``methods.pgnn.method.PGNNProtocol``). caching: ``Caching``, inside which the machine keeps its
+    last regressors (a diagnosis evaluates the model, its effects and its refits on the same
+    kinematics many times; a benchmark cell its bases on each reference); None: nothing is kept.
+    bench: the benchmark machine's ``bench.BenchFactory`` (``make_bench`` makes a bench, which holds
+    the plant, the reference sets and what the benchmark scores, ``systems/bench.py``; and the
+    machine's Gymnasium envs); None: a machine without a plant. nominal: a nominal feedforward
+    structure learning methods may start from (``NominalStructure``: paper 002's Basic on the
+    FlexArm; None: they start from the fitted physical model). What a learning method may ask of the
+    machine's loop, its plant offers (``systems.plant.Plant.learning_law``).
+    """
+
+    description: str = ""
+    model: type | None = None
+    effects: tuple[type, ...] = ()
+    model_effects: tuple[str, ...] = ()
+    nonlinear: NonlinearStructure = field(default_factory=NonlinearStructure)
+    diagnosis: DiagnosisSettings = field(default_factory=DiagnosisSettings)
+    settings: Mapping[str, Mapping] = field(default_factory=dict)
+    caching: Caching | None = None
+    bench: BenchFactory | None = None
+    nominal: NominalStructure | None = None
+
+    def __post_init__(self):
+        super().__post_init__()
+        columns = self.nonlinear.columns
+        if columns is not None and any(not 0 <= i < self.n_linear for i in columns):
+            raise ValueError(f"{self.name}: nonlinear columns must be indices of linear parameters (0..{self.n_linear - 1}), "
+                             f"got {columns}")
+        object.__setattr__(self, "settings", {k: dict(v) for k, v in self.settings.items()})
+        object.__setattr__(self, "model_effects", tuple(self.model_effects))
+        twice = sorted({k for k in self.model_effects if self.model_effects.count(k) > 1})
+        if twice:
+            raise ValueError(f"{self.name}: model effect {twice[0]} listed twice")
+        if self.model_effects:
+            from ..physics.model import PhysicalModel
+            from ..physics.shapes import model_candidate
+
+            for key in self.model_effects:  # a ValueError says why its model cannot carry it
+                model_candidate(self, key, (self.model or PhysicalModel).built_in)
+
+    @property
+    def env_id(self) -> str | None:
+        """The machine's Gymnasium id (its newest version's, the last), or None (a machine without a plant)."""
+        return None if self.bench is None else next(reversed(self.bench.envs), None)
+
+    def make_bench(self, version: str | None = None) -> Bench:
+        """A fresh bench of this machine with the plant of ``version`` (None: the newest); a
+        machine without a plant cannot be benchmarked (``systems.resolve`` gives a URDF one)."""
+        if self.bench is None:
+            raise ValueError(f"machine {self.name} has no plant, so the benchmark cannot run on it")
+        return self.bench(self, version)
 
     # ------------------------------------------------------------------ effects
     def effect_classes(self) -> dict[str, type]:
@@ -361,67 +463,6 @@ class System:
         from ..physics.model import PhysicalModel
 
         return PhysicalModel
-
-    # ------------------------------------------------------------------ linear machines
-    def _linear_inverse_dynamics(self, p, q, qd, qdd):
-        """u = X(q, qd, qdd) p, numpy or torch (differentiable in p)."""
-        X = self.regressor(np.zeros(0), *(_numpy(x) for x in (q, qd, qdd)))
-        return _contract(X, p)
-
-    def _linear_mass_matrix(self, p, q):
-        """M(q) from the regressor: column j = X(q, 0, e_j) p - X(q, 0, 0) p, (T, A, A)."""
-        q = np.atleast_2d(_numpy(q))
-        T, A = q.shape
-        zero = np.zeros_like(q)
-        base = self.regressor(np.zeros(0), q, zero, zero)
-        basis = np.empty((T, A, A, base.shape[-1]))
-        for j in range(A):
-            e = zero.copy()
-            e[:, j] = 1.0
-            basis[:, :, j, :] = self.regressor(np.zeros(0), q, zero, e) - base
-        return _contract(basis, p)
-
-    @classmethod
-    def from_regressor(cls, name: str, axes: Sequence, parameters: Mapping[str, float], regressor: Callable,
-                       positive: Sequence[str] = (), **kwargs) -> System:
-        """A machine linear in its parameters, given by ``regressor(q, qd, qdd) -> (T, n_axes,
-        n_params)`` (numpy; u = regressor @ p) and its nominal ``parameters`` {name: value}, in the
-        regressor's column order. ``positive``: names of the parameters that stay positive.
-        Other keyword arguments are ``System`` fields (fs, advance, noise_rms, description, ...)."""
-        names = tuple(parameters)
-        values = tuple(float(parameters[n]) for n in names)
-        axes_names = [getattr(a, "name", a) for a in axes]
-        unknown = [n for n in positive if n not in names]
-        if unknown:
-            raise ValueError(f"{name}: positive names {unknown} are not parameters ({', '.join(names)})")
-
-        def vector(p=None) -> ParameterVector:
-            v = values if p is None else tuple(float(x) for x in np.asarray(p, dtype=float).ravel())
-            if len(v) != len(names):
-                raise ValueError(f"{name}: parameter vector must have {len(names)} values, got {len(v)}")
-            return ParameterVector(names, v)
-
-        def full(zeta_n, q, qd, qdd):
-            try:
-                X = np.asarray(regressor(q, qd, qdd), dtype=float)
-            except Exception as exc:  # a user's function: say whose it is, in one line
-                raise ValueError(f"{name}: the regressor raised {type(exc).__name__}: {exc}") from exc
-            T, A = np.shape(q)[0], len(axes)
-            if X.shape != (T, A, len(names)):
-                raise ValueError(f"{name}: the regressor returned shape {X.shape}, expected ({T}, {A}, {len(names)})")
-            bad = np.argwhere(~np.isfinite(X))
-            if len(bad):
-                k, a, j = bad[0]
-                raise ValueError(f"{name}: the regressor returned {X[k, a, j]} at sample {k}, axis {axes_names[a]}, "
-                                 f"parameter {names[j]} (q={np.asarray(q)[k].tolist()})")
-            return X
-
-        return cls(name=name, axes=tuple(axes), param_names=names, regressor=full, parameters=vector,
-                   positive=tuple(names.index(n) for n in positive), **kwargs)
-
-    def __repr__(self) -> str:
-        return f"System({self.name!r}, axes={list(self.axis_names)}, {len(self.param_names)} parameters)"
-
 
 def _numpy(x) -> np.ndarray:
     return x.detach().double().numpy() if hasattr(x, "detach") else np.asarray(x, dtype=float)

@@ -10,7 +10,8 @@ regularizer R1 and the physics penalty R2 (Algorithm 1).
 methods, and a benchmark's main process, run without it.
 """
 
-from .method import PGNNFeedforward, PGNNLSFeedforward, PGNNProtocol
+from .method import PGNNFeedforward, PGNNLSFeedforward
+from .settings import PGNNProtocol
 
 __all__ = ["PGNN", "PGNNConfig", "PGNNFeedforward", "PGNNLSFeedforward", "PGNNProtocol"]
 

@@ -47,7 +47,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
@@ -58,38 +58,13 @@ from ...references import references_of
 from ..bases import ReferenceMemo, closed_loop
 from ..loop import loop_feedforward, machine_loop
 from ..physical import PhysicalFeedforward
-from ..protocol import Controller, Cost, given_system, machine_settings
+from ..protocol import Controller, Cost, given_system
 from ..safeguard import Safeguard, mixed
+from .settings import COLLECTS, PGNNProtocol
 
 if TYPE_CHECKING:  # lcgym.methods.pgnn (torch) is imported where a PGNN is trained: the bench's main process needs none
     from .estimator import PGNN
     from .training import PGNNConfig
-
-COLLECTS = ("physical", "feedback")
-COLLECT = "physical"
-"""What the training data are recorded with where the machine does not say (``PGNNProtocol``)."""
-
-
-@dataclass(frozen=True)
-class PGNNProtocol:
-    """The benchmark protocol's settings of this method on one machine, from its
-    ``[benchmark.pgnn]`` table (``System.hints["benchmark"]["pgnn"]``): ``collect``, what the
-    training data are recorded with ("physical": a run of the training references with the
-    physical base's feedforward on; "feedback": the shared feedback-only trials); ``filter_hz``,
-    the low-pass of u [Hz] (None: u as measured; module docstring)."""
-
-    collect: str = COLLECT
-    filter_hz: float | None = None
-
-    def __post_init__(self):
-        if self.collect not in COLLECTS:
-            raise ValueError(f"collect must be 'physical' or 'feedback', got {self.collect!r}")
-
-    @classmethod
-    def of(cls, system: systems.System) -> PGNNProtocol:
-        """The machine's settings; a key this method does not take is an error that names it."""
-        return machine_settings(cls, system, "pgnn")
-
 
 MAX_ITERATIONS = 100
 """The protocol's cap on Algorithm 1's iterations (8,000 Adam steps) on ``REFERENCE_TRIALS`` training

@@ -17,7 +17,7 @@ eqs. 4-9, 179 products a step) and on dispatching some 300 small operations forw
 * zeta: the physical model is linear in a few products of its parameters (``PhysicsFeatures``):
   f^M = F theta(zeta) with F per sample, precomputed once, so dJ/dzeta = (d theta/d zeta)^T F^T
   dJ/df^M. A machine linear in all its parameters has F = X, theta = zeta; the IX (degree 2 in the
-  centres of mass, ``System.quadratic_in_nonlinear``) has F from the exact quadratic expansion of
+  centres of mass, ``System.nonlinear``) has F from the exact quadratic expansion of
   its regressor. Any other machine's f^M goes through torch's autograd;
 * R2, a function of the 16-odd parameters only: ``network.physics_penalty``.
 
@@ -121,14 +121,14 @@ class PhysicsFeatures:
         if system.fully_linear:
             X = system.regressor(np.zeros(0), q, qd, qdd) if X is None else X
             return cls(np.asarray(X, dtype=np.float32), np.arange(n), ((),) * n, n, 0)
-        if not system.quadratic_in_nonlinear:
+        if not system.nonlinear.quadratic:
             return None
         n_nonlinear = len(zeta) - n
 
         def evaluate(z, columns=None):
             return system.regressor(z, q, qd, qdd, **({} if columns is None else {"columns": columns}))
 
-        design = QuadraticDesign(evaluate, n_nonlinear, columns=system.nonlinear_columns)
+        design = QuadraticDesign(evaluate, n_nonlinear, columns=system.nonlinear.columns)
         terms = [((), design.c), *(((i,), b) for i, b in enumerate(design.b)), *design.a.items()]
         columns, linear, monomials = [], [], []
         for monomial, term in terms:

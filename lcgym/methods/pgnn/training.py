@@ -51,6 +51,7 @@ from ...physics.kinematics import lowpass_zero_phase, reference_kinematics, rela
 from ...systems import System
 from .network import PGNNModule
 from .objective import Adam, Batch, FlatParameters, Objective, PhysicsFeatures, nonzero_columns, projection_basis
+from .settings import CONSTRAINT_CONFIGS, PGNNProtocol
 
 
 @dataclass
@@ -80,14 +81,19 @@ class PGNNConfig:
     derivatives: int = 2  # highest time derivative of the reference among the inputs: 3 adds jerk, 4 jerk and snap
     history: tuple[float, ...] = ()  # delays [s]: add the reference velocity d seconds ago, per axis
     periods: tuple[tuple[int, float], ...] = ()  # (axis index, period [rad]): add sin, cos(2 pi q / period)
-    constraint_configs: int | None = 16  # at most this many configurations of a batch enter R2's M(theta) term; None: all
+    constraint_configs: int | None = CONSTRAINT_CONFIGS  # configurations of a batch in R2's M term; None: all
 
     @classmethod
     def for_system(cls, system: System, **overrides) -> PGNNConfig:
         """The defaults for a machine: the paper's, with the kinematics ``system.advance`` samples
-        ahead (as its physical model), updated by the machine's ``hints["pgnn"]`` (the FlexArm, 1 kHz
-        and moves of 1-2 s: u low-passed at 5 Hz instead of 1 Hz, every 10th sample) and ``overrides``."""
-        return cls(**{"advance": system.advance, **system.hints.get("pgnn", {}), **overrides})
+        ahead (as its physical model), updated by the machine's settings (``PGNNProtocol``: the
+        FlexArm, 1 kHz and moves of 1-2 s, trains on every 10th sample with u low-passed at 10 Hz)
+        and ``overrides``."""
+        own = PGNNProtocol.of(system)
+        machine = {"decimate": own.decimate, "constraint_configs": own.constraint_configs}
+        if own.filter_hz is not None:
+            machine["filter_hz"] = own.filter_hz
+        return cls(**{"advance": system.advance, **machine, **overrides})
 
 
 @dataclass

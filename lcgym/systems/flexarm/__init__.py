@@ -38,13 +38,12 @@ FLEXARM = System(
     effects=(Payload,),
     diagnosis=DiagnosisSettings(noise_rms=0.01, candidates=CANDIDATES,  # N m
                                 candidate_names=("coulomb_friction", "stribeck_friction", "payload")),
-    # the PGNN on 1 kHz data of moves of 1-2 s: u low-passed at 5 Hz, not 1 Hz, every 10th sample
-    # (and R2 on 16 configurations per batch: the 6 x 6 mass matrices cost 6 regressor evaluations each)
-    hints={"pgnn": {"filter_hz": 5.0, "decimate": 10, "constraint_configs": 16},
-           # the benchmark's PGNN with u at 10 Hz: the base's measured torque, run as the feedforward of its
-           # own reference, tracks as well low-passed at 10 Hz as unfiltered, worse at 5 Hz, and at 2 Hz
-           # worse than the base (docs/methods/pgnn.md); the RL agent: 1 pass in 4 envs
-           "benchmark": {"pgnn": {"filter_hz": 10.0}, "rl": {"passes": 1.0, "num_envs": 4}}},
+    # the PGNN on 1 kHz data of moves of 1-2 s: every 10th sample, R2 on 16 configurations per batch (the 6 x 6
+    # mass matrices cost 6 regressor evaluations each), u at 10 Hz: the base's measured torque, run as the
+    # feedforward of its own reference, tracks as well low-passed at 10 Hz as unfiltered, worse at 5 Hz, and at
+    # 2 Hz worse than the base (docs/methods/pgnn.md); the RL agent: 1 pass in 4 envs
+    settings={"pgnn": {"filter_hz": 10.0, "decimate": 10, "constraint_configs": 16},
+              "rl": {"passes": 1.0, "num_envs": 4}},
     description="flexible-joint 6-DOF industrial arm of paper 002: joints j1-j6, motor torques in N m",
     joint_axes=lambda: dynamics.joint_axes(dynamics.HOME),
     caching=motor.cached_regressors,

@@ -14,7 +14,7 @@ import numpy as np
 
 from .. import ENVS
 from ..bench import BenchFactory
-from ..system import Axis, DiagnosisSettings, System
+from ..system import Axis, DiagnosisSettings, NonlinearStructure, System
 from . import dynamics
 from .bench import IXBench
 from .compiled import regressor
@@ -44,11 +44,11 @@ IX = System(
     advance=1.5,  # samples: one computation delay + half a hold interval
     effects=(PositionDependentFriction,),
     diagnosis=DiagnosisSettings(noise_rms=0.004, candidates=CANDIDATES),  # V: the low-passed input's quantization noise
-    quadratic_in_nonlinear=True,
-    nonlinear_columns=(dynamics.M2, dynamics.M3),  # m2 x2, m3 y3 z3, ...: the masses carry zeta_n
+    # m2 x2, m3 y3 z3, ...: the masses carry zeta_n
+    nonlinear=NonlinearStructure(quadratic=True, columns=(dynamics.M2, dynamics.M3)),
     # the RL agent gets 3 passes over the training samples in 8 envs, acting at 50 Hz
-    hints={"pgnn": {"constraint_configs": None},  # R2 over every configuration: the IX's 2 x 2 M is cheap
-           "benchmark": {"rl": {"passes": 3.0, "num_envs": 8, "agent_rate": 50.0}}},
+    settings={"pgnn": {"constraint_configs": None},  # R2 over every configuration: the IX's 2 x 2 M is cheap
+              "rl": {"passes": 3.0, "num_envs": 8, "agent_rate": 50.0}},
     description="interventional X-ray C-arm of paper 000: propeller and roll, input in V",
     joint_axes=joint_axes,
     bench=BenchFactory(IXBench, envs={k: v for k, v in ENVS.items() if k.startswith("lcgym/IX-")},
