@@ -111,7 +111,7 @@ def test_effects_lists_what_diagnose_ranks_and_what_a_machine_file_accepts(capsy
 @pytest.mark.parametrize("command", ["diagnose", "effects"])
 def test_system_help_lists_every_form_a_machine_takes(command, capsys):
     from lcgym import systems
-    from lcgym.diagnose.report import PLOT_FILES
+    from lcgym.diagnose.figures import PLOT_FILES
 
     with pytest.raises(SystemExit):
         main([command, "--help"])

@@ -217,7 +217,7 @@ def test_plot_legends_give_the_reports_figures_and_titles_fit():
     its plotted samples have that RMS, and every title fits its figure."""
     import matplotlib.pyplot as plt
 
-    from lcgym.diagnose.report import PLOT_FILES
+    from lcgym.diagnose.figures import PLOT_FILES
 
     rep = _report((SINGLE["coulomb_friction@roll"],), ("coulomb_friction@roll",))
     text = rep.text().splitlines()
@@ -358,7 +358,7 @@ def test_the_effects_figure_names_a_rails_input_a_force():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from lcgym.diagnose.report import Diagnosis
+    from lcgym.diagnose.figures import _effect_panels
 
     x = np.linspace(-1.0, 1.0, 50)
     labels = {}
@@ -366,7 +366,7 @@ def test_the_effects_figure_names_a_rails_input_a_force():
         owner = types.SimpleNamespace(displays={"rail": (1000.0, "mm")}, residual={axis: {"unit": unit}})
         curve = {"effect": f"coulomb_friction@{axis}", "family": "friction", "variable": "velocity", "x": x,
                  "torque": np.tanh(x), "used": np.ones_like(x, dtype=bool)}
-        fig = Diagnosis._effect_panels(owner, plt, [curve])
+        fig = _effect_panels(owner, plt, [curve])
         labels[unit] = fig.axes[0].get_ylabel()
         plt.close(fig)
     assert labels == {"N": "force [N]", "N m": "torque [N m]", "V": "input [V]"}

@@ -12,7 +12,8 @@ report in ``report.py``, its rows in ``rows.py``.
 """
 
 from .candidates import Candidate, register_effect
-from .report import NOTHING_FOUND, Diagnosis
+from .report import NOTHING_FOUND
+from .result import Diagnosis
 from .workflow import DiagnoseOptions, diagnose, replay_tracking
 
 __all__ = ["NOTHING_FOUND", "Candidate", "DiagnoseOptions", "Diagnosis", "diagnose", "register_effect",

@@ -47,7 +47,7 @@ from .candidates import Candidate, candidates_for
 from .layout import edge_outliers, layout, repeated_runs, used_samples
 from .machines import machines_with_axes
 from .regions import region_masks, region_table
-from .report import Diagnosis
+from .result import Diagnosis
 from .rows import CandidateRow, StepRow, StepScore
 from .search import Prepared, prepare, rank
 from .spectra import bandwidths
