@@ -89,7 +89,7 @@ class Prepared:
     own torques ``loads`` (``physics.effects.Loads``: its rigid-body torque, and its gravity torque
     where a candidate reads it) (T, A);
     reduced input ``u`` and reduced design ``design`` (R, A, p) of the fitted model (the columns
-    of its free parameters, ``PhysicalModel.free_design``: the IX's rigid regressor at its fitted
+    of its free parameters, ``PhysicalModel.design``: the IX's rigid regressor at its fitted
     centres of mass; + its effects' columns), zero where ``used`` (R, A) is False (a sample the
     layout leaves out of that axis's fit and score). The torque of parameters the model holds fixed
     is subtracted from both ``u`` and ``torque``; ``fold`` (R,) in {0, 1}; ``guard`` (R,) rows
@@ -142,21 +142,9 @@ def prepare(trials: Sequence, model: PhysicalModel, layout: Layout, kinematics: 
     pre = model.preprocessing
     kinematics = pre.kinematics(trials) if kinematics is None else kinematics
     model.fit(trials, mask=layout.used, kinematics=kinematics)
+    design = model.design(trials, kinematics, layout.used)
     kin, lengths = kinematics
-    free, fixed, theta = model.free_design(kin)
-    rigid_torque = free @ theta + fixed
-    nonlinear = None
-    torque = model.torque(*kin) - fixed  # the held part (e.g. CAD inertia) is moved to the input side
     rows = pre.reduced_rows(lengths)
-    used = layout.used[rows]
-    if model.reduced_ is not None:  # a linear fit's own reduced design: the same columns
-        design, u = model.reduced_
-    else:
-        effect_cols = model.effect_design(kin, model.load_torques(kin))
-        nonlinear = model.nonlinear_design(kin)  # zeta_n refitted to first order with each candidate
-        parts = [free] + ([] if nonlinear is None else [nonlinear]) + [effect_cols]
-        design = pre.masked_reduce(np.concatenate(parts, axis=2), lengths, layout.used)
-        u = pre.masked_reduce(pre.inputs(trials) - fixed, lengths, layout.used)
     trial, guard = [], []
     for k, n in enumerate(lengths):
         t = np.arange(0, n, max(1, model.decimate)) / model.fs
@@ -165,10 +153,10 @@ def prepare(trials: Sequence, model: PhysicalModel, layout: Layout, kinematics: 
         nearest = np.clip(np.round(t / length), 1, max(1, n_blocks - 1))  # the closest boundary between two blocks
         trial.append(np.full(t.size, k))
         guard.append((np.abs(t - nearest * length) < layout.settle) & (n_blocks > 1))
-    fold = fold_assignment(lengths, model.fs, layout.blocks, layout.first or None)[rows]
-    offset = free.shape[2] + (0 if nonlinear is None else nonlinear.shape[2])
-    return Prepared(model, kin, lengths, torque, Loads(torque=rigid_torque), u, design, layout.used, used,
-                    fold, np.concatenate(guard), rows, np.concatenate(trial), model.penalties(offset))
+    return Prepared(model=model, kin=kin, lengths=lengths, torque=design.torque, loads=Loads(torque=design.rigid_torque),
+                    u=design.u, design=design.design, mask=layout.used, used=layout.used[rows],
+                    fold=fold_assignment(lengths, model.fs, layout.blocks, layout.first or None)[rows],
+                    guard=np.concatenate(guard), rows=rows, trial=np.concatenate(trial), penalties=design.penalties)
 
 
 def verdict(removed, left, own: float, min_explained: float, min_rms: float, n_rows: int,

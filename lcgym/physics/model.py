@@ -54,6 +54,23 @@ from .linalg import penalty_rows, solve_min_norm  # noqa: F401 (the fit's solve;
 from .preprocessing import POSITIONS, Preprocessing, reduction_memo, reductions
 
 
+@dataclass(frozen=True)
+class FittedDesign:
+    """A fitted model's design on the trials and mask it was fitted on (``PhysicalModel.design``),
+    with the torque of the parameters it holds fixed moved to the input side: ``torque`` (T, A) the
+    model's torque less that part; ``rigid_torque`` (T, A) its rigid-body torque (the effects that
+    read it see this); ``u`` (R, A) and ``design`` (R, A, p), the reduced input and the reduced
+    columns of the free linear parameters, then the first-order columns of zeta_n (a machine with
+    nonlinear parameters: a candidate is scored with the freedom the refit has), then the effects';
+    ``penalties``: the effects' roughness penalties on those columns (``PhysicalModel.penalties``)."""
+
+    torque: np.ndarray
+    rigid_torque: np.ndarray
+    u: np.ndarray
+    design: np.ndarray
+    penalties: list
+
+
 @dataclass
 class PhysicalModel:
     """A machine's rigid body (the IX: eqs. 2-9) + effects; ``fit`` then ``predict`` (scikit-learn style).
@@ -244,6 +261,24 @@ class PhysicalModel:
             c[:, e.index, :] = e.columns(q, qd, qdd, loads)
             cols.append(c)
         return np.concatenate(cols, axis=2)
+
+    def design(self, trials: Sequence, kinematics: tuple, mask: np.ndarray | None = None) -> FittedDesign:
+        """The fitted model's design on the ``trials`` and ``mask`` it was fitted on (``FittedDesign``);
+        ``kinematics``: ``self.preprocessing.kinematics(trials)``."""
+        pre = self.preprocessing
+        kin, lengths = kinematics
+        free, fixed, theta = self.free_design(kin)
+        torque = self.torque(*kin) - fixed
+        nonlinear = None
+        if self.reduced_ is not None:  # a linear fit's own reduced design: the same columns
+            design, u = self.reduced_
+        else:
+            nonlinear = self.nonlinear_design(kin)  # zeta_n refitted to first order with each candidate
+            parts = [free] + ([] if nonlinear is None else [nonlinear]) + [self.effect_design(kin, self.load_torques(kin))]
+            design = pre.masked_reduce(np.concatenate(parts, axis=2), lengths, mask)
+            u = pre.masked_reduce(pre.inputs(trials) - fixed, lengths, mask)
+        offset = free.shape[2] + (0 if nonlinear is None else nonlinear.shape[2])
+        return FittedDesign(torque, free @ theta + fixed, u, design, self.penalties(offset))
 
     def residual(self, trials: Sequence, mask: np.ndarray | None = None) -> np.ndarray:
         """Reduced residual (R, n_axes) [input unit] of this fitted model on ``trials`` (any, e.g.
