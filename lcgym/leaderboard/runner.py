@@ -83,8 +83,9 @@ class BenchConfig:
 
     def __post_init__(self):
         # versioned names: "ix" is the newest version ("ix-v1"); an unknown name fails with the list
-        object.__setattr__(self, "systems", tuple(dict.fromkeys(systems.resolve(s).name for s in self.systems)))
-        machines = {systems.resolve(s).machine for s in self.systems}
+        resolved = [systems.resolve(s) for s in self.systems]
+        object.__setattr__(self, "systems", tuple(dict.fromkeys(m.name for m in resolved)))
+        machines = {m.machine for m in resolved}
         every = tuple(self.methods) == tuple(CONTROLLERS)  # the default: each method where it runs (cells)
         # "ilc@physical" is "ilc" (the default base): one name per cell, so that --resume finds it
         object.__setattr__(self, "methods", tuple(dict.fromkeys(display_name(*split_spec(m)) for m in self.methods)))
@@ -125,8 +126,9 @@ class BenchConfig:
     def cells(self) -> list[tuple[str, str, int]]:
         """(system, method, seed) of every cell; a method with ``systems`` only on those."""
         runs_on = {m: _runs_on(m) for m in self.methods}
+        machine = {s: systems.resolve(s).machine for s in self.systems}
         return [(s, m, k) for s in self.systems for m in self.methods for k in self.seeds
-                if runs_on[m] is None or systems.resolve(s).machine in runs_on[m]]
+                if runs_on[m] is None or machine[s] in runs_on[m]]
 
 
 def _runs_on(method: str) -> tuple[str, ...] | None:
@@ -171,10 +173,10 @@ def _widen_leak_guard() -> None:
 
 
 @lru_cache(maxsize=16)  # every machine and seed of a full run: its cells come in the order of costliest_first
-def _training_trials(system: str, seed: int, config: BenchConfig) -> list:
+def _training_trials(machine: systems.BenchMachine, seed: int, config: BenchConfig) -> list:
     """The feedback-only runs of a cell's training references: the same for every method of a
-    (system, seed, budget), so computed once per process (the plants are deterministic)."""
-    bench = systems.resolve(system).bench()
+    (machine, seed, budget), so computed once per process (the plants are deterministic)."""
+    bench = machine.bench()
     return bench.run(bench.references("train", seed, config.n_train, config.duration))
 
 
@@ -222,7 +224,7 @@ def run_cell(system: str, method: str, seed: int, config: BenchConfig, single_th
     bench = machine.bench()
     refs = {name: bench.references(name, seed, n, config.duration)
             for name, n in (("train", config.n_train), ("validation", config.n_validation))}
-    train_trials = copy.deepcopy(_training_trials(system, seed, config))  # a copy: a method may alter its trials
+    train_trials = copy.deepcopy(_training_trials(machine, seed, config))  # a copy: a method may alter its trials
     stage = ["loading the method"]
     try:
         with _time_limit(timeout, stage), _regressors_kept(machine.system, config), remembered_runs():
