@@ -98,8 +98,7 @@ class RLMachineSettings:
 # PPO: SB3's defaults, written out (2048 agent steps per env and update, minibatches of 64, 10
 # epochs, learning rate 3e-4, initial exploration std 1 of the action's unit). Acting on every
 # sample, tuned settings (learning rate 1e-3, std e^-2) did better; with the agent at 50 Hz
-# (``agent_rate``) the defaults do better still: on the IX, seed 0, 3 passes, 0.0419 / 0.0360 deg
-# against 0.0767 / 0.0981 deg (docs/methods/rl.md). SAC and TD3: SB3's defaults with the same
+# (``agent_rate``) the defaults do better still (the measurements: docs/methods/rl.md). SAC and TD3: SB3's defaults with the same
 # network size and a buffer of about a full pass over the IX's training data; not tuned.
 HYPERPARAMETERS: dict[str, dict] = {
     "ppo": dict(n_steps=2048, batch_size=64, n_epochs=10, learning_rate=3e-4, gamma=0.99, gae_lambda=0.95,

@@ -69,7 +69,7 @@ if TYPE_CHECKING:  # lcgym.methods.pgnn (torch) is imported where a PGNN is trai
 MAX_ITERATIONS = 100
 """The protocol's cap on Algorithm 1's iterations (8,000 Adam steps) on ``REFERENCE_TRIALS`` training
 runs, in proportion to the runs otherwise (``max_iterations``): early stopping ends J's training
-before it on the leaderboard's data (66 iterations on IX-v1, seed 0), while J_LS's validation cost
+before it on the leaderboard's data (docs/methods/pgnn.md), while J_LS's validation cost
 keeps creeping down for 300 iterations and more; the cap keeps a cell's time bounded and the results
 deterministic (a wall-time budget would make them depend on the machine)."""
 

@@ -79,8 +79,8 @@ Speed: ``benchmarks/flexarm_vector_speed.py``.
 Version History:
     - v1: a settled start (``FlexArmPlant(settled_start=True)``): the PID integrators hold only the
       gravity torque the first feedforward sample lacks, so a run whose feedforward carries gravity
-      (Basic, paper 002's nominal structure) starts without a motor error (Basic on seed 0's first
-      validation line, largest at t = 0: 0.8 mrad on v1, 121 mrad on v0). Hidden effects
+      (Basic, paper 002's nominal structure) starts without a motor error (docs/machines/flexarm.md
+      measures it). Hidden effects
       calibrated to paper 002's situation
       (``plant.true_arm_v1``, ``plant.true_drive_v1``): a 12 kg tool 40 cm long instead of the
       block, main-axis stiffness 3 % below nominal instead of 15 %, Coulomb friction 15 % below
