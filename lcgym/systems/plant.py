@@ -1,7 +1,8 @@
 """The plant contract: what a learning method's ``learn(plant, reference)`` may use.
 
 A plant is a machine's closed loop as a learner meets it (the bench holds it: ``Bench.plant``).
-Every plant offers its sample rate, its axes, its input limit, closed-loop runs, and the learning
+Every plant offers its sample rate, its axes, its input limit, closed-loop runs (with a load-side
+reference offset where it has that channel), and the learning
 law of its machine (``systems.learning``): the error its sensors measure, the inverse of its loop
 model, what an error predictor learns. A learning method written against this contract runs on
 every machine; it never reads a machine's own attributes (its gains, its accelerometer's offset):
@@ -34,6 +35,11 @@ class Plant(Protocol):
         """The closed-loop trial of ``reference`` (a ``references.Reference``) with ``feedforward``
         (T, n_axes) (None: feedback only); ``SimulationDiverged`` where the plant leaves its safe
         range."""
+
+    def run_with_offset(self, reference, feedforward, offset) -> Trial:
+        """``run`` with a load-side reference offset (T, n_axes) [rad] moving the reference (a base's
+        or a learner's: the FlexArm's joint torsion); a plant without that channel says so
+        (ValueError)."""
 
     def learning_law(self, base: str, config) -> LearningLaw:
         """The machine's learning law for a learner on ``base`` (``methods.bases``: "physical",

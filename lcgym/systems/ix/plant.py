@@ -310,6 +310,11 @@ class IXPlant:
         """The amplifier's limit [V], both axes."""
         return self.gains.u_max
 
+    def run_with_offset(self, reference, feedforward, offset) -> Trial:
+        """No reference-offset channel: the loop closes on the encoder's position (``systems.plant.Plant``)."""
+        raise ValueError(f"{type(self).__name__} has no reference-offset channel (its loop closes on the encoder); "
+                         "give the feedforward alone, plant.run(reference, feedforward)")
+
     def learning_law(self, base: str, config) -> TrackingLaw:
         """Learning on the measured tracking error through the nominal process sensitivity
         (``systems.learning.TrackingLaw``), on any base."""
