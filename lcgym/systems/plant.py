@@ -17,7 +17,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from ..data import Trial
-from .learning import LearningLaw
+from .learning import LearningLaw, TrackingLaw
 
 
 @runtime_checkable
@@ -44,3 +44,16 @@ class Plant(Protocol):
     def learning_law(self, base: str, config) -> LearningLaw:
         """The machine's learning law for a learner on ``base`` (``methods.bases``: "physical",
         "basic") with ``config`` (``methods.ilc.ILCConfig``: its trials and Q filters)."""
+
+
+class EncoderLoop:
+    """What a plant whose loop closes on its encoder's position offers a learner (the IX's, a URDF
+    plant's): no reference-offset channel, and ``TrackingLaw``, learning on the measured tracking
+    error through its ``process_sensitivity`` and ``encoder_resolution``, on any base."""
+
+    def run_with_offset(self, reference, feedforward, offset) -> Trial:
+        raise ValueError(f"{type(self).__name__} has no reference-offset channel (its loop closes on the encoder); "
+                         "give the feedforward alone, plant.run(reference, feedforward)")
+
+    def learning_law(self, base: str, config) -> TrackingLaw:
+        return TrackingLaw(self, config)

@@ -63,7 +63,7 @@ from ..physics.lti import rigid_axis
 from ..references import Reference, random_moves
 from . import rigid_body
 from .feedback import FeedbackGains
-from .learning import TrackingLaw
+from .plant import EncoderLoop
 from .runs import remembered
 from .system import SimulationDiverged, System
 from .urdf import URDFRobot, urdf_robot
@@ -336,7 +336,7 @@ def with_viscous(bound: Sequence[fx.Effect], viscous: np.ndarray, system: System
 # ---------------------------------------------------------------------------------------------
 
 
-class URDFPlant:
+class URDFPlant(EncoderLoop):
     """Closed-loop simulator of a URDF machine with hidden effects (module docstring).
 
     system: a machine made by ``urdf.from_urdf`` (or a URDF path, with ``joints``). effects: hidden
@@ -512,16 +512,6 @@ class URDFPlant:
         return C
 
     # ------------------------------------------------------------------ simulation
-    def run_with_offset(self, reference, feedforward, offset) -> Trial:
-        """No reference-offset channel: the loop closes on the encoder's position (``systems.plant.Plant``)."""
-        raise ValueError(f"{type(self).__name__} has no reference-offset channel (its loop closes on the encoder); "
-                         "give the feedforward alone, plant.run(reference, feedforward)")
-
-    def learning_law(self, base: str, config) -> TrackingLaw:
-        """Learning on the measured tracking error through the nominal process sensitivity
-        (``systems.learning.TrackingLaw``), on any base."""
-        return TrackingLaw(self, config)
-
     @property
     def deterministic(self) -> bool:
         """A run is a function of its inputs where the plant adds no measurement noise (the noise's

@@ -46,7 +46,7 @@ from ...physics import plant_effects
 from ...physics.lti import rigid_axis
 from ...references import Reference
 from ..feedback import FeedbackGains
-from ..learning import TrackingLaw
+from ..plant import EncoderLoop
 from ..runs import remembered
 from ..system import SimulationDiverged
 from . import dynamics as ix
@@ -210,7 +210,7 @@ the Stribeck rise takes the Coulomb friction's smoothing)."""
 
 
 @dataclass
-class IXPlant:
+class IXPlant(EncoderLoop):
     """Closed-loop IX (propeller, roll) simulator with switchable hidden effects.
 
     rigid: true rigid-body parameters (total axis inertias); effects: true effects;
@@ -309,16 +309,6 @@ class IXPlant:
     def u_max(self) -> float:
         """The amplifier's limit [V], both axes."""
         return self.gains.u_max
-
-    def run_with_offset(self, reference, feedforward, offset) -> Trial:
-        """No reference-offset channel: the loop closes on the encoder's position (``systems.plant.Plant``)."""
-        raise ValueError(f"{type(self).__name__} has no reference-offset channel (its loop closes on the encoder); "
-                         "give the feedforward alone, plant.run(reference, feedforward)")
-
-    def learning_law(self, base: str, config) -> TrackingLaw:
-        """Learning on the measured tracking error through the nominal process sensitivity
-        (``systems.learning.TrackingLaw``), on any base."""
-        return TrackingLaw(self, config)
 
     @property
     def deterministic(self) -> bool:
