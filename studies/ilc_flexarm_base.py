@@ -21,7 +21,6 @@ from tqdm import tqdm
 from lcgym.methods.ilc.method import iterate
 from lcgym.methods.physical import PhysicalFeedforward
 from lcgym.systems.flexarm import FLEXARM
-from lcgym.systems.flexarm.bench import FlexArmBench
 from lcgym.systems.flexarm.errors import paper_errors, period_mask
 from lcgym.systems.flexarm.learning import ArmILCConfig, ArmLaw, measure, update
 from lcgym.systems.flexarm.references import MOVING
@@ -53,7 +52,7 @@ def main() -> None:
     parser.add_argument("--q-hz", type=float, default=ArmILCConfig().q_hz, help="the torque's Q corner [Hz]")
     parser.add_argument("--plot", default="", help="save the scored figures per trial to this PNG")
     args = parser.parse_args()
-    bench = FlexArmBench()
+    bench = FLEXARM.make_bench("v1")
     config = replace(ArmILCConfig(), trials=args.trials, torque=args.torque, offset=args.offset, q_hz=args.q_hz)
     rows = []  # (line, trial, measured row, scored dict)
     kept = {}

@@ -254,10 +254,12 @@ class PaperLCS(IterativeLearningControl):
         return replace(self.config or ILCConfig(), arm_trials=1)
 
     def _iterate(self, loop, reference, trials: int) -> Learned:
-        """Eq. (16) once on trial 0's measurement, the update returned unmeasured (the paper's)."""
+        """Eq. (16) once on trial 0's measurement, the update returned unmeasured (the paper's): ``best``
+        is 1, the update, a trial never run, so ``history_`` holds trial 0 alone."""
         trial = loop.run(loop.start)
         measured = loop.measure(trial, loop.start)
-        return Learned(loop.signals(loop.update(loop.start, measured)), [measured.row], [measured.true_row], 1, best=1)
+        update = loop.update(loop.start, measured)
+        return Learned(loop.signals(update), [measured.row], [measured.true_row], 1, best=1, tried=[loop.start, update])
 
 
 class ILCTransfer(IterativeLearningControl):
